@@ -1,0 +1,122 @@
+# ghostsim - build, test, install.
+#   make test      install missing Debian packages, build and run every test
+#                  (plain, then under ASan+UBSan), compile checks, examples
+#   make examples  build examples/ into build/
+#   make valgrind  the test suite under valgrind (memcheck, leaks)
+#   make install   PREFIX=/usr/local: the header, ghostsim.pc
+# Every recipe is plain POSIX make + sh; nothing is downloaded except Debian
+# packages through apt-get.
+
+PREFIX   ?= /usr/local
+CC       ?= cc
+CXX      ?= c++
+BUILD    := build
+WARN     := -Wall -Wextra -Wpedantic -Werror
+CSTD     := -std=c99 -D_POSIX_C_SOURCE=200809L
+CFLAGS   ?= -O2 -g
+SANFLAGS := -O1 -g -fsanitize=address,undefined -fno-omit-frame-pointer \
+            -fno-sanitize-recover=all
+CCD_CFLAGS = $(shell pkg-config --cflags ccd 2>/dev/null)
+CCD_LIBS   = $(shell pkg-config --libs ccd 2>/dev/null)
+LIBS      = $(CCD_LIBS) -lm
+
+# Debian packages the build and tests need (command or file that proves each).
+DEBS := gcc g++ clang make pkg-config cmake libccd-dev libcmocka-dev valgrind
+
+TESTS    := $(basename $(notdir $(wildcard tests/test_*.c)))
+EXAMPLES := $(basename $(notdir $(wildcard examples/*.c)))
+
+.PHONY: all deps test test-plain test-asan compile-checks examples valgrind \
+        install uninstall install-check cmake-check clean
+
+all: examples
+
+# Installs only what is missing, and only as root (CI and fresh machines).
+deps:
+	@missing=""; for p in $(DEBS); do \
+	  dpkg -s $$p >/dev/null 2>&1 || missing="$$missing $$p"; done; \
+	if [ -n "$$missing" ]; then \
+	  echo "deps: installing$$missing"; \
+	  if [ "$$(id -u)" != 0 ]; then echo "deps: run as root or install:$$missing" >&2; exit 1; fi; \
+	  apt-get update -qq && DEBIAN_FRONTEND=noninteractive apt-get install -y -qq $$missing >/dev/null; \
+	fi
+
+$(BUILD) $(BUILD)/asan:
+	mkdir -p $@
+
+# One object holds the implementation; every test links it.
+$(BUILD)/gs_impl.o: tests/gs_impl.c ghostsim.h | $(BUILD)
+	$(CC) $(CSTD) $(WARN) $(CFLAGS) $(CCD_CFLAGS) -I. -c $< -o $@
+$(BUILD)/asan/gs_impl.o: tests/gs_impl.c ghostsim.h | $(BUILD)/asan
+	$(CC) $(CSTD) $(WARN) $(SANFLAGS) $(CCD_CFLAGS) -I. -c $< -o $@
+
+$(BUILD)/test_%: tests/test_%.c $(BUILD)/gs_impl.o ghostsim.h
+	$(CC) $(CSTD) $(WARN) $(CFLAGS) -I. $< $(BUILD)/gs_impl.o -o $@ -lcmocka $(LIBS)
+$(BUILD)/asan/test_%: tests/test_%.c $(BUILD)/asan/gs_impl.o ghostsim.h
+	$(CC) $(CSTD) $(WARN) $(SANFLAGS) -I. $< $(BUILD)/asan/gs_impl.o -o $@ -lcmocka $(LIBS)
+
+$(BUILD)/%: examples/%.c ghostsim.h | $(BUILD)
+	$(CC) $(CSTD) $(WARN) $(CFLAGS) $(CCD_CFLAGS) -I. $< -o $@ $(LIBS)
+
+examples: $(addprefix $(BUILD)/,$(EXAMPLES))
+
+# The header as C99 and C++11 under gcc and clang, with and without
+# GHOSTSIM_STATIC, implementation included: warning-free or the build fails.
+compile-checks: | $(BUILD)
+	@for cc in gcc clang; do \
+	  for opt in "" "-DGHOSTSIM_STATIC"; do \
+	    echo "compile-check: $$cc -std=c99 $$opt"; \
+	    $$cc $(CSTD) $(WARN) $$opt -I. -c tests/compile_check.c -o $(BUILD)/cc.o || exit 1; \
+	  done; done
+	@for cxx in g++ clang++; do \
+	  for opt in "" "-DGHOSTSIM_STATIC"; do \
+	    echo "compile-check: $$cxx -std=c++11 $$opt"; \
+	    $$cxx -std=c++11 $(WARN) $$opt -I. -x c++ -c tests/compile_check.c -o $(BUILD)/cc.o || exit 1; \
+	  done; done
+
+test-plain: $(addprefix $(BUILD)/,$(TESTS))
+	@sh tests/run.sh "plain" $(addprefix $(BUILD)/,$(TESTS))
+
+test-asan: $(addprefix $(BUILD)/asan/,$(TESTS))
+	@ASAN_OPTIONS=detect_leaks=1:abort_on_error=1 UBSAN_OPTIONS=print_stacktrace=1 \
+	  sh tests/run.sh "asan+ubsan" $(addprefix $(BUILD)/asan/,$(TESTS))
+
+test: deps
+	@$(MAKE) --no-print-directory compile-checks examples cmake-check install-check
+	@$(MAKE) --no-print-directory test-plain
+	@$(MAKE) --no-print-directory test-asan
+
+valgrind: $(addprefix $(BUILD)/,$(TESTS))
+	@VALGRIND="valgrind -q --error-exitcode=99 --leak-check=full --errors-for-leak-kinds=definite,indirect" \
+	  sh tests/run.sh "valgrind" $(addprefix $(BUILD)/,$(TESTS))
+
+ghostsim.pc: ghostsim.pc.in Makefile
+	sed -e 's|@PREFIX@|$(PREFIX)|' -e 's|@VERSION@|0.1.0|' $< > $@
+
+install: ghostsim.pc
+	install -d $(DESTDIR)$(PREFIX)/include $(DESTDIR)$(PREFIX)/lib/pkgconfig
+	install -m 644 ghostsim.h $(DESTDIR)$(PREFIX)/include/ghostsim.h
+	install -m 644 ghostsim.pc $(DESTDIR)$(PREFIX)/lib/pkgconfig/ghostsim.pc
+	rm -f ghostsim.pc
+
+uninstall:
+	rm -f $(DESTDIR)$(PREFIX)/include/ghostsim.h $(DESTDIR)$(PREFIX)/lib/pkgconfig/ghostsim.pc
+
+# Installs into a scratch prefix and builds an example through pkg-config.
+install-check: | $(BUILD)
+	@rm -rf $(BUILD)/prefix
+	@$(MAKE) --no-print-directory -s install PREFIX=$(CURDIR)/$(BUILD)/prefix
+	@PKG_CONFIG_PATH=$(CURDIR)/$(BUILD)/prefix/lib/pkgconfig; export PKG_CONFIG_PATH; \
+	  $(CC) $(CSTD) $(WARN) examples/hello_cloth.c -o $(BUILD)/hello_pc \
+	    $$(pkg-config --cflags --libs ghostsim) && ./$(BUILD)/hello_pc >/dev/null && \
+	  echo "install-check: pkg-config ghostsim builds and runs hello_cloth"
+
+# A CMake project that uses the INTERFACE target through add_subdirectory.
+cmake-check: | $(BUILD)
+	@rm -rf $(BUILD)/cmake && \
+	  cmake -S tests/cmake_consumer -B $(BUILD)/cmake >/dev/null && \
+	  cmake --build $(BUILD)/cmake >/dev/null && ./$(BUILD)/cmake/consumer >/dev/null && \
+	  echo "cmake-check: add_subdirectory + ghostsim::ghostsim builds and runs hello_cloth"
+
+clean:
+	rm -rf $(BUILD) ghostsim.pc

@@ -1,0 +1,2 @@
+#define GHOSTSIM_IMPLEMENTATION
+#include "ghostsim.h"

@@ -1,0 +1,22 @@
+#!/bin/sh
+# Runs cmocka test binaries, prints each one's own output, then totals:
+#   tests/run.sh LABEL BINARY...
+# $VALGRIND, if set, prefixes each run. Exits 1 if any test failed or any
+# binary exited non-zero.
+label=$1; shift
+passed=0; failed=0; status=0
+for t in "$@"; do
+  out=$(mktemp)
+  $VALGRIND "$t" >"$out" 2>&1; rc=$?
+  cat "$out"
+  p=$(sed -n 's/^\[  PASSED  \] \([0-9]*\) test.*/\1/p' "$out" | tail -1)
+  f=$(sed -n 's/^\[  FAILED  \] \([0-9]*\) test.*/\1/p' "$out" | tail -1)
+  passed=$((passed + ${p:-0})); failed=$((failed + ${f:-0}))
+  if [ $rc -ne 0 ]; then
+    status=1
+    [ -z "$f" ] && { echo "$t exited with $rc"; failed=$((failed + 1)); }
+  fi
+  rm -f "$out"
+done
+echo "tests ($label): $passed passed, $failed failed"
+exit $status
