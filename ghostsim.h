@@ -304,6 +304,16 @@ typedef struct gs_solver_desc {
 
 GS_API gs_solver_desc gs_solver_desc_default(void);
 
+/* Penalty contact: a spring-damper along the normal, regularized Coulomb
+   friction along the surface. A pair uses the mean stiffness and damping of
+   its two materials and the geometric mean of their friction. */
+typedef struct gs_material {
+    double stiffness; /* N/m; default 1e5 */
+    double damping;   /* N s/m; default 100 */
+    double friction;  /* Coulomb coefficient; default 0.5 */
+} gs_material;
+
+
 /* Simulation time in seconds: steps * dt plus what set_state moved it by. */
 GS_API double gs_agent_time(const gs_agent *a);
 GS_API double gs_agent_dt(const gs_agent *a);
@@ -378,6 +388,8 @@ typedef struct gs_mesh_desc {
     int pin_count;
     const int *pins;           /* particles held where they are */
     double air_damping;        /* 1/s; force -m * air_damping * v */
+    double particle_radius;    /* m, for contacts; default 0.01 */
+    gs_material material;      /* contacts; zero fields take defaults */
     gs_solver_desc solver;
 } gs_mesh_desc;
 
@@ -415,6 +427,9 @@ typedef struct gs_cloth_desc {
     int pin_corners;     /* GS_CORNER_* mask */
     int pin_count;       /* more pins, as particle index i + nx * j */
     const int *pins;
+    double particle_radius; /* m, for contacts; default half the smaller
+                               spacing between particles */
+    gs_material material;      /* contacts; zero fields take defaults */
     gs_solver_desc solver;
 } gs_cloth_desc;
 
@@ -447,6 +462,149 @@ GS_API double gs_mesh_stable_dt(const gs_agent *a);
 /* Moves a pinned particle (the application drags a corner). */
 GS_API gs_result gs_mesh_move_pin(gs_agent *a, int particle, gs_vec3 pos);
 
+/* ========================================================================
+   >>rigid
+   Rigid bodies and probes. Rigid state: [t, position (3), orientation
+   quaternion x y z w (4), velocity (3), angular velocity in world frame (3)].
+   ======================================================================== */
+typedef enum gs_shape_type {
+    GS_SHAPE_NONE = 0,
+    GS_SHAPE_SPHERE,  /* radius */
+    GS_SHAPE_BOX,     /* half_extents */
+    GS_SHAPE_HULL,    /* the convex hull of points (4 to GS_MAX_HULL_POINTS,
+                         not all in one plane) */
+    GS__SHAPE_COUNT
+} gs_shape_type;
+
+#define GS_MAX_HULL_POINTS 64
+
+typedef struct gs_shape_desc {
+    gs_shape_type type;
+    double radius;          /* m, sphere */
+    gs_vec3 half_extents;   /* m, box */
+    const gs_vec3 *points;  /* m, hull, in body coordinates; the body's
+                               origin becomes the hull's centre of mass */
+    int point_count;
+} gs_shape_desc;
+
+typedef struct gs_rigid_desc {
+    gs_shape_desc shape;
+    double density;        /* kg/m^3; default 1000 */
+    double mass;           /* kg; > 0 overrides density */
+    gs_vec3 inertia;       /* kg m^2, principal moments in body axes;
+                              default from shape and mass */
+    gs_vec3 position;      /* m */
+    gs_quat orientation;   /* default identity; normalized on create */
+    gs_vec3 velocity;      /* m/s */
+    gs_vec3 angular_velocity; /* rad/s, world frame */
+    gs_material material;
+    int continuous;        /* 1: substep so that the body never moves more
+                              than a quarter of its smallest size per
+                              substep (stops tunnelling of fast bodies) */
+    gs_solver_desc solver; /* symplectic Euler (default), Verlet or RK4;
+                              substeps keep contact stiffness stable */
+} gs_rigid_desc;
+
+/* A kinematic body the application moves: nothing pushes it back. */
+typedef struct gs_probe_desc {
+    gs_shape_desc shape;
+    gs_vec3 position;      /* m */
+    gs_quat orientation;   /* default identity */
+    gs_material material;
+    double dt;             /* s; default 0.001 */
+    double max_speed;      /* m/s it may move at to reach its target;
+                              default 10 */
+    uint32_t owner;        /* host that drives it; default this world's */
+} gs_probe_desc;
+
+GS_API gs_rigid_desc gs_rigid_desc_default(void);
+GS_API gs_probe_desc gs_probe_desc_default(void);
+GS_API gs_material gs_material_default(void);
+
+/* Creates a rigid body. Errors name the field: a degenerate hull (fewer
+   than 4 points, all in one plane), a size or density <= 0, NaN. */
+GS_API gs_result gs_rigid_create(gs_world *w, const gs_rigid_desc *desc,
+                                 gs_agent **out);
+GS_API gs_result gs_probe_create(gs_world *w, const gs_probe_desc *desc,
+                                 gs_agent **out);
+
+/* Where the probe should be; it moves there over its next steps at no more
+   than max_speed. */
+GS_API gs_result gs_probe_set_target(gs_agent *probe, gs_vec3 position,
+                                     gs_quat orientation);
+
+/* For rigid bodies and probes (zero for other kinds). */
+GS_API gs_vec3 gs_rigid_position(const gs_agent *a);
+GS_API gs_quat gs_rigid_orientation(const gs_agent *a);
+GS_API gs_vec3 gs_rigid_velocity(const gs_agent *a);
+GS_API gs_vec3 gs_rigid_angular_velocity(const gs_agent *a);
+GS_API double gs_rigid_mass(const gs_agent *a); /* kg; 0 for a probe */
+/* Largest stable step under the agent's contact stiffness, in seconds. */
+GS_API double gs_rigid_stable_dt(const gs_agent *a);
+
+/* ========================================================================
+   >>contact
+   ======================================================================== */
+
+/* One contact as the narrow phase sees it: the normal points from b to a,
+   depth > 0 means overlap, point is in world coordinates. */
+typedef struct gs_contact {
+    gs_vec3 normal, point;
+    double depth; /* m */
+} gs_contact;
+
+/* The exact or libccd answer for two shapes at two poses: returns 1 and
+   fills *c when they overlap, 0 when apart. Every output is finite: where
+   libccd returns a non-finite direction (touching or coincident shapes) the
+   answer falls back to the direction between the centres. */
+GS_API int gs_collide_shapes(const gs_shape_desc *a, gs_vec3 pa, gs_quat qa,
+                             const gs_shape_desc *b, gs_vec3 pb, gs_quat qb,
+                             gs_contact *c);
+
+/* A ground plane y = height that every body meets. */
+GS_API gs_result gs_world_set_ground(gs_world *w, int enabled, double height,
+                                     gs_material material);
+
+/* ========================================================================
+   >>scene
+   The paper's scene: a cloth hanging by its four corners, spheres falling
+   on it, one probe per host. Examples, tests, the peer and the benchmarks
+   all build it here.
+   ======================================================================== */
+#define GS_SCENE_MAX_SPHERES 64
+#define GS_SCENE_MAX_PROBES 16
+
+typedef struct gs_scene_desc {
+    int cloth_n;          /* particles per side; default 16 */
+    double cloth_size;    /* m; default 1 */
+    int sphere_count;     /* 0..GS_SCENE_MAX_SPHERES, taken as given (0 =
+                             none); gs_scene_desc_default() says 3 */
+    double sphere_radius; /* m; default 0.08 */
+    int probe_count;      /* 0..GS_SCENE_MAX_PROBES, taken as given;
+                             gs_scene_desc_default() says 1 */
+    uint32_t seed;        /* sphere placement; default 1 */
+    gs_integrator cloth_integrator; /* default implicit Euler */
+    double dt;            /* s for every agent; default 0.002 */
+} gs_scene_desc;
+
+typedef struct gs_scene {
+    gs_agent *cloth;
+    gs_agent *spheres[GS_SCENE_MAX_SPHERES];
+    gs_agent *probes[GS_SCENE_MAX_PROBES];
+    int sphere_count, probe_count;
+    gs_scene_desc desc;   /* with defaults applied */
+} gs_scene;
+
+GS_API gs_scene_desc gs_scene_desc_default(void);
+/* Builds the scene in w (ground on at y = -1.5 m): cloth in the plane
+   y = 0 centred on the origin, spheres above it, probes above the cloth.
+   Probe i is owned by host i + 1. */
+GS_API gs_result gs_scene_create(gs_world *w, const gs_scene_desc *desc,
+                                 gs_scene *out);
+/* Where probe i should be at time t (s) on the scripted path the tests and
+   the peer use: a circle of radius 0.25 m dipping into the cloth. */
+GS_API gs_vec3 gs_scene_probe_path(int i, double t);
+
 #ifdef __cplusplus
 }
 #endif
@@ -459,6 +617,7 @@ GS_API gs_result gs_mesh_move_pin(gs_agent *a, int particle, gs_vec3 pos);
 #ifndef GHOSTSIM_IMPLEMENTATION_DONE
 #define GHOSTSIM_IMPLEMENTATION_DONE
 
+#include <ccd/ccd.h>
 #include <math.h>
 #include <stdarg.h>
 #include <stdio.h>
@@ -692,6 +851,9 @@ struct gs_world {
     gs_agent **agents;
     int agent_count, agent_cap;
     uint64_t dispatches;
+    int ground;          /* a plane y = ground_height */
+    double ground_height;
+    gs_material ground_material;
     gs__queue queues[GS_MAX_QUEUES];
     char error[256];
 };
@@ -1131,6 +1293,28 @@ GS__PRIVATE void gs__check_solver(gs__check *c, const gs_solver_desc *d) {
     gs__check_positive(c, "solver.max_speed", d->max_speed);
 }
 
+GS_API gs_material gs_material_default(void) {
+    gs_material m;
+    m.stiffness = 1e5;
+    m.damping = 100.0;
+    m.friction = 0.5;
+    return m;
+}
+
+GS__PRIVATE gs_material gs__material_defaults(gs_material m) {
+    gs_material d = gs_material_default();
+    if (m.stiffness == 0.0) m.stiffness = d.stiffness;
+    if (m.damping == 0.0) m.damping = d.damping;
+    if (m.friction == 0.0) m.friction = d.friction;
+    return m;
+}
+
+GS__PRIVATE void gs__check_material(gs__check *c, const gs_material *m) {
+    gs__check_positive(c, "material.stiffness", m->stiffness);
+    gs__check_nonneg(c, "material.damping", m->damping);
+    gs__check_nonneg(c, "material.friction", m->friction);
+}
+
 /* Common part of every create call: fills the agent header, registers it. */
 GS__PRIVATE gs_result gs__agent_init(gs_world *w, gs_agent *a,
                                      const gs__kind *kind, double dt) {
@@ -1333,6 +1517,15 @@ typedef struct gs__mesh {
     double air;       /* 1/s */
     gs_solver_desc solver;
     double stable_dt; /* s; the explicit integrator's bound */
+    double stable_dt_contact; /* s; the same with a contact on every particle */
+    /* contacts */
+    gs_vec3 *ext;     /* N; contact force on each particle this substep */
+    gs_vec3 *cn;      /* implicit Euler: contact normal per particle, */
+    double *ck, *cc;  /* its stiffness (N/m) and damping (N s/m), 0 = none */
+    int ext_active;   /* ext holds a non-zero force */
+    double radius;    /* m, particle radius for contacts */
+    gs_material mat;
+    gs_vec3 lo, hi;   /* m; bounding box of the particles */
     /* implicit Euler: per spring u, h^2 k alpha, h^2 k (1 - alpha), h c */
     double *jac;
     gs_vec3 *rhs, *dv, *r, *z, *p, *q, *diag;
@@ -1359,6 +1552,7 @@ GS__PRIVATE void gs__mesh_layout(gs__mesh *m, gs__carver *cv) {
     m->xn = (gs_vec3 *)gs__carve(cv, v3);
     m->vn = (gs_vec3 *)gs__carve(cv, v3);
     m->acc = (gs_vec3 *)gs__carve(cv, v3);
+    m->ext = (gs_vec3 *)gs__carve(cv, v3);
     m->mass = (double *)gs__carve(cv, n * sizeof(double));
     m->inv_mass = (double *)gs__carve(cv, n * sizeof(double));
     m->springs = (gs__spring *)gs__carve(cv, (size_t)m->ns * sizeof(gs__spring));
@@ -1378,6 +1572,9 @@ GS__PRIVATE void gs__mesh_layout(gs__mesh *m, gs__carver *cv) {
     }
     if (it == GS_INTEGRATOR_IMPLICIT_EULER) {
         m->jac = (double *)gs__carve(cv, (size_t)m->ns * 6 * sizeof(double));
+        m->cn = (gs_vec3 *)gs__carve(cv, v3);
+        m->ck = (double *)gs__carve(cv, n * sizeof(double));
+        m->cc = (double *)gs__carve(cv, n * sizeof(double));
         m->rhs = (gs_vec3 *)gs__carve(cv, v3);
         m->dv = (gs_vec3 *)gs__carve(cv, v3);
         m->r = (gs_vec3 *)gs__carve(cv, v3);
@@ -1398,6 +1595,8 @@ GS__PRIVATE void gs__mesh_accel(const gs__mesh *m, const gs_vec3 *x,
     const double *im = m->inv_mass;
     int i;
     for (i = 0; i < m->n; ++i) acc[i] = gs__madd(g, v[i], -m->air);
+    if (m->ext_active)
+        for (i = 0; i < m->n; ++i) acc[i] = gs__madd(acc[i], m->ext[i], im[i]);
     for (i = 0; i < m->ns; ++i) {
         const gs__spring *s = &m->springs[i];
         gs_vec3 d = gs__sub(x[s->b], x[s->a]), u, fv;
@@ -1476,6 +1675,20 @@ GS__PRIVATE void gs__int_rk4(gs__mesh *m, double h) {
     }
 }
 
+/* Contact springs join the implicit solve: each touching particle gets
+   (h^2 k + h c) n n^T on its diagonal block and -h^2 k (n . v0) n on the right,
+   so stiff contacts are as stable as stiff cloth springs. */
+GS__PRIVATE void gs__implicit_contacts(gs__mesh *m, double h) {
+    int i;
+    for (i = 0; i < m->n; ++i) {
+        gs_vec3 n = m->cn[i];
+        double s = h * h * m->ck[i] + h * m->cc[i];
+        if (m->ck[i] == 0.0) continue;
+        m->rhs[i] = gs__madd(m->rhs[i], n, -h * h * m->ck[i] * gs__dot(n, m->v[i]));
+        m->diag[i] = gs__add(m->diag[i], gs__v3(s * n.x * n.x, s * n.y * n.y, s * n.z * n.z));
+    }
+}
+
 /* ---- implicit Euler: Baraff & Witkin 1998, one linearized solve ----
    (M (1 + h air) + h D + h^2 K) dv = h f0 - h^2 K v0, with K each spring's
    stiffness matrix k (alpha I + (1 - alpha) u u^T), alpha =
@@ -1514,6 +1727,7 @@ GS__PRIVATE void gs__implicit_assemble(gs__mesh *m, double h) {
         m->diag[s->b] = gs__add(m->diag[s->b],
             gs__v3(ka + kb * u.x * u.x, ka + kb * u.y * u.y, ka + kb * u.z * u.z));
     }
+    if (m->ext_active) gs__implicit_contacts(m, h);
     for (i = 0; i < m->npins; ++i) m->rhs[m->pins[i]] = gs__v3(0.0, 0.0, 0.0);
 }
 
@@ -1532,6 +1746,11 @@ GS__PRIVATE void gs__implicit_apply(const gs__mesh *m, double h,
         q[s->a] = gs__sub(q[s->a], bw);
         q[s->b] = gs__add(q[s->b], bw);
     }
+    if (m->ext_active)
+        for (i = 0; i < m->n; ++i)
+            if (m->ck[i] != 0.0)
+                q[i] = gs__madd(q[i], m->cn[i], (h * h * m->ck[i] + h * m->cc[i]) *
+                                                    gs__dot(m->cn[i], p[i]));
     for (i = 0; i < m->npins; ++i) q[m->pins[i]] = gs__v3(0.0, 0.0, 0.0);
 }
 
@@ -1609,9 +1828,14 @@ GS__PRIVATE int gs__mesh_sane(const gs__mesh *m) {
     return gs__finite(sum);
 }
 
-GS__PRIVATE gs_result gs__mesh_substep(gs__mesh *m, double h) {
+GS__PRIVATE void gs__mesh_contacts(gs__mesh *m, double t);
+GS__PRIVATE void gs__mesh_update_bounds(gs__mesh *m);
+
+/* One integrator step of h seconds starting at simulation time t0. */
+GS__PRIVATE gs_result gs__mesh_substep(gs__mesh *m, double t0, double h) {
     gs_vec3 *t;
     int i;
+    gs__mesh_contacts(m, t0);
     switch (m->solver.integrator) {
     case GS_INTEGRATOR_EXPLICIT_EULER: gs__int_explicit_euler(m, h); break;
     case GS_INTEGRATOR_VERLET: gs__int_verlet(m, h); break;
@@ -1631,12 +1855,17 @@ GS__PRIVATE gs_result gs__mesh_substep(gs__mesh *m, double h) {
                         m->solver.max_speed);
     t = m->x; m->x = m->xn; m->xn = t;
     t = m->v; m->v = m->vn; m->vn = t;
+    gs__mesh_update_bounds(m);
     return GS_OK;
 }
 
 /* How many substeps a step of dt needs to stay under the stability bound. */
+GS__PRIVATE int gs__world_has_contacts(const gs_world *w);
+
 GS__PRIVATE gs_result gs__mesh_plan(gs__mesh *m, double dt, int *n_sub) {
-    double lim = m->stable_dt * m->solver.safety, k;
+    double lim = (gs__world_has_contacts(m->base.world) ? m->stable_dt_contact
+                                                        : m->stable_dt) *
+                 m->solver.safety, k;
     *n_sub = 1;
     if (m->solver.integrator == GS_INTEGRATOR_IMPLICIT_EULER ||
         m->solver.stability == GS_STABILITY_UNCHECKED || dt <= lim)
@@ -1668,7 +1897,7 @@ GS__PRIVATE gs_result gs__mesh_step(gs_agent *a, double dt) {
         memcpy(m->v0, m->v, bytes);
     }
     for (i = 0; i < n_sub; ++i) {
-        r = gs__mesh_substep(m, dt / n_sub);
+        r = gs__mesh_substep(m, gs__agent_time(a) + i * (dt / n_sub), dt / n_sub);
         if (r == GS_OK) continue;
         if (i > 0) {
             memcpy(m->x, m->x0, bytes);
@@ -1698,6 +1927,7 @@ GS__PRIVATE gs_result gs__mesh_set_state(gs_agent *a, const double *in) {
     memcpy(m->x, in, (size_t)m->n * sizeof(gs_vec3));
     memcpy(m->v, in + 3 * m->n, (size_t)m->n * sizeof(gs_vec3));
     for (i = 0; i < m->npins; ++i) m->v[m->pins[i]] = gs__v3(0.0, 0.0, 0.0);
+    gs__mesh_update_bounds(m);
     return GS_OK;
 }
 
@@ -1729,11 +1959,12 @@ GS__PRIVATE gs__mesh *gs__as_mesh(const gs_agent *a) {
    h^2 w^2 + 2 h g < 4, i.e. h < 4 / (g + sqrt(g^2 + 4 w^2)); Verlet and
    explicit Euler get the same bound, RK4 1.39 times it (its stability region
    reaches 2.78 on the real axis, 2.83 on the imaginary one). */
-GS__PRIVATE double gs__mesh_bound(gs__mesh *m) {
+GS__PRIVATE double gs__mesh_bound(gs__mesh *m, double contact_k,
+                                  double contact_c) {
     double w2 = 0.0, g = 0.0, h;
     int i;
     if (m->solver.integrator == GS_INTEGRATOR_IMPLICIT_EULER) return HUGE_VAL;
-    for (i = 0; i < m->n; ++i) m->acc[i] = gs__v3(0.0, 0.0, 0.0);
+    for (i = 0; i < m->n; ++i) m->acc[i] = gs__v3(contact_k, contact_c, 0.0);
     for (i = 0; i < m->ns; ++i) { /* acc as scratch: x = sum k, y = sum c */
         const gs__spring *s = &m->springs[i];
         double fa = m->pinned[s->b] ? 1.0 : 2.0, fb = m->pinned[s->a] ? 1.0 : 2.0;
@@ -1801,7 +2032,9 @@ GS__PRIVATE void gs__mesh_finish(gs__mesh *m, const int *pins, int npins) {
         m->inv_mass[i] = m->pinned[i] ? 0.0 : 1.0 / m->mass[i];
         if (m->pinned[i]) m->v[i] = gs__v3(0.0, 0.0, 0.0);
     }
-    m->stable_dt = gs__mesh_bound(m);
+    m->stable_dt = gs__mesh_bound(m, 0.0, 0.0);
+    m->stable_dt_contact = gs__mesh_bound(m, m->mat.stiffness, m->mat.damping);
+    gs__mesh_update_bounds(m);
 }
 
 /* Element `i` of array `what` fails a check: the message names it. */
@@ -1890,6 +2123,8 @@ GS_API gs_mesh_desc gs_mesh_desc_default(void) {
 GS__PRIVATE gs_mesh_desc gs__mesh_defaults(const gs_mesh_desc *in) {
     gs_mesh_desc d = *in;
     if (d.mass == 0.0) d.mass = 1.0;
+    if (d.particle_radius == 0.0) d.particle_radius = 0.01;
+    d.material = gs__material_defaults(d.material);
     d.solver = gs__solver_defaults(d.solver);
     return d;
 }
@@ -1902,6 +2137,8 @@ GS__PRIVATE gs_result gs__mesh_check(gs_world *w, const gs_mesh_desc *d) {
     if (c.r == GS_OK) gs__check_mesh_springs(&c, d);
     if (c.r == GS_OK) gs__check_pins(&c, d->pins, d->pin_count, d->particle_count);
     gs__check_nonneg(&c, "air_damping", d->air_damping);
+    gs__check_positive(&c, "particle_radius", d->particle_radius);
+    gs__check_material(&c, &d->material);
     gs__check_solver(&c, &d->solver);
     return c.r;
 }
@@ -1945,6 +2182,8 @@ GS_API gs_result gs_mesh_create(gs_world *w, const gs_mesh_desc *desc,
         m->springs[i].c = s->damping;
     }
     m->air = d.air_damping;
+    m->radius = d.particle_radius;
+    m->mat = d.material;
     gs__mesh_finish(m, d.pins, d.pin_count);
     *out = &m->base;
     return GS_OK;
@@ -1981,6 +2220,9 @@ GS__PRIVATE gs_cloth_desc gs__cloth_defaults(const gs_cloth_desc *in) {
     if (d.bend_stiffness == 0.0) d.bend_stiffness = d.stretch_stiffness / 100.0;
     if (d.spring_damping == 0.0) d.spring_damping = def.spring_damping;
     if (d.air_damping == 0.0) d.air_damping = def.air_damping;
+    if (d.particle_radius == 0.0 && d.nx > 1 && d.ny > 1)
+        d.particle_radius = 0.5 * fmin(d.width / (d.nx - 1), d.height / (d.ny - 1));
+    d.material = gs__material_defaults(d.material);
     d.solver = gs__solver_defaults(d.solver);
     return d;
 }
@@ -2012,6 +2254,8 @@ GS__PRIVATE gs_result gs__cloth_check(gs_world *w, const gs_cloth_desc *d) {
     gs__check_nonneg(&c, "air_damping", d->air_damping);
     gs__check_int(&c, "pin_corners", d->pin_corners, 0, GS_CORNER_ALL);
     if (c.r == GS_OK) gs__check_pins(&c, d->pins, d->pin_count, d->nx * d->ny);
+    gs__check_positive(&c, "particle_radius", d->particle_radius);
+    gs__check_material(&c, &d->material);
     gs__check_solver(&c, &d->solver);
     return c.r;
 }
@@ -2067,6 +2311,8 @@ GS__PRIVATE void gs__cloth_fill(gs__mesh *m, const gs_cloth_desc *d) {
     }
     GS_ASSERT(k == m->ns);
     m->air = d->air_damping;
+    m->radius = d->particle_radius;
+    m->mat = d->material;
 }
 
 GS_API gs_result gs_cloth_create(gs_world *w, const gs_cloth_desc *desc,
@@ -2098,7 +2344,8 @@ GS_API gs_result gs_cloth_create(gs_world *w, const gs_cloth_desc *desc,
                 m->pins[m->npins++] = d.pins[i];
                 m->inv_mass[d.pins[i]] = 0.0;
             }
-        m->stable_dt = gs__mesh_bound(m);
+        m->stable_dt = gs__mesh_bound(m, 0.0, 0.0);
+        m->stable_dt_contact = gs__mesh_bound(m, m->mat.stiffness, m->mat.damping);
     }
     *out = &m->base;
     return GS_OK;
@@ -2163,7 +2410,1316 @@ GS_API gs_result gs_mesh_move_pin(gs_agent *a, int particle, gs_vec3 pos) {
         return gs__fail(a->world, GS_ERR_NOT_FINITE,
                         "gs_mesh_move_pin: position must be finite");
     m->x[particle] = pos;
+    gs__mesh_update_bounds(m);
     return GS_OK;
+}
+
+/* ========================================================================
+   >>rigid
+   ======================================================================== */
+GS__PRIVATE gs_quat gs__quat(double x, double y, double z, double w) {
+    gs_quat q;
+    q.x = x; q.y = y; q.z = z; q.w = w;
+    return q;
+}
+
+GS__PRIVATE gs_quat gs__quat_normalize(gs_quat q) {
+    double n = sqrt(q.x * q.x + q.y * q.y + q.z * q.z + q.w * q.w);
+    if (!(n > 0.0)) return gs__quat(0.0, 0.0, 0.0, 1.0);
+    return gs__quat(q.x / n, q.y / n, q.z / n, q.w / n);
+}
+
+/* v rotated by the unit quaternion q. */
+GS__PRIVATE gs_vec3 gs__rotate(gs_quat q, gs_vec3 v) {
+    gs_vec3 u = gs__v3(q.x, q.y, q.z);
+    gs_vec3 t = gs__scale(gs__cross(u, v), 2.0);
+    return gs__add(gs__add(v, gs__scale(t, q.w)), gs__cross(u, t));
+}
+
+GS__PRIVATE gs_vec3 gs__unrotate(gs_quat q, gs_vec3 v) {
+    return gs__rotate(gs__quat(-q.x, -q.y, -q.z, q.w), v);
+}
+
+/* q advanced by angular velocity w (world frame) over h seconds. */
+GS__PRIVATE gs_quat gs__quat_integrate(gs_quat q, gs_vec3 w, double h) {
+    double hx = 0.5 * h * w.x, hy = 0.5 * h * w.y, hz = 0.5 * h * w.z;
+    gs_quat r;
+    r.x = q.x + hx * q.w + hy * q.z - hz * q.y;
+    r.y = q.y + hy * q.w + hz * q.x - hx * q.z;
+    r.z = q.z + hz * q.w + hx * q.y - hy * q.x;
+    r.w = q.w - hx * q.x - hy * q.y - hz * q.z;
+    return gs__quat_normalize(r);
+}
+
+/* A symmetric 3x3 matrix: xx yy zz xy xz yz. */
+typedef struct gs__sym3 { double xx, yy, zz, xy, xz, yz; } gs__sym3;
+
+GS__PRIVATE gs_vec3 gs__sym3_mul(const gs__sym3 *m, gs_vec3 v) {
+    return gs__v3(m->xx * v.x + m->xy * v.y + m->xz * v.z,
+                  m->xy * v.x + m->yy * v.y + m->yz * v.z,
+                  m->xz * v.x + m->yz * v.y + m->zz * v.z);
+}
+
+GS__PRIVATE int gs__sym3_inverse(const gs__sym3 *m, gs__sym3 *inv) {
+    double c00 = m->yy * m->zz - m->yz * m->yz;
+    double c01 = m->xz * m->yz - m->xy * m->zz;
+    double c02 = m->xy * m->yz - m->xz * m->yy;
+    double det = m->xx * c00 + m->xy * c01 + m->xz * c02;
+    if (!(fabs(det) > 0.0) || !gs__finite(det)) return 0;
+    inv->xx = c00 / det;
+    inv->xy = c01 / det;
+    inv->xz = c02 / det;
+    inv->yy = (m->xx * m->zz - m->xz * m->xz) / det;
+    inv->yz = (m->xy * m->xz - m->xx * m->yz) / det;
+    inv->zz = (m->xx * m->yy - m->xy * m->xy) / det;
+    return 1;
+}
+
+/* A convex shape ready for collision: boxes and hulls are polytopes with
+   vertices and outward face planes n . p = d in body coordinates. */
+typedef struct gs__shape {
+    gs_shape_type type;
+    double radius;      /* sphere */
+    gs_vec3 half;       /* box */
+    int nv, nf;
+    gs_vec3 v[GS_MAX_HULL_POINTS];
+    gs_vec3 fn[2 * GS_MAX_HULL_POINTS];
+    double fd[2 * GS_MAX_HULL_POINTS];
+    double bound;       /* m; radius of a sphere about the origin holding it */
+    double size;        /* m; its smallest extent */
+    double volume;      /* m^3 */
+    gs__sym3 inertia;   /* about the origin, for density 1 */
+} gs__shape;
+
+typedef struct gs__hull_face { int a, b, c; } gs__hull_face;
+
+/* ---- hull: incremental construction over at most 64 points ---- */
+GS__PRIVATE gs_vec3 gs__face_normal(const gs_vec3 *p, gs__hull_face f) {
+    return gs__cross(gs__sub(p[f.b], p[f.a]), gs__sub(p[f.c], p[f.a]));
+}
+
+/* The first four points that span a volume, or 0 when all are in a plane
+   (or on a line) within eps. */
+GS__PRIVATE int gs__hull_seed(const gs_vec3 *p, int n, double eps, int s[4]) {
+    int i;
+    double best = 0.0;
+    s[0] = 0; s[1] = s[2] = s[3] = -1;
+    for (i = 1; i < n; ++i) {
+        double d = gs__len(gs__sub(p[i], p[0]));
+        if (d > best) { best = d; s[1] = i; }
+    }
+    if (s[1] < 0 || best <= eps) return 0;
+    best = 0.0;
+    for (i = 1; i < n; ++i) {
+        double d = gs__len(gs__cross(gs__sub(p[s[1]], p[0]), gs__sub(p[i], p[0])));
+        if (d > best) { best = d; s[2] = i; }
+    }
+    if (s[2] < 0 || best <= eps * gs__len(gs__sub(p[s[1]], p[0]))) return 0;
+    best = 0.0;
+    for (i = 1; i < n; ++i) {
+        gs__hull_face f;
+        double d;
+        f.a = s[0]; f.b = s[1]; f.c = s[2];
+        d = fabs(gs__dot(gs__face_normal(p, f), gs__sub(p[i], p[0])));
+        if (d > best) { best = d; s[3] = i; }
+    }
+    if (s[3] < 0) return 0;
+    {
+        gs__hull_face f;
+        f.a = s[0]; f.b = s[1]; f.c = s[2];
+        if (best <= eps * gs__len(gs__face_normal(p, f))) return 0;
+    }
+    return 1;
+}
+
+/* Adds point i to the hull: removes the faces it sees and closes the hole
+   with a fan of faces from its horizon edges. */
+GS__PRIVATE int gs__hull_add(const gs_vec3 *p, gs__hull_face *f, int nf, int i,
+                             double eps) {
+    int vis[4 * GS_MAX_HULL_POINTS], k, e, m = 0, nnew = 0;
+    gs__hull_face keep[4 * GS_MAX_HULL_POINTS], add[4 * GS_MAX_HULL_POINTS];
+    for (k = 0; k < nf; ++k) {
+        gs_vec3 nrm = gs__face_normal(p, f[k]);
+        vis[k] = gs__dot(nrm, gs__sub(p[i], p[f[k].a])) > eps * gs__len(nrm);
+    }
+    for (k = 0; k < nf; ++k) {
+        int ed[3][2];
+        if (!vis[k]) { keep[m++] = f[k]; continue; }
+        ed[0][0] = f[k].a; ed[0][1] = f[k].b;
+        ed[1][0] = f[k].b; ed[1][1] = f[k].c;
+        ed[2][0] = f[k].c; ed[2][1] = f[k].a;
+        for (e = 0; e < 3; ++e) { /* horizon: the neighbour is not visible */
+            int j, shared = 0;
+            for (j = 0; j < nf && !shared; ++j) {
+                if (j == k || !vis[j]) continue;
+                shared = (f[j].a == ed[e][1] && f[j].b == ed[e][0]) ||
+                         (f[j].b == ed[e][1] && f[j].c == ed[e][0]) ||
+                         (f[j].c == ed[e][1] && f[j].a == ed[e][0]);
+            }
+            if (!shared) {
+                add[nnew].a = ed[e][0]; add[nnew].b = ed[e][1]; add[nnew].c = i;
+                nnew++;
+            }
+        }
+    }
+    if (m == nf) return nf; /* inside */
+    if (m + nnew > 4 * GS_MAX_HULL_POINTS) return -1;
+    for (k = 0; k < nnew; ++k) keep[m++] = add[k];
+    memcpy(f, keep, (size_t)m * sizeof *f);
+    return m;
+}
+
+/* Volume and inertia (density 1, about the origin) of the solid bounded by
+   outward triangles, summed over tetrahedra with the origin. */
+GS__PRIVATE void gs__hull_mass(gs__shape *s, const gs_vec3 *p,
+                               const gs__hull_face *f, int nf) {
+    double vol = 0.0, cxx = 0.0, cyy = 0.0, czz = 0.0, cxy = 0.0, cxz = 0.0,
+           cyz = 0.0;
+    int k;
+    for (k = 0; k < nf; ++k) {
+        gs_vec3 a = p[f[k].a], b = p[f[k].b], c = p[f[k].c];
+        double det = gs__dot(a, gs__cross(b, c)), w = det / 120.0;
+        vol += det / 6.0;
+        /* covariance of tetra (0, a, b, c): det/120 (sum_i v v^T + S S^T) */
+        cxx += w * (a.x * a.x + b.x * b.x + c.x * c.x + (a.x + b.x + c.x) * (a.x + b.x + c.x));
+        cyy += w * (a.y * a.y + b.y * b.y + c.y * c.y + (a.y + b.y + c.y) * (a.y + b.y + c.y));
+        czz += w * (a.z * a.z + b.z * b.z + c.z * c.z + (a.z + b.z + c.z) * (a.z + b.z + c.z));
+        cxy += w * (a.x * a.y + b.x * b.y + c.x * c.y + (a.x + b.x + c.x) * (a.y + b.y + c.y));
+        cxz += w * (a.x * a.z + b.x * b.z + c.x * c.z + (a.x + b.x + c.x) * (a.z + b.z + c.z));
+        cyz += w * (a.y * a.z + b.y * b.z + c.y * c.z + (a.y + b.y + c.y) * (a.z + b.z + c.z));
+    }
+    s->volume = vol;
+    s->inertia.xx = cyy + czz;
+    s->inertia.yy = cxx + czz;
+    s->inertia.zz = cxx + cyy;
+    s->inertia.xy = -cxy;
+    s->inertia.xz = -cxz;
+    s->inertia.yz = -cyz;
+}
+
+/* Centre of mass of the solid hull (weighted tetra centroids). */
+GS__PRIVATE gs_vec3 gs__hull_centroid(const gs_vec3 *p, const gs__hull_face *f,
+                                      int nf, gs_vec3 inner) {
+    gs_vec3 c = gs__v3(0.0, 0.0, 0.0);
+    double vol = 0.0;
+    int k;
+    for (k = 0; k < nf; ++k) {
+        gs_vec3 a = gs__sub(p[f[k].a], inner), b = gs__sub(p[f[k].b], inner),
+                d = gs__sub(p[f[k].c], inner);
+        double v = gs__dot(a, gs__cross(b, d)) / 6.0;
+        vol += v;
+        c = gs__madd(c, gs__add(gs__add(a, b), d), v / 4.0);
+    }
+    return gs__add(inner, gs__scale(c, 1.0 / vol));
+}
+
+/* Orients the seed tetrahedron's faces outward. */
+GS__PRIVATE void gs__hull_tetra(const gs_vec3 *p, const int s[4],
+                                gs__hull_face f[4]) {
+    int k, idx[4][3] = {{0, 1, 2}, {0, 3, 1}, {0, 2, 3}, {1, 3, 2}};
+    for (k = 0; k < 4; ++k) {
+        int opposite = 6 - idx[k][0] - idx[k][1] - idx[k][2];
+        f[k].a = s[idx[k][0]]; f[k].b = s[idx[k][1]]; f[k].c = s[idx[k][2]];
+        if (gs__dot(gs__face_normal(p, f[k]), gs__sub(p[s[opposite]], p[f[k].a])) > 0.0) {
+            int t = f[k].b; f[k].b = f[k].c; f[k].c = t;
+        }
+    }
+}
+
+/* Builds a hull shape: vertices recentred on the centre of mass, face planes,
+   mass properties. Returns 0 for degenerate input. */
+GS__PRIVATE int gs__hull_build(gs__shape *s, const gs_vec3 *pts, int n) {
+    gs_vec3 p[GS_MAX_HULL_POINTS], com, lo = pts[0], hi = pts[0];
+    gs__hull_face f[4 * GS_MAX_HULL_POINTS];
+    int seed[4], nf = 4, i, k, used[GS_MAX_HULL_POINTS];
+    double scale, eps;
+    for (i = 0; i < n; ++i) {
+        lo = gs__v3(fmin(lo.x, pts[i].x), fmin(lo.y, pts[i].y), fmin(lo.z, pts[i].z));
+        hi = gs__v3(fmax(hi.x, pts[i].x), fmax(hi.y, pts[i].y), fmax(hi.z, pts[i].z));
+    }
+    scale = gs__len(gs__sub(hi, lo));
+    eps = 1e-9 * scale;
+    if (!(scale > 0.0) || !gs__hull_seed(pts, n, 1e-6, seed)) return 0;
+    memcpy(p, pts, (size_t)n * sizeof *p);
+    gs__hull_tetra(p, seed, f);
+    for (i = 0; i < n && nf > 0; ++i) nf = gs__hull_add(p, f, nf, i, eps);
+    if (nf <= 0) return 0;
+    com = gs__hull_centroid(p, f, nf, gs__scale(gs__add(gs__add(p[seed[0]], p[seed[1]]),
+                                                      gs__add(p[seed[2]], p[seed[3]])), 0.25));
+    for (i = 0; i < n; ++i) p[i] = gs__sub(p[i], com);
+    gs__hull_mass(s, p, f, nf);
+    memset(used, 0, sizeof used);
+    for (k = 0; k < nf; ++k) used[f[k].a] = used[f[k].b] = used[f[k].c] = 1;
+    s->nv = 0;
+    for (i = 0; i < n; ++i)
+        if (used[i]) s->v[s->nv++] = p[i];
+    s->nf = 0;
+    for (k = 0; k < nf && s->nf < 2 * GS_MAX_HULL_POINTS; ++k) {
+        gs_vec3 nrm = gs__face_normal(p, f[k]);
+        nrm = gs__scale(nrm, 1.0 / gs__len(nrm));
+        s->fn[s->nf] = nrm;
+        s->fd[s->nf++] = gs__dot(nrm, p[f[k].a]);
+    }
+    return s->volume > 0.0;
+}
+
+GS__PRIVATE void gs__box_build(gs__shape *s, gs_vec3 h) {
+    int i;
+    for (i = 0; i < 8; ++i)
+        s->v[i] = gs__v3(i & 1 ? h.x : -h.x, i & 2 ? h.y : -h.y, i & 4 ? h.z : -h.z);
+    s->nv = 8;
+    s->nf = 6;
+    for (i = 0; i < 3; ++i) {
+        gs_vec3 e = gs__v3(i == 0, i == 1, i == 2);
+        double d = i == 0 ? h.x : i == 1 ? h.y : h.z;
+        s->fn[2 * i] = e;
+        s->fd[2 * i] = d;
+        s->fn[2 * i + 1] = gs__scale(e, -1.0);
+        s->fd[2 * i + 1] = d;
+    }
+    s->volume = 8.0 * h.x * h.y * h.z;
+    memset(&s->inertia, 0, sizeof s->inertia);
+    s->inertia.xx = s->volume * (h.y * h.y + h.z * h.z) / 3.0;
+    s->inertia.yy = s->volume * (h.x * h.x + h.z * h.z) / 3.0;
+    s->inertia.zz = s->volume * (h.x * h.x + h.y * h.y) / 3.0;
+}
+
+/* Validates a shape desc and builds the collision shape. */
+GS__PRIVATE void gs__shape_build(gs__check *c, const gs_shape_desc *d,
+                                 gs__shape *s) {
+    int i;
+    memset(s, 0, sizeof *s);
+    s->type = d->type;
+    if (d->type == GS_SHAPE_SPHERE) {
+        gs__check_positive(c, "shape.radius", d->radius);
+        if (c->r != GS_OK) return;
+        s->radius = s->bound = d->radius;
+        s->size = 2.0 * d->radius;
+        s->volume = 4.0 / 3.0 * 3.14159265358979323846 * pow(d->radius, 3.0);
+        s->inertia.xx = s->inertia.yy = s->inertia.zz =
+            0.4 * s->volume * d->radius * d->radius;
+    } else if (d->type == GS_SHAPE_BOX) {
+        gs__check_positive(c, "shape.half_extents.x", d->half_extents.x);
+        gs__check_positive(c, "shape.half_extents.y", d->half_extents.y);
+        gs__check_positive(c, "shape.half_extents.z", d->half_extents.z);
+        if (c->r != GS_OK) return;
+        s->half = d->half_extents;
+        gs__box_build(s, d->half_extents);
+    } else if (d->type == GS_SHAPE_HULL) {
+        gs__check_int(c, "shape.point_count", d->point_count, 4, GS_MAX_HULL_POINTS);
+        if (c->r == GS_OK && !d->points)
+            gs__check_fail(c, GS_ERR_INVALID_ARG, "shape.points is NULL");
+        for (i = 0; c->r == GS_OK && i < d->point_count; ++i)
+            if (!gs__finite3(d->points[i]))
+                gs__check_item(c, GS_ERR_NOT_FINITE, "shape.points", i, "", NAN,
+                               "must be finite");
+        if (c->r != GS_OK) return;
+        if (!gs__hull_build(s, d->points, d->point_count))
+            gs__check_fail(c, GS_ERR_INVALID_ARG,
+                           "shape.points: the %d points lie in one plane or on "
+                           "one line: the hull has no volume", d->point_count);
+    } else {
+        gs__check_fail(c, GS_ERR_INVALID_ARG, "shape.type is %d, must be a "
+                       "GS_SHAPE_*", (int)d->type);
+    }
+    if (c->r != GS_OK || d->type == GS_SHAPE_SPHERE) return;
+    s->size = HUGE_VAL;
+    for (i = 0; i < s->nv; ++i)
+        if (gs__len(s->v[i]) > s->bound) s->bound = gs__len(s->v[i]);
+    for (i = 0; i < s->nf; ++i) /* twice the inradius, a lower bound on size */
+        if (2.0 * s->fd[i] < s->size) s->size = 2.0 * s->fd[i];
+}
+
+typedef struct gs__rigid {
+    gs_agent base;
+    gs__shape shape;
+    int probe;                 /* kinematic: moved by the application */
+    double mass, inv_mass;     /* kg, 1/kg (0 for a probe) */
+    gs__sym3 inertia_body, inv_inertia_body;
+    gs_vec3 x, v, w;           /* m, m/s, rad/s (world) */
+    gs_quat q;
+    gs_vec3 force, torque;     /* contact sums for the current substep */
+    double k_sum, c_sum;       /* N/m, N s/m of the contacts touching it */
+    double reach2;             /* 1/kg: 1/m + bound^2 / smallest inertia,
+                                  how hard a contact at the surface moves it */
+    gs_material mat;
+    gs_solver_desc solver;
+    int continuous;
+    double stable_dt;          /* s; contact spring-damper bound */
+    gs_vec3 target;            /* probe */
+    gs_quat target_q;
+    double max_speed;          /* probe, m/s */
+    uint32_t owner;
+} gs__rigid;
+
+GS__PRIVATE gs__rigid *gs__as_rigid(const gs_agent *a);
+
+GS_API gs_rigid_desc gs_rigid_desc_default(void) {
+    gs_rigid_desc d;
+    memset(&d, 0, sizeof d);
+    d.density = 1000.0;
+    d.orientation = gs__quat(0.0, 0.0, 0.0, 1.0);
+    d.material = gs_material_default();
+    d.solver = gs_solver_desc_default();
+    return d;
+}
+
+GS_API gs_probe_desc gs_probe_desc_default(void) {
+    gs_probe_desc d;
+    memset(&d, 0, sizeof d);
+    d.orientation = gs__quat(0.0, 0.0, 0.0, 1.0);
+    d.material = gs_material_default();
+    d.dt = 0.001;
+    d.max_speed = 10.0;
+    return d;
+}
+
+GS__PRIVATE gs_quat gs__orientation_default(gs_quat q) {
+    if (q.x == 0.0 && q.y == 0.0 && q.z == 0.0 && q.w == 0.0)
+        return gs__quat(0.0, 0.0, 0.0, 1.0);
+    return q;
+}
+
+GS__PRIVATE void gs__check_quat(gs__check *c, const char *field, gs_quat q) {
+    if (!gs__finite(q.x) || !gs__finite(q.y) || !gs__finite(q.z) ||
+        !gs__finite(q.w))
+        gs__check_fail(c, GS_ERR_NOT_FINITE, "%s must be finite", field);
+}
+
+/* 1/m + b^2 / I_min: the inverse of the effective mass a contact at the
+   body's surface (distance b from its centre) meets. I_min from Gershgorin:
+   the smallest diagonal of the body inertia less its off-diagonal row sum. */
+GS__PRIVATE double gs__rigid_reach2(const gs__rigid *r) {
+    const gs__sym3 *I = &r->inertia_body;
+    double lx = I->xx - fabs(I->xy) - fabs(I->xz);
+    double ly = I->yy - fabs(I->xy) - fabs(I->yz);
+    double lz = I->zz - fabs(I->xz) - fabs(I->yz);
+    double imin = fmin(lx, fmin(ly, lz));
+    if (r->shape.type == GS_SHAPE_SPHERE) /* normal forces pass the centre */
+        return r->inv_mass;
+    if (!(imin > 0.0)) imin = fmin(I->xx, fmin(I->yy, I->zz));
+    return r->inv_mass + r->shape.bound * r->shape.bound / imin;
+}
+
+GS__PRIVATE void gs__rigid_check(gs__check *c, const gs_rigid_desc *d,
+                                 gs__shape *shape) {
+    gs__shape_build(c, &d->shape, shape);
+    gs__check_positive(c, "density", d->density);
+    gs__check_nonneg(c, "mass", d->mass);
+    gs__check_vec(c, "inertia", d->inertia);
+    if (c->r == GS_OK && (d->inertia.x < 0.0 || d->inertia.y < 0.0 ||
+                          d->inertia.z < 0.0))
+        gs__check_fail(c, GS_ERR_INVALID_ARG, "inertia must be >= 0");
+    gs__check_vec(c, "position", d->position);
+    gs__check_quat(c, "orientation", d->orientation);
+    gs__check_vec(c, "velocity", d->velocity);
+    gs__check_vec(c, "angular_velocity", d->angular_velocity);
+    gs__check_material(c, &d->material);
+    gs__check_solver(c, &d->solver);
+    if (c->r == GS_OK && d->solver.integrator == GS_INTEGRATOR_IMPLICIT_EULER)
+        gs__check_fail(c, GS_ERR_INVALID_ARG,
+                       "solver.integrator: implicit Euler is for spring-mass "
+                       "agents; rigid bodies substep under stiff contact");
+}
+
+/* Mass and body inertia from the desc: given values win over the shape's. */
+GS__PRIVATE void gs__rigid_mass(gs__rigid *r, const gs_rigid_desc *d) {
+    double rho;
+    r->mass = d->mass > 0.0 ? d->mass : d->density * r->shape.volume;
+    rho = r->mass / r->shape.volume;
+    r->inertia_body = r->shape.inertia;
+    r->inertia_body.xx *= rho; r->inertia_body.yy *= rho;
+    r->inertia_body.zz *= rho; r->inertia_body.xy *= rho;
+    r->inertia_body.xz *= rho; r->inertia_body.yz *= rho;
+    if (d->inertia.x > 0.0 && d->inertia.y > 0.0 && d->inertia.z > 0.0) {
+        memset(&r->inertia_body, 0, sizeof r->inertia_body);
+        r->inertia_body.xx = d->inertia.x;
+        r->inertia_body.yy = d->inertia.y;
+        r->inertia_body.zz = d->inertia.z;
+    }
+    r->inv_mass = 1.0 / r->mass;
+    if (!gs__sym3_inverse(&r->inertia_body, &r->inv_inertia_body))
+        memset(&r->inv_inertia_body, 0, sizeof r->inv_inertia_body);
+}
+
+GS__PRIVATE gs_rigid_desc gs__rigid_defaults(const gs_rigid_desc *in) {
+    gs_rigid_desc d = *in;
+    if (d.density == 0.0) d.density = 1000.0;
+    d.orientation = gs__orientation_default(d.orientation);
+    d.material = gs__material_defaults(d.material);
+    d.solver = gs__solver_defaults(d.solver);
+    return d;
+}
+
+/* ---- rigid dynamics: contact forces are held over a substep ---- */
+GS__PRIVATE gs_vec3 gs__rigid_angular_accel(const gs__rigid *r, gs_vec3 w) {
+    /* world inertia applied through the body frame: I_w x = R I_b R^T x */
+    gs_vec3 wl = gs__unrotate(r->q, w), tl = gs__unrotate(r->q, r->torque);
+    gs_vec3 iw = gs__sym3_mul(&r->inertia_body, wl);
+    gs_vec3 rhs = gs__sub(tl, gs__cross(wl, iw));
+    return gs__rotate(r->q, gs__sym3_mul(&r->inv_inertia_body, rhs));
+}
+
+GS__PRIVATE void gs__rigid_integrate(gs__rigid *r, double h) {
+    gs_vec3 a = gs__madd(r->base.world->gravity, r->force, r->inv_mass);
+    switch (r->solver.integrator) {
+    case GS_INTEGRATOR_EXPLICIT_EULER:
+        r->x = gs__madd(r->x, r->v, h);
+        r->q = gs__quat_integrate(r->q, r->w, h);
+        r->v = gs__madd(r->v, a, h);
+        r->w = gs__madd(r->w, gs__rigid_angular_accel(r, r->w), h);
+        break;
+    case GS_INTEGRATOR_RK4: { /* the gyroscopic term is the only nonlinearity */
+        gs_vec3 k1 = gs__rigid_angular_accel(r, r->w);
+        gs_vec3 k2 = gs__rigid_angular_accel(r, gs__madd(r->w, k1, 0.5 * h));
+        gs_vec3 k3 = gs__rigid_angular_accel(r, gs__madd(r->w, k2, 0.5 * h));
+        gs_vec3 k4 = gs__rigid_angular_accel(r, gs__madd(r->w, k3, h));
+        gs_vec3 w0 = r->w;
+        r->w = gs__madd(r->w, gs__add(gs__add(k1, k4), gs__scale(gs__add(k2, k3), 2.0)), h / 6.0);
+        r->x = gs__madd(gs__madd(r->x, r->v, h), a, 0.5 * h * h);
+        r->v = gs__madd(r->v, a, h);
+        r->q = gs__quat_integrate(r->q, gs__scale(gs__add(w0, r->w), 0.5), h);
+        break;
+    }
+    default: /* symplectic Euler; Verlet is the same under held forces */
+        r->v = gs__madd(r->v, a, h);
+        r->w = gs__madd(r->w, gs__rigid_angular_accel(r, r->w), h);
+        r->x = gs__madd(r->x, r->v, h);
+        r->q = gs__quat_integrate(r->q, r->w, h);
+        break;
+    }
+}
+
+GS__PRIVATE void gs__rigid_contacts(gs__rigid *r, double t);
+
+/* The stable step under the contacts found now: a spring-damper with the
+   summed stiffness and damping acting on 1 / reach2 kg (gs__mesh_bound's
+   rule with omega^2 = k reach2, gamma = c reach2). */
+GS__PRIVATE double gs__rigid_bound(const gs__rigid *r) {
+    double w2 = r->k_sum * r->reach2, g = r->c_sum * r->reach2;
+    if (w2 == 0.0 && g == 0.0) return HUGE_VAL;
+    return 4.0 / (g + sqrt(g * g + 4.0 * w2));
+}
+
+/* Substeps: under the contact bound (unless unchecked) and, when
+   continuous, a travel of at most a quarter of the body's smallest size per
+   substep. Expects the contacts of the current state to be computed. */
+GS__PRIVATE gs_result gs__rigid_plan(gs__rigid *r, double dt, int *n_sub) {
+    double k = 1.0, lim = gs__rigid_bound(r) * r->solver.safety;
+    double speed = gs__len(r->v) + gs__len(r->w) * r->shape.bound;
+    *n_sub = 1;
+    if (r->solver.stability != GS_STABILITY_UNCHECKED && dt > lim) {
+        if (r->solver.stability == GS_STABILITY_REFUSE)
+            return gs__fail(r->base.world, GS_ERR_UNSTABLE,
+                            "rigid agent %d: dt %g s exceeds the contact-stable "
+                            "step %g s (stability = refuse)",
+                            r->base.index, dt, lim);
+        k = ceil(dt / lim);
+    }
+    if (r->continuous && speed * dt / k > 0.25 * r->shape.size)
+        k = ceil(speed * dt / (0.25 * r->shape.size));
+    if (k > (double)r->solver.max_substeps)
+        return gs__fail(r->base.world, GS_ERR_UNSTABLE,
+                        "rigid agent %d: dt %g s needs %.0f substeps, "
+                        "max_substeps is %d", r->base.index, dt, k,
+                        r->solver.max_substeps);
+    *n_sub = (int)k;
+    return GS_OK;
+}
+
+GS__PRIVATE int gs__rigid_sane(const gs__rigid *r) {
+    double vmax = r->solver.max_speed;
+    return gs__finite3(r->x) && gs__finite(r->q.x + r->q.y + r->q.z + r->q.w) &&
+           gs__dot(r->v, r->v) <= vmax * vmax &&
+           gs__dot(r->w, r->w) * r->shape.bound * r->shape.bound <= vmax * vmax;
+}
+
+GS__PRIVATE gs_result gs__rigid_step(gs_agent *a, double dt) {
+    gs__rigid *r = (gs__rigid *)a;
+    gs_vec3 x0 = r->x, v0 = r->v, w0 = r->w;
+    gs_quat q0 = r->q;
+    int n_sub, i;
+    gs_result res;
+    gs__rigid_contacts(r, gs__agent_time(a));
+    res = gs__rigid_plan(r, dt, &n_sub);
+    if (res != GS_OK) return res;
+    for (i = 0; i < n_sub; ++i) {
+        if (i > 0) gs__rigid_contacts(r, gs__agent_time(a) + i * (dt / n_sub));
+        gs__rigid_integrate(r, dt / n_sub);
+        if (gs__rigid_sane(r)) continue;
+        r->x = x0; r->v = v0; r->w = w0; r->q = q0;
+        return gs__fail(a->world, GS_ERR_UNSTABLE,
+                        "rigid agent %d: a step of %g s blew up (non-finite "
+                        "state or a speed over %g m/s); state kept",
+                        a->index, dt / n_sub, r->solver.max_speed);
+    }
+    a->stats.substeps += (uint64_t)n_sub;
+    return GS_OK;
+}
+
+/* A probe moves toward its target at no more than max_speed. */
+GS__PRIVATE gs_result gs__probe_step(gs_agent *a, double dt) {
+    gs__rigid *r = (gs__rigid *)a;
+    gs_vec3 d = gs__sub(r->target, r->x);
+    double dist = gs__len(d), reach = r->max_speed * dt;
+    if (dist > reach) d = gs__scale(d, reach / dist);
+    r->v = gs__scale(d, 1.0 / dt);
+    r->x = gs__add(r->x, d);
+    r->q = r->target_q;
+    r->w = gs__v3(0.0, 0.0, 0.0);
+    a->stats.substeps++;
+    return GS_OK;
+}
+
+GS__PRIVATE size_t gs__rigid_state_size(const gs_agent *a) {
+    (void)a;
+    return 13;
+}
+
+GS__PRIVATE void gs__rigid_get_state(const gs_agent *a, double *o) {
+    const gs__rigid *r = (const gs__rigid *)a;
+    o[0] = r->x.x; o[1] = r->x.y; o[2] = r->x.z;
+    o[3] = r->q.x; o[4] = r->q.y; o[5] = r->q.z; o[6] = r->q.w;
+    o[7] = r->v.x; o[8] = r->v.y; o[9] = r->v.z;
+    o[10] = r->w.x; o[11] = r->w.y; o[12] = r->w.z;
+}
+
+/* The orientation is renormalized: a blend of unit quaternions is not one. */
+GS__PRIVATE gs_result gs__rigid_set_state(gs_agent *a, const double *in) {
+    gs__rigid *r = (gs__rigid *)a;
+    gs_quat q = gs__quat(in[3], in[4], in[5], in[6]);
+    if (!(q.x * q.x + q.y * q.y + q.z * q.z + q.w * q.w > 1e-12))
+        return gs__fail(a->world, GS_ERR_INVALID_ARG,
+                        "gs_agent_set_state: the orientation quaternion is zero");
+    r->x = gs__v3(in[0], in[1], in[2]);
+    r->q = gs__quat_normalize(q);
+    r->v = gs__v3(in[7], in[8], in[9]);
+    r->w = gs__v3(in[10], in[11], in[12]);
+    if (r->probe) {
+        r->target = r->x;
+        r->target_q = r->q;
+    }
+    return GS_OK;
+}
+
+GS__PRIVATE uint64_t gs__rigid_hash(const gs_agent *a, uint64_t h) {
+    double s[13];
+    gs__rigid_get_state(a, s);
+    return gs__fnv(h, s, sizeof s);
+}
+
+static const gs__kind gs__rigid_kind = {
+    "rigid", gs__rigid_step, gs__rigid_state_size, gs__rigid_get_state,
+    gs__rigid_set_state, gs__rigid_hash};
+static const gs__kind gs__probe_kind = {
+    "probe", gs__probe_step, gs__rigid_state_size, gs__rigid_get_state,
+    gs__rigid_set_state, gs__rigid_hash};
+
+GS__PRIVATE gs__rigid *gs__as_rigid(const gs_agent *a) {
+    if (!a || (a->kind != &gs__rigid_kind && a->kind != &gs__probe_kind))
+        return NULL;
+    return (gs__rigid *)a;
+}
+
+
+GS_API gs_result gs_rigid_create(gs_world *w, const gs_rigid_desc *desc,
+                                 gs_agent **out) {
+    gs_rigid_desc d;
+    gs__rigid *r;
+    gs__check c;
+    gs_result res = gs__create_begin(w, desc, out, "gs_rigid_create");
+    if (res != GS_OK) return res;
+    d = gs__rigid_defaults(desc);
+    r = (gs__rigid *)gs__alloc(w, sizeof *r);
+    if (!r) return gs__fail(w, GS_ERR_NO_MEMORY, "gs_rigid_create: out of memory");
+    memset(r, 0, sizeof *r);
+    c = gs__check_begin(w, "gs_rigid_create");
+    gs__rigid_check(&c, &d, &r->shape);
+    if (c.r == GS_OK) c.r = gs__agent_init(w, &r->base, &gs__rigid_kind, d.solver.dt);
+    if (c.r != GS_OK) {
+        gs__free(w, r);
+        return c.r;
+    }
+    gs__rigid_mass(r, &d);
+    r->x = d.position;
+    r->q = gs__quat_normalize(d.orientation);
+    r->v = d.velocity;
+    r->w = d.angular_velocity;
+    r->mat = d.material;
+    r->solver = d.solver;
+    r->continuous = d.continuous;
+    r->reach2 = gs__rigid_reach2(r);
+    r->k_sum = r->mat.stiffness;
+    r->c_sum = r->mat.damping;
+    r->stable_dt = gs__rigid_bound(r);
+    r->k_sum = r->c_sum = 0.0;
+    *out = &r->base;
+    return GS_OK;
+}
+
+GS_API gs_result gs_probe_create(gs_world *w, const gs_probe_desc *desc,
+                                 gs_agent **out) {
+    gs_probe_desc d;
+    gs__rigid *r;
+    gs__check c;
+    gs_result res = gs__create_begin(w, desc, out, "gs_probe_create");
+    if (res != GS_OK) return res;
+    d = *desc;
+    d.orientation = gs__orientation_default(d.orientation);
+    d.material = gs__material_defaults(d.material);
+    if (d.dt == 0.0) d.dt = 0.001;
+    if (d.max_speed == 0.0) d.max_speed = 10.0;
+    if (d.owner == 0) d.owner = w->host_id;
+    r = (gs__rigid *)gs__alloc(w, sizeof *r);
+    if (!r) return gs__fail(w, GS_ERR_NO_MEMORY, "gs_probe_create: out of memory");
+    memset(r, 0, sizeof *r);
+    c = gs__check_begin(w, "gs_probe_create");
+    gs__shape_build(&c, &d.shape, &r->shape);
+    gs__check_vec(&c, "position", d.position);
+    gs__check_quat(&c, "orientation", d.orientation);
+    gs__check_material(&c, &d.material);
+    gs__check_positive(&c, "dt", d.dt);
+    gs__check_positive(&c, "max_speed", d.max_speed);
+    if (c.r == GS_OK) c.r = gs__agent_init(w, &r->base, &gs__probe_kind, d.dt);
+    if (c.r != GS_OK) {
+        gs__free(w, r);
+        return c.r;
+    }
+    r->probe = 1;
+    r->x = r->target = d.position;
+    r->q = r->target_q = gs__quat_normalize(d.orientation);
+    r->mat = d.material;
+    r->max_speed = d.max_speed;
+    r->owner = d.owner;
+    r->stable_dt = HUGE_VAL;
+    *out = &r->base;
+    return GS_OK;
+}
+
+GS_API gs_result gs_probe_set_target(gs_agent *a, gs_vec3 position,
+                                     gs_quat orientation) {
+    gs__rigid *r = gs__as_rigid(a);
+    if (!r || !r->probe) return GS_ERR_INVALID_ARG;
+    if (!gs__finite3(position) || !gs__finite(orientation.x) ||
+        !gs__finite(orientation.y) || !gs__finite(orientation.z) ||
+        !gs__finite(orientation.w))
+        return gs__fail(a->world, GS_ERR_NOT_FINITE,
+                        "gs_probe_set_target: the pose must be finite");
+    r->target = position;
+    r->target_q = gs__quat_normalize(gs__orientation_default(orientation));
+    return GS_OK;
+}
+
+GS_API gs_vec3 gs_rigid_position(const gs_agent *a) {
+    const gs__rigid *r = gs__as_rigid(a);
+    return r ? r->x : gs__v3(0.0, 0.0, 0.0);
+}
+GS_API gs_quat gs_rigid_orientation(const gs_agent *a) {
+    const gs__rigid *r = gs__as_rigid(a);
+    return r ? r->q : gs__quat(0.0, 0.0, 0.0, 1.0);
+}
+GS_API gs_vec3 gs_rigid_velocity(const gs_agent *a) {
+    const gs__rigid *r = gs__as_rigid(a);
+    return r ? r->v : gs__v3(0.0, 0.0, 0.0);
+}
+GS_API gs_vec3 gs_rigid_angular_velocity(const gs_agent *a) {
+    const gs__rigid *r = gs__as_rigid(a);
+    return r ? r->w : gs__v3(0.0, 0.0, 0.0);
+}
+GS_API double gs_rigid_mass(const gs_agent *a) {
+    const gs__rigid *r = gs__as_rigid(a);
+    return r && !r->probe ? r->mass : 0.0;
+}
+GS_API double gs_rigid_stable_dt(const gs_agent *a) {
+    const gs__rigid *r = gs__as_rigid(a);
+    return r ? r->stable_dt : 0.0;
+}
+
+/* ========================================================================
+   >>contact
+   Narrow phase: exact answers for spheres and boxes against spheres, vertex
+   in polytope for boxes and hulls (several points, so that a box rests on a
+   face), libccd's MPR where nothing exact applies. Penalty forces: each
+   agent computes the forces on itself from the other agent's current state,
+   whatever that agent's simulation time.
+   ======================================================================== */
+typedef struct gs__body {
+    const gs__shape *s;
+    gs_vec3 p;
+    gs_quat q;
+} gs__body;
+
+GS__PRIVATE int gs__sphere_sphere(gs_vec3 ca, double ra, gs_vec3 cb, double rb,
+                                  gs_contact *c) {
+    gs_vec3 d = gs__sub(ca, cb);
+    double l = gs__len(d), depth = ra + rb - l;
+    if (!(depth > 0.0)) return 0;
+    c->normal = l > 1e-12 * (ra + rb) ? gs__scale(d, 1.0 / l) : gs__v3(0.0, 1.0, 0.0);
+    c->depth = depth;
+    c->point = gs__madd(cb, c->normal, rb - 0.5 * depth);
+    return 1;
+}
+
+/* Sphere (centre, r) against a box body; the normal points to the sphere. */
+GS__PRIVATE int gs__sphere_box(gs_vec3 centre, double r, const gs__body *b,
+                               gs_contact *c) {
+    gs_vec3 h = b->s->half, l = gs__unrotate(b->q, gs__sub(centre, b->p));
+    gs_vec3 k = gs__v3(fmax(-h.x, fmin(h.x, l.x)), fmax(-h.y, fmin(h.y, l.y)),
+                       fmax(-h.z, fmin(h.z, l.z)));
+    gs_vec3 d = gs__sub(l, k), n;
+    double dist = gs__len(d);
+    if (dist >= r) return 0;
+    if (dist > 0.0) {
+        n = gs__scale(d, 1.0 / dist);
+        c->depth = r - dist;
+    } else { /* centre inside: leave through the nearest face */
+        double px = h.x - fabs(l.x), py = h.y - fabs(l.y), pz = h.z - fabs(l.z);
+        if (px <= py && px <= pz) { n = gs__v3(l.x < 0 ? -1.0 : 1.0, 0, 0); c->depth = r + px; k.x = l.x < 0 ? -h.x : h.x; }
+        else if (py <= pz) { n = gs__v3(0, l.y < 0 ? -1.0 : 1.0, 0); c->depth = r + py; k.y = l.y < 0 ? -h.y : h.y; }
+        else { n = gs__v3(0, 0, l.z < 0 ? -1.0 : 1.0); c->depth = r + pz; k.z = l.z < 0 ? -h.z : h.z; }
+    }
+    c->normal = gs__rotate(b->q, n);
+    c->point = gs__add(b->p, gs__rotate(b->q, k));
+    return 1;
+}
+
+/* ---- libccd glue: a body's support and centre, in ccd_real_t ---- */
+GS__PRIVATE gs_vec3 gs__body_support(const gs__body *b, gs_vec3 dir) {
+    gs_vec3 dl = gs__unrotate(b->q, dir), best;
+    double bd = -HUGE_VAL;
+    int i;
+    if (b->s->type == GS_SHAPE_SPHERE) {
+        double l = gs__len(dir);
+        return l > 0.0 ? gs__madd(b->p, dir, b->s->radius / l) : b->p;
+    }
+    best = b->s->v[0];
+    for (i = 0; i < b->s->nv; ++i) {
+        double d = gs__dot(b->s->v[i], dl);
+        if (d > bd) { bd = d; best = b->s->v[i]; }
+    }
+    return gs__add(b->p, gs__rotate(b->q, best));
+}
+
+GS__PRIVATE void gs__ccd_support(const void *obj, const ccd_vec3_t *dir,
+                                 ccd_vec3_t *out) {
+    gs_vec3 d = gs__v3((double)dir->v[0], (double)dir->v[1], (double)dir->v[2]);
+    gs_vec3 s = gs__body_support((const gs__body *)obj, d);
+    out->v[0] = (ccd_real_t)s.x;
+    out->v[1] = (ccd_real_t)s.y;
+    out->v[2] = (ccd_real_t)s.z;
+}
+
+GS__PRIVATE void gs__ccd_center(const void *obj, ccd_vec3_t *out) {
+    const gs__body *b = (const gs__body *)obj;
+    out->v[0] = (ccd_real_t)b->p.x;
+    out->v[1] = (ccd_real_t)b->p.y;
+    out->v[2] = (ccd_real_t)b->p.z;
+}
+
+/* MPR through libccd, every output checked: a non-finite or zero direction
+   (touching or coincident centres) falls back to the line between centres,
+   then to +y; a non-finite depth counts as touching. */
+GS__PRIVATE int gs__mpr(const gs__body *a, const gs__body *b, gs_contact *c) {
+    ccd_t ccd;
+    ccd_real_t depth = 0;
+    ccd_vec3_t dir, pos;
+    gs_vec3 n, p;
+    double ln;
+    CCD_INIT(&ccd);
+    ccd.support1 = gs__ccd_support;
+    ccd.support2 = gs__ccd_support;
+    ccd.center1 = gs__ccd_center;
+    ccd.center2 = gs__ccd_center;
+    ccd.max_iterations = 100;
+    if (ccdMPRPenetration(b, a, &ccd, &depth, &dir, &pos) != 0) return 0;
+    n = gs__v3((double)dir.v[0], (double)dir.v[1], (double)dir.v[2]); /* b -> a */
+    p = gs__v3((double)pos.v[0], (double)pos.v[1], (double)pos.v[2]);
+    ln = gs__len(n);
+    if (!gs__finite(ln) || !(ln > 1e-12)) {
+        n = gs__sub(a->p, b->p);
+        ln = gs__len(n);
+        if (!(ln > 1e-12)) { n = gs__v3(0.0, 1.0, 0.0); ln = 1.0; }
+    }
+    c->normal = gs__scale(n, 1.0 / ln);
+    c->depth = gs__finite((double)depth) && depth > 0 ? (double)depth : 0.0;
+    c->point = gs__finite3(p) ? p : gs__scale(gs__add(a->p, b->p), 0.5);
+    return 1;
+}
+
+/* Vertices of a inside polytope b: one contact each, along b's face of least
+   penetration. Returns the number written (at most max). */
+GS__PRIVATE int gs__verts_in(const gs__body *a, const gs__body *b,
+                             gs_contact *out, int max, int flip) {
+    int i, f, n = 0;
+    for (i = 0; i < a->s->nv && n < max; ++i) {
+        gs_vec3 vw = gs__add(a->p, gs__rotate(a->q, a->s->v[i]));
+        gs_vec3 vl = gs__unrotate(b->q, gs__sub(vw, b->p));
+        double best = -HUGE_VAL;
+        int bf = -1;
+        for (f = 0; f < b->s->nf; ++f) {
+            double sd = gs__dot(b->s->fn[f], vl) - b->s->fd[f];
+            if (sd >= 0.0) { bf = -1; break; }
+            if (sd > best) { best = sd; bf = f; }
+        }
+        if (bf < 0) continue;
+        out[n].normal = gs__rotate(b->q, b->s->fn[bf]);
+        if (flip) out[n].normal = gs__scale(out[n].normal, -1.0);
+        out[n].depth = -best;
+        out[n].point = vw;
+        n++;
+    }
+    return n;
+}
+
+/* All contacts between two bodies, normals from b to a. */
+GS__PRIVATE int gs__collide(const gs__body *a, const gs__body *b,
+                            gs_contact *out, int max) {
+    gs_shape_type ta = a->s->type, tb = b->s->type;
+    int n;
+    if (ta == GS_SHAPE_SPHERE && tb == GS_SHAPE_SPHERE)
+        return gs__sphere_sphere(a->p, a->s->radius, b->p, b->s->radius, out);
+    if (ta == GS_SHAPE_SPHERE && tb == GS_SHAPE_BOX)
+        return gs__sphere_box(a->p, a->s->radius, b, out);
+    if (ta == GS_SHAPE_BOX && tb == GS_SHAPE_SPHERE) {
+        n = gs__sphere_box(b->p, b->s->radius, a, out);
+        if (n) out->normal = gs__scale(out->normal, -1.0);
+        return n;
+    }
+    if (ta == GS_SHAPE_SPHERE || tb == GS_SHAPE_SPHERE) return gs__mpr(a, b, out);
+    n = gs__verts_in(a, b, out, max, 0);
+    n += gs__verts_in(b, a, out + n, max - n, 1);
+    return n ? n : gs__mpr(a, b, out);
+}
+
+GS__PRIVATE gs__body gs__body_of(const gs__rigid *r) {
+    gs__body b;
+    b.s = &r->shape;
+    b.p = r->x;
+    b.q = r->q;
+    return b;
+}
+
+GS_API int gs_collide_shapes(const gs_shape_desc *a, gs_vec3 pa, gs_quat qa,
+                             const gs_shape_desc *b, gs_vec3 pb, gs_quat qb,
+                             gs_contact *c) {
+    gs__shape sa, sb;
+    gs__body ba, bb;
+    gs_contact all[2 * GS_MAX_HULL_POINTS];
+    gs__check chk = gs__check_begin(NULL, "gs_collide_shapes");
+    int n, i, deepest = 0;
+    gs__shape_build(&chk, a, &sa);
+    gs__shape_build(&chk, b, &sb);
+    if (chk.r != GS_OK || !c || !gs__finite3(pa) || !gs__finite3(pb)) return 0;
+    ba.s = &sa; ba.p = pa; ba.q = gs__quat_normalize(gs__orientation_default(qa));
+    bb.s = &sb; bb.p = pb; bb.q = gs__quat_normalize(gs__orientation_default(qb));
+    n = gs__collide(&ba, &bb, all, 2 * GS_MAX_HULL_POINTS);
+    for (i = 1; i < n; ++i)
+        if (all[i].depth > all[deepest].depth) deepest = i;
+    if (n) *c = all[deepest];
+    return n > 0;
+}
+
+/* The force on a at a contact (normal from b to a) with relative velocity
+   vrel = v_a - v_b at the point: a spring-damper that never pulls, and
+   Coulomb friction made viscous below the slip speed where it would exceed
+   slope N s/m. Friction is explicit, so slope must keep h * slope / m
+   under 2: callers pass m_eff / (2 dt) (gs__friction_slope). */
+GS__PRIVATE gs_vec3 gs__penalty(const gs_contact *c, gs_vec3 vrel,
+                                const gs_material *ma, const gs_material *mb,
+                                double slope) {
+    double k = 0.5 * (ma->stiffness + mb->stiffness);
+    double d = 0.5 * (ma->damping + mb->damping);
+    double mu = sqrt(ma->friction * mb->friction);
+    double vn = gs__dot(vrel, c->normal), fn = k * c->depth - d * vn, vt_len, ft;
+    gs_vec3 vt;
+    if (!(fn > 0.0)) return gs__v3(0.0, 0.0, 0.0);
+    vt = gs__madd(vrel, c->normal, -vn);
+    vt_len = gs__len(vt);
+    ft = fmin(mu * fn, slope * vt_len);
+    if (!(vt_len > 0.0)) return gs__scale(c->normal, fn);
+    return gs__madd(gs__scale(c->normal, fn), vt, -ft / vt_len);
+}
+
+/* The friction slope for a contact between bodies of inverse effective
+   masses ra and rb (1/kg) stepping by dt: half the explicit limit. */
+GS__PRIVATE double gs__friction_slope(double ra, double rb, double dt) {
+    return 0.5 / ((ra + rb) * dt);
+}
+
+GS__PRIVATE gs_vec3 gs__point_velocity(const gs__rigid *r, gs_vec3 p) {
+    return gs__add(r->v, gs__cross(r->w, gs__sub(p, r->x)));
+}
+
+/* A particle (a small sphere) against a body whose centre is taken at
+   `centre`; normal from body to particle. */
+GS__PRIVATE int gs__particle_contact(gs_vec3 x, double rp, const gs__rigid *r,
+                                     gs_vec3 centre, gs_contact *c) {
+    gs__body b = gs__body_of(r), pb;
+    gs__shape ps;
+    b.p = centre;
+    if (gs__dot(gs__sub(x, centre), gs__sub(x, centre)) >=
+        (rp + r->shape.bound) * (rp + r->shape.bound))
+        return 0;
+    if (r->shape.type == GS_SHAPE_SPHERE)
+        return gs__sphere_sphere(x, rp, centre, r->shape.radius, c);
+    if (r->shape.type == GS_SHAPE_BOX) return gs__sphere_box(x, rp, &b, c);
+    ps.type = GS_SHAPE_SPHERE; /* only type and radius are read */
+    ps.radius = rp;
+    pb.s = &ps; pb.p = x; pb.q = gs__quat(0.0, 0.0, 0.0, 1.0);
+    return gs__mpr(&pb, &b, c);
+}
+
+GS__PRIVATE int gs__is_collider(const gs_agent *a) { return gs__as_rigid(a) != NULL; }
+
+GS__PRIVATE int gs__world_has_contacts(const gs_world *w) {
+    int i;
+    if (w->ground) return 1;
+    for (i = 0; i < w->agent_count; ++i)
+        if (gs__is_collider(w->agents[i])) return 1;
+    return 0;
+}
+
+GS__PRIVATE void gs__rigid_apply(gs__rigid *r, const gs_contact *c,
+                                 gs_vec3 vrel, const gs_material *other,
+                                 double other_reach2) {
+    double slope = gs__friction_slope(r->reach2, other_reach2, r->base.dt);
+    gs_vec3 f = gs__penalty(c, vrel, &r->mat, other, slope);
+    r->k_sum += 0.5 * (r->mat.stiffness + other->stiffness);
+    r->c_sum += 0.5 * (r->mat.damping + other->damping) + slope;
+    r->force = gs__add(r->force, f);
+    r->torque = gs__add(r->torque, gs__cross(gs__sub(c->point, r->x), f));
+}
+
+GS__PRIVATE void gs__rigid_ground(gs__rigid *r) {
+    const gs_world *w = r->base.world;
+    gs_contact c;
+    int i;
+    c.normal = gs__v3(0.0, 1.0, 0.0);
+    if (r->shape.type == GS_SHAPE_SPHERE) {
+        c.depth = w->ground_height - (r->x.y - r->shape.radius);
+        c.point = gs__v3(r->x.x, w->ground_height, r->x.z);
+        if (c.depth > 0.0) gs__rigid_apply(r, &c, gs__point_velocity(r, c.point), &w->ground_material, 0.0);
+        return;
+    }
+    for (i = 0; i < r->shape.nv; ++i) {
+        c.point = gs__add(r->x, gs__rotate(r->q, r->shape.v[i]));
+        c.depth = w->ground_height - c.point.y;
+        if (c.depth > 0.0) gs__rigid_apply(r, &c, gs__point_velocity(r, c.point), &w->ground_material, 0.0);
+    }
+}
+
+/* o is taken where its velocity puts it at r's time t. */
+GS__PRIVATE void gs__rigid_vs_rigid(gs__rigid *r, const gs__rigid *o, double t) {
+    gs_contact cs[2 * GS_MAX_HULL_POINTS];
+    gs__body a = gs__body_of(r), b = gs__body_of(o);
+    double reach = r->shape.bound + o->shape.bound;
+    double lag = fmax(-0.1, fmin(0.1, t - gs__agent_time(&o->base)));
+    int n, i;
+    if (!o->probe) b.p = gs__madd(o->x, o->v, lag);
+    if (gs__dot(gs__sub(r->x, b.p), gs__sub(r->x, b.p)) >= reach * reach) return;
+    n = gs__collide(&a, &b, cs, 2 * GS_MAX_HULL_POINTS);
+    for (i = 0; i < n; ++i)
+        gs__rigid_apply(r, &cs[i], gs__sub(gs__point_velocity(r, cs[i].point),
+                                           gs__point_velocity(o, cs[i].point)), &o->mat,
+                        o->probe ? 0.0 : o->reach2);
+}
+
+GS__PRIVATE void gs__mesh_bounds(const gs_agent *a, gs_vec3 *lo, gs_vec3 *hi);
+GS__PRIVATE double gs__mesh_mass(const gs_agent *a, int i);
+GS__PRIVATE int gs__mesh_info(const gs_agent *a, const gs_vec3 **x,
+                              const gs_vec3 **v, double *radius,
+                              const gs_material **mat);
+
+/* The reaction of a mesh's particles on a rigid body, each particle taken
+   where its velocity puts it at the body's time (see gs__mesh_vs_rigid: both
+   sides of a contact must see the same overlap, or energy appears). */
+GS__PRIVATE void gs__rigid_vs_mesh(gs__rigid *r, const gs_agent *m, double t) {
+    const gs_vec3 *x, *v;
+    const gs_material *mat;
+    gs_vec3 lo, hi;
+    double rp, reach, slope, lag = fmax(-0.1, fmin(0.1, t - gs__agent_time(m)));
+    int n = gs__mesh_info(m, &x, &v, &rp, &mat), i;
+    gs__mesh_bounds(m, &lo, &hi);
+    reach = r->shape.bound + rp + fabs(lag) * r->solver.max_speed;
+    if (r->x.x + reach < lo.x || r->x.x - reach > hi.x || r->x.y + reach < lo.y ||
+        r->x.y - reach > hi.y || r->x.z + reach < lo.z || r->x.z - reach > hi.z)
+        return;
+    for (i = 0; i < n; ++i) {
+        gs_contact c;
+        gs_vec3 f;
+        if (!gs__particle_contact(gs__madd(x[i], v[i], lag), rp, r, r->x, &c)) continue;
+        slope = gs__friction_slope(r->reach2, 1.0 / gs__mesh_mass(m, i), r->base.dt);
+        f = gs__penalty(&c, gs__sub(v[i], gs__point_velocity(r, c.point)), mat, &r->mat, slope);
+        r->k_sum += 0.5 * (r->mat.stiffness + mat->stiffness);
+        r->c_sum += 0.5 * (r->mat.damping + mat->damping) + slope;
+        r->force = gs__sub(r->force, f);
+        r->torque = gs__sub(r->torque, gs__cross(gs__sub(c.point, r->x), f));
+    }
+}
+
+/* Contact forces on r at its simulation time t. */
+GS__PRIVATE void gs__rigid_contacts(gs__rigid *r, double t) {
+    gs_world *w = r->base.world;
+    int i;
+    r->force = r->torque = gs__v3(0.0, 0.0, 0.0);
+    r->k_sum = r->c_sum = 0.0;
+    if (w->ground) gs__rigid_ground(r);
+    for (i = 0; i < w->agent_count; ++i) {
+        const gs_agent *o = w->agents[i];
+        if (o == &r->base) continue;
+        if (gs__is_collider(o)) gs__rigid_vs_rigid(r, (const gs__rigid *)o, t);
+        else if (gs__mesh_info(o, NULL, NULL, NULL, NULL)) gs__rigid_vs_mesh(r, o, t);
+    }
+}
+
+GS_API gs_result gs_world_set_ground(gs_world *w, int enabled, double height,
+                                     gs_material material) {
+    gs__check c = gs__check_begin(w, "gs_world_set_ground");
+    material = gs__material_defaults(material);
+    gs__check_finite(&c, "height", height);
+    gs__check_material(&c, &material);
+    if (c.r != GS_OK) return c.r;
+    w->ground = enabled != 0;
+    w->ground_height = height;
+    w->ground_material = material;
+    return GS_OK;
+}
+
+/* ---- contacts of a mesh's particles ---- */
+GS__PRIVATE void gs__mesh_update_bounds(gs__mesh *m) {
+    gs_vec3 lo = m->x[0], hi = m->x[0], r;
+    int i;
+    for (i = 1; i < m->n; ++i) {
+        lo = gs__v3(fmin(lo.x, m->x[i].x), fmin(lo.y, m->x[i].y), fmin(lo.z, m->x[i].z));
+        hi = gs__v3(fmax(hi.x, m->x[i].x), fmax(hi.y, m->x[i].y), fmax(hi.z, m->x[i].z));
+    }
+    r = gs__v3(m->radius, m->radius, m->radius);
+    m->lo = gs__sub(lo, r);
+    m->hi = gs__add(hi, r);
+}
+
+GS__PRIVATE void gs__mesh_bounds(const gs_agent *a, gs_vec3 *lo, gs_vec3 *hi) {
+    const gs__mesh *m = (const gs__mesh *)a;
+    *lo = m->lo;
+    *hi = m->hi;
+}
+
+/* The particle count, or 0 when a is not a spring-mass agent. */
+GS__PRIVATE int gs__mesh_info(const gs_agent *a, const gs_vec3 **x,
+                              const gs_vec3 **v, double *radius,
+                              const gs_material **mat) {
+    const gs__mesh *m = gs__as_mesh(a);
+    if (!m) return 0;
+    if (x) *x = m->x;
+    if (v) *v = m->v;
+    if (radius) *radius = m->radius;
+    if (mat) *mat = &m->mat;
+    return m->n;
+}
+
+/* Adds the force of one contact on particle i (normal toward the particle);
+   implicit Euler also keeps the first contact's spring for its solve. */
+GS__PRIVATE double gs__mesh_mass(const gs_agent *a, int i) {
+    return ((const gs__mesh *)a)->mass[i];
+}
+
+GS__PRIVATE void gs__mesh_touch(gs__mesh *m, int i, const gs_contact *c,
+                                gs_vec3 v_other, const gs_material *other,
+                                double other_reach2) {
+    double slope = gs__friction_slope(1.0 / m->mass[i], other_reach2, m->base.dt);
+    gs_vec3 f = gs__penalty(c, gs__sub(m->v[i], v_other), &m->mat, other, slope);
+    m->ext[i] = gs__add(m->ext[i], f);
+    m->ext_active = 1;
+    if (m->ck && m->ck[i] == 0.0) { /* the first contact's spring */
+        m->cn[i] = c->normal;
+        m->ck[i] = 0.5 * (m->mat.stiffness + other->stiffness);
+        m->cc[i] = 0.5 * (m->mat.damping + other->damping);
+    }
+}
+
+/* The body is taken where its velocity puts it at the mesh's time t (at
+   most 0.1 s ahead or behind): held still, a body that steps less often
+   than the mesh would jump into particles that have already relaxed against
+   it, and each jump would store penalty energy the particles then release. */
+GS__PRIVATE void gs__mesh_vs_rigid(gs__mesh *m, const gs__rigid *r, double t) {
+    double reach = r->shape.bound;
+    double lag = fmax(-0.1, fmin(0.1, t - gs__agent_time(&r->base)));
+    gs_vec3 centre = r->probe ? r->x : gs__madd(r->x, r->v, lag);
+    int i;
+    if (centre.x + reach < m->lo.x || centre.x - reach > m->hi.x ||
+        centre.y + reach < m->lo.y || centre.y - reach > m->hi.y ||
+        centre.z + reach < m->lo.z || centre.z - reach > m->hi.z)
+        return;
+    for (i = 0; i < m->n; ++i) {
+        gs_contact c;
+        if (m->pinned[i] || !gs__particle_contact(m->x[i], m->radius, r, centre, &c)) continue;
+        gs__mesh_touch(m, i, &c, gs__point_velocity(r, c.point), &r->mat,
+                       r->probe ? 0.0 : r->reach2);
+    }
+}
+
+/* Contact forces on every particle from the ground and from the current
+   state of every rigid body and probe. Costs nothing in a world without
+   them. */
+GS__PRIVATE void gs__mesh_contacts(gs__mesh *m, double t) {
+    gs_world *w = m->base.world;
+    int i;
+    if (m->ext_active) {
+        memset(m->ext, 0, (size_t)m->n * sizeof *m->ext);
+        if (m->ck) memset(m->ck, 0, (size_t)m->n * sizeof *m->ck);
+        m->ext_active = 0;
+    }
+    if (w->ground && m->lo.y < w->ground_height) {
+        gs_contact c;
+        c.normal = gs__v3(0.0, 1.0, 0.0);
+        for (i = 0; i < m->n; ++i) {
+            c.depth = w->ground_height + m->radius - m->x[i].y;
+            if (c.depth <= 0.0 || m->pinned[i]) continue;
+            c.point = gs__v3(m->x[i].x, w->ground_height, m->x[i].z);
+            gs__mesh_touch(m, i, &c, gs__v3(0.0, 0.0, 0.0), &w->ground_material, 0.0);
+        }
+    }
+    for (i = 0; i < w->agent_count; ++i)
+        if (gs__is_collider(w->agents[i]))
+            gs__mesh_vs_rigid(m, (const gs__rigid *)w->agents[i], t);
+}
+
+/* ========================================================================
+   >>scene
+   ======================================================================== */
+GS_API gs_scene_desc gs_scene_desc_default(void) {
+    gs_scene_desc d;
+    memset(&d, 0, sizeof d);
+    d.cloth_n = 16;
+    d.cloth_size = 1.0;
+    d.sphere_count = 3;
+    d.sphere_radius = 0.08;
+    d.probe_count = 1;
+    d.seed = 1;
+    d.cloth_integrator = GS_INTEGRATOR_IMPLICIT_EULER;
+    d.dt = 0.002;
+    return d;
+}
+
+GS__PRIVATE gs_scene_desc gs__scene_defaults(const gs_scene_desc *in) {
+    gs_scene_desc def = gs_scene_desc_default(), d = in ? *in : def;
+    if (d.cloth_n == 0) d.cloth_n = def.cloth_n;
+    if (d.cloth_size == 0.0) d.cloth_size = def.cloth_size;
+    if (d.sphere_radius == 0.0) d.sphere_radius = def.sphere_radius;
+    if (d.seed == 0) d.seed = def.seed;
+    if (d.cloth_integrator == GS_INTEGRATOR_DEFAULT) d.cloth_integrator = def.cloth_integrator;
+    if (d.dt == 0.0) d.dt = def.dt;
+    return d;
+}
+
+GS_API gs_vec3 gs_scene_probe_path(int i, double t) {
+    const double pi = 3.14159265358979323846;
+    double a = 2.0 * pi * (t / 4.0 + 0.25 * i);
+    double dip = 0.5 - 0.5 * cos(2.0 * pi * t / 2.0); /* 0..1, period 2 s */
+    return gs__v3(0.25 * cos(a), 0.15 - 0.3 * dip, 0.25 * sin(a));
+}
+
+/* A number in [0, 1) from a 32-bit LCG: the scene is the same on every host
+   given the same seed. */
+GS__PRIVATE double gs__scene_rand(uint32_t *state) {
+    *state = *state * 1664525u + 1013904223u;
+    return (double)(*state >> 8) / 16777216.0;
+}
+
+/* Contacts in the scene are soft enough for a 2 ms step without many
+   substeps: 2e4 N/m holds a 0.1 kg sphere at 50 um of penetration. */
+GS__PRIVATE gs_material gs__scene_material(void) {
+    gs_material m;
+    m.stiffness = 2e4;
+    m.damping = 5.0;
+    m.friction = 0.4;
+    return m;
+}
+
+GS__PRIVATE gs_result gs__scene_bodies(gs_world *w, gs_scene *sc) {
+    const gs_scene_desc *d = &sc->desc;
+    uint32_t rng = d->seed;
+    gs_result r = GS_OK;
+    int i;
+    for (i = 0; i < d->sphere_count && r == GS_OK; ++i) {
+        gs_rigid_desc rd = gs_rigid_desc_default();
+        rd.shape.type = GS_SHAPE_SPHERE;
+        rd.shape.radius = d->sphere_radius;
+        rd.mass = 0.1;
+        rd.position = gs__v3((gs__scene_rand(&rng) - 0.5) * 0.5 * d->cloth_size,
+                             0.3 + 0.25 * i,
+                             (gs__scene_rand(&rng) - 0.5) * 0.5 * d->cloth_size);
+        rd.material = gs__scene_material();
+        rd.solver.dt = d->dt;
+        r = gs_rigid_create(w, &rd, &sc->spheres[i]);
+        if (r == GS_OK) sc->sphere_count++;
+    }
+    for (i = 0; i < d->probe_count && r == GS_OK; ++i) {
+        gs_probe_desc pd = gs_probe_desc_default();
+        pd.shape.type = GS_SHAPE_BOX;
+        pd.shape.half_extents = gs__v3(0.05, 0.05, 0.05);
+        pd.position = gs_scene_probe_path(i, 0.0);
+        pd.material = gs__scene_material();
+        pd.dt = d->dt;
+        pd.max_speed = 5.0;
+        pd.owner = (uint32_t)i + 1u;
+        r = gs_probe_create(w, &pd, &sc->probes[i]);
+        if (r == GS_OK) sc->probe_count++;
+    }
+    return r;
+}
+
+/* The cloth starts flat; left alone it would fall and swing for seconds and
+   toss the spheres like a trampoline. It hangs for 3 s of simulated time
+   first, then its clock is set back to 0: every host computes the same
+   settled state. */
+GS__PRIVATE gs_result gs__scene_settle(gs_agent *cloth) {
+    int i, steps = (int)(3.0 / cloth->dt);
+    for (i = 0; i < steps; ++i) {
+        gs_result r = gs__agent_step(cloth);
+        if (r != GS_OK) return r;
+    }
+    cloth->t_offset = -(double)cloth->steps * cloth->dt;
+    memset(&cloth->stats, 0, sizeof cloth->stats);
+    return GS_OK;
+}
+
+GS_API gs_result gs_scene_create(gs_world *w, const gs_scene_desc *desc,
+                                 gs_scene *out) {
+    gs_cloth_desc cd = gs_cloth_desc_default();
+    gs__check c = gs__check_begin(w, "gs_scene_create");
+    gs_result r;
+    int first;
+    if (!w || !out) return GS_ERR_INVALID_ARG;
+    memset(out, 0, sizeof *out);
+    out->desc = gs__scene_defaults(desc);
+    gs__check_int(&c, "cloth_n", out->desc.cloth_n, 2, 4096);
+    gs__check_positive(&c, "cloth_size", out->desc.cloth_size);
+    gs__check_int(&c, "sphere_count", out->desc.sphere_count, 0, GS_SCENE_MAX_SPHERES);
+    gs__check_positive(&c, "sphere_radius", out->desc.sphere_radius);
+    gs__check_int(&c, "probe_count", out->desc.probe_count, 0, GS_SCENE_MAX_PROBES);
+    gs__check_positive(&c, "dt", out->desc.dt);
+    if (c.r != GS_OK) return c.r;
+    r = gs_world_set_ground(w, 1, -1.5, gs__scene_material());
+    if (r != GS_OK) return r;
+    first = w->agent_count;
+    cd.nx = cd.ny = out->desc.cloth_n;
+    cd.width = cd.height = out->desc.cloth_size;
+    cd.origin = gs__v3(-0.5 * cd.width, 0.0, -0.5 * cd.height);
+    cd.pin_corners = GS_CORNER_ALL;
+    cd.spring_damping = 1.0; /* N s/m: a cloth, not a trampoline */
+    cd.air_damping = 0.5;
+    cd.material = gs__scene_material();
+    cd.solver.integrator = out->desc.cloth_integrator;
+    cd.solver.dt = out->desc.dt;
+    r = gs_cloth_create(w, &cd, &out->cloth);
+    if (r == GS_OK) r = gs__scene_settle(out->cloth);
+    if (r == GS_OK) r = gs__scene_bodies(w, out);
+    if (r != GS_OK) { /* leave the world as it was */
+        while (w->agent_count > first) gs_agent_destroy(w->agents[w->agent_count - 1]);
+        memset(out, 0, sizeof *out);
+    }
+    return r;
 }
 
 #ifdef __cplusplus
