@@ -306,11 +306,13 @@ GS_API gs_solver_desc gs_solver_desc_default(void);
 
 /* Penalty contact: a spring-damper along the normal, regularized Coulomb
    friction along the surface. A pair uses the mean stiffness and damping of
-   its two materials and the geometric mean of their friction. */
+   its two materials and the geometric mean of their friction. An all-zero
+   material means gs_material_default(); otherwise every field is taken as
+   given (zero damping and zero friction are allowed). */
 typedef struct gs_material {
-    double stiffness; /* N/m; default 1e5 */
-    double damping;   /* N s/m; default 100 */
-    double friction;  /* Coulomb coefficient; default 0.5 */
+    double stiffness; /* N/m, > 0; default 1e5 */
+    double damping;   /* N s/m, >= 0; default 100 */
+    double friction;  /* Coulomb coefficient, >= 0; default 0.5 */
 } gs_material;
 
 
@@ -1301,11 +1303,11 @@ GS_API gs_material gs_material_default(void) {
     return m;
 }
 
+/* Zero damping and zero friction are real choices, so only an all-zero
+   material stands for the default one. */
 GS__PRIVATE gs_material gs__material_defaults(gs_material m) {
-    gs_material d = gs_material_default();
-    if (m.stiffness == 0.0) m.stiffness = d.stiffness;
-    if (m.damping == 0.0) m.damping = d.damping;
-    if (m.friction == 0.0) m.friction = d.friction;
+    if (m.stiffness == 0.0 && m.damping == 0.0 && m.friction == 0.0)
+        return gs_material_default();
     return m;
 }
 
