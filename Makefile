@@ -18,7 +18,7 @@ SANFLAGS := -O1 -g -fsanitize=address,undefined -fno-omit-frame-pointer \
             -fno-sanitize-recover=all
 CCD_CFLAGS = $(shell pkg-config --cflags ccd 2>/dev/null)
 CCD_LIBS   = $(shell pkg-config --libs ccd 2>/dev/null)
-LIBS      = $(CCD_LIBS) -lm
+LIBS      = $(CCD_LIBS) -lm -lpthread
 
 # Debian packages the build and tests need (command or file that proves each).
 DEBS := gcc g++ clang make pkg-config cmake libccd-dev libcmocka-dev valgrind

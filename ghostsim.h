@@ -142,7 +142,9 @@ typedef struct gs_quat { double x, y, z, w; } gs_quat; /* w is the scalar */
       "the step would be numerically unstable; the agent kept its last "       \
       "finite state")                                                          \
     X(GS_ERR_BUSY, -7, "the world is advancing; not allowed from inside it")   \
-    X(GS_ERR_CAPACITY, -8, "a fixed capacity is exhausted")
+    X(GS_ERR_CAPACITY, -8, "a fixed capacity is exhausted")                    \
+    X(GS_ERR_REJECTED, -9, "a datagram was refused (see gs_reject)")           \
+    X(GS_ERR_SYSTEM, -10, "the operating system refused (socket, thread)")
 
 typedef enum gs_result {
 #define GS__RESULT_ENUM(name, value, text) name = value,
@@ -204,8 +206,8 @@ GS_API void gs_world_destroy(gs_world *w);
    urgent first, until every agent is within half its dt of the target or the
    wall-clock budget is spent. An agent whose step fails keeps its state and
    stops advancing for the rest of this call; the others go on.
-   report may be NULL. Returns GS_OK, GS_ERR_INVALID_ARG (negative or
-   non-finite seconds), GS_ERR_BUSY (called from inside an advance), or the
+   report may be NULL. Returns GS_OK, GS_ERR_INVALID_ARG (negative seconds),
+   GS_ERR_NOT_FINITE (NaN or infinite seconds), GS_ERR_BUSY (called from inside an advance), or the
    first error an agent's step returned (every other agent still advanced). */
 GS_API gs_result gs_world_advance(gs_world *w, double seconds,
                                   gs_advance_report *report);
@@ -421,7 +423,7 @@ typedef struct gs_cloth_desc {
                             lies flat under y-up gravity) */
     double mass;         /* kg in all; default 1 */
     int springs;         /* GS_SPRINGS_* mask; default all */
-    double stretch_stiffness; /* N/m, structural; default 2000 */
+    double stretch_stiffness; /* N/m, structural; default 1000 */
     double shear_stiffness;   /* N/m; default stretch / 10 */
     double bend_stiffness;    /* N/m; default stretch / 100 */
     double spring_damping;    /* N s/m on every spring; default 0.02 */
@@ -606,6 +608,338 @@ GS_API gs_result gs_scene_create(gs_world *w, const gs_scene_desc *desc,
 /* Where probe i should be at time t (s) on the scripted path the tests and
    the peer use: a circle of radius 0.25 m dipping into the cloth. */
 GS_API gs_vec3 gs_scene_probe_path(int i, double t);
+
+/* ========================================================================
+   >>ghost
+   A ghost wraps one agent under an object id that every host shares. After
+   each step of its agent it publishes the state (buffer B) for the network
+   to send, and blends every snapshot received since, once each:
+       S <- (w_0 S + sum_j sum_q w_jq q.data) / (w_0 + sum_j sum_q w_jq)
+   with w_0 the rule's weight of the local state (x = 0). The simulation
+   time is part of S and is blended too.
+   ======================================================================== */
+
+/* What a weight rule sees, for the local state or one received snapshot. */
+typedef struct gs_weight_in {
+    double x;        /* s; t_j - t_i, the snapshot's simulation time minus the
+                        local one, as sent (0 for the local state) */
+    double x_comp;   /* s; x with t_j carried forward by the snapshot's age
+                        (the time it spent on the wire and in the queue),
+                        which is what the remote host is at by now */
+    double x_max;    /* s; the largest x_comp of this blend, the local state
+                        (0) included: the client/server rule's reference */
+    double age;      /* s of wall time since the snapshot was sent (an
+                        estimate: half the round trip plus queueing) */
+    uint32_t host;   /* the sending host (this host for the local state) */
+    uint32_t owner;  /* the object's owner, 0 if shared */
+    int local;       /* 1 for the local state */
+    int local_owns;  /* 1 if this host owns the object */
+} gs_weight_in;
+
+/* A weight rule: any finite value >= 0. A negative, NaN or infinite weight
+   counts as 0 (and is counted); if every weight is 0 the local state stands. */
+typedef double (*gs_weight_fn)(const gs_weight_in *in, void *user);
+
+/* Client/server: 1 for whichever of the local state and the snapshots has the
+   largest x_comp, 0 for the rest: the most advanced host imposes its state. */
+GS_API double gs_weight_cs(const gs_weight_in *in, void *user);
+/* Exponential: exp(rate * x_comp); user points to the rate in 1/s (NULL =
+   1/s). The exponent is clamped to +-700 so that a far-ahead host counts as
+   huge, not as an overflowed (discarded) infinity. */
+GS_API double gs_weight_exp(const gs_weight_in *in, void *user);
+/* Owner authority: only the owner's state counts (the local state if this
+   host owns the object); a shared object (owner 0) blends evenly. */
+GS_API double gs_weight_owner(const gs_weight_in *in, void *user);
+
+typedef enum gs_encoding {
+    GS_ENCODING_DEFAULT = 0, /* f64 */
+    GS_ENCODING_F64,
+    GS_ENCODING_F32,         /* half the bytes; ~1e-7 relative rounding */
+    GS__ENCODING_COUNT
+} gs_encoding;
+
+/* How a ghost brings a snapshot taken at remote time t_q to the local time
+   before blending (a snapshot arrives a latency late). */
+typedef enum gs_catchup {
+    GS_CATCHUP_DEFAULT = 0, /* none */
+    GS_CATCHUP_NONE,        /* blend the snapshot as it is (the paper) */
+    GS_CATCHUP_VELOCITY,    /* dead reckoning along the snapshot's own
+                               velocities (a mesh moves by its mean
+                               velocity: per-particle extrapolation would
+                               amplify its vibrations) */
+    GS__CATCHUP_COUNT
+} gs_catchup;
+
+typedef struct gs_ghost_desc {
+    uint32_t object_id;    /* > 0, the same on every host */
+    gs_weight_fn weight;   /* default gs_weight_exp at 1/s */
+    void *weight_user;
+    uint32_t owner;        /* owning host (probes); 0 = shared */
+    double send_rate;      /* Hz of wall time; default 60 */
+    gs_encoding encoding;  /* default f64 */
+    int queue_size;        /* snapshots kept per peer; default 8. When full
+                              the oldest goes (and is counted) */
+    gs_catchup catchup;    /* default none */
+    int raw_time;          /* 1: the paper's formula literally: x_comp = x
+                              and the raw remote time is blended (see the
+                              latency trap in the README) */
+    double smoothing;      /* s; render corrections fade over this time;
+                              default 0.1 */
+} gs_ghost_desc;
+
+GS_API gs_ghost_desc gs_ghost_desc_default(void);
+/* Wraps an agent in a ghost. GS_ERR_INVALID_ARG for object id 0 or one
+   already used in this world, a bad rate, encoding or queue size. */
+GS_API gs_result gs_ghost_attach(gs_agent *a, const gs_ghost_desc *desc);
+GS_API gs_result gs_ghost_detach(gs_agent *a);
+
+/* Per ghost counters. */
+typedef struct gs_ghost_stats {
+    uint64_t blends;          /* blends that used at least one snapshot */
+    uint64_t snapshots_blended;
+    uint64_t queue_dropped;   /* snapshots pushed out of a full queue */
+    uint64_t bad_weights;     /* weights that were negative, NaN or inf */
+    double last_correction;   /* m (RMS over the state) the last blend moved */
+} gs_ghost_stats;
+GS_API gs_result gs_ghost_get_stats(const gs_agent *a, gs_ghost_stats *out);
+
+/* The state to draw: the physics state plus the corrections of recent blends
+   fading out over `smoothing` seconds of simulation time, so that a
+   correction never shows as a pop. n = gs_agent_state_size(a). */
+GS_API gs_result gs_ghost_render_state(const gs_agent *a, double *out,
+                                       size_t n);
+
+/* ========================================================================
+   >>wire
+   Wire format v1, little-endian. A datagram (at most GS_WIRE_MAX_DATAGRAM
+   bytes) is a header, whole chunks, and a CRC-32 of everything before it:
+     header (48 B): magic "GSIM", version u8 = 1, flags u8, chunk count u16,
+       session u32, sender host u32, datagram sequence u32, reserved u32,
+       send time f64 (s, sender's clock), echo time f64 (the latest send time
+       received from the destination), echo hold f64 (s it was held since)
+     chunk (32 B + payload): object id u32, snapshot sequence u32,
+       simulation time f64, chunk index u16, chunk count u16, first element
+       u32 (of the state after its time), element count u16, encoding u8,
+       reserved u8; then count values as f64 or f32.
+   A snapshot too big for one datagram is cut into chunks that each stand
+   alone: a lost chunk leaves its range unblended, the rest still counts.
+   ======================================================================== */
+#define GS_WIRE_VERSION 1
+#define GS_WIRE_MAX_DATAGRAM 1200
+#define GS_WIRE_HEADER 48
+#define GS_WIRE_CHUNK_HEADER 32
+#define GS_WIRE_MAX_CHUNKS 64 /* chunks one datagram may carry */
+
+typedef struct gs_wire_header {
+    uint32_t session, sender, sequence;
+    double send_time, echo_time, echo_hold; /* s */
+} gs_wire_header;
+
+typedef struct gs_wire_chunk {
+    uint32_t object_id, sequence;
+    double time;                  /* s, the snapshot's simulation time */
+    uint16_t index, count;        /* this chunk of how many */
+    uint32_t first;               /* element of the state after the time */
+    uint16_t elements;
+    gs_encoding encoding;
+    const unsigned char *payload; /* decode only: into the datagram */
+} gs_wire_chunk;
+
+typedef struct gs_wire_view {
+    gs_wire_header header;
+    int chunk_count;
+    gs_wire_chunk chunks[GS_WIRE_MAX_CHUNKS];
+} gs_wire_view;
+
+/* Why a datagram was refused. The list makes the enum and the names. */
+#define GS__REJECT_LIST(X)                                                     \
+    X(GS_REJECT_SHORT, "shorter than its header or its lengths say")           \
+    X(GS_REJECT_MAGIC, "not a ghostsim datagram")                              \
+    X(GS_REJECT_VERSION, "unknown wire version")                               \
+    X(GS_REJECT_CHECKSUM, "checksum mismatch")                                 \
+    X(GS_REJECT_LAYOUT, "chunk count, encoding or lengths inconsistent")       \
+    X(GS_REJECT_SESSION, "another session")                                    \
+    X(GS_REJECT_SENDER, "unknown sender or this host")                         \
+    X(GS_REJECT_OBJECT, "unknown object id")                                   \
+    X(GS_REJECT_RANGE, "elements or chunk index outside the object's state")   \
+    X(GS_REJECT_NOT_FINITE, "a NaN or infinite value")                         \
+    X(GS_REJECT_TIME, "simulation time negative, non-finite or off window")    \
+    X(GS_REJECT_DUPLICATE, "a datagram already received")
+
+typedef enum gs_reject {
+#define GS__REJECT_ENUM(name, text) name,
+    GS__REJECT_LIST(GS__REJECT_ENUM)
+#undef GS__REJECT_ENUM
+    GS_REJECT_COUNT
+} gs_reject;
+
+GS_API const char *gs_reject_str(gs_reject r);
+
+/* Starts a datagram in buf (cap >= GS_WIRE_HEADER + 4). */
+GS_API gs_result gs_wire_begin(unsigned char *buf, size_t cap,
+                               const gs_wire_header *h, size_t *size);
+/* Appends a chunk of `c->elements` values. GS_ERR_CAPACITY if it does not
+   fit in cap (leave room for the 4-byte checksum), GS_ERR_NOT_FINITE for a
+   NaN value (never sent). */
+GS_API gs_result gs_wire_add(unsigned char *buf, size_t cap, size_t *size,
+                             const gs_wire_chunk *c, const double *values);
+/* Writes the chunk count and the checksum; returns the datagram size. */
+GS_API size_t gs_wire_end(unsigned char *buf, size_t size);
+/* Checks everything that needs no knowledge of the objects: size, magic,
+   version, checksum, chunk layout, encodings, finite numbers and times.
+   Returns 1 and fills *out, or 0 and *why. */
+GS_API int gs_wire_decode(const unsigned char *buf, size_t size,
+                          gs_wire_view *out, gs_reject *why);
+/* Value i of a decoded chunk. */
+GS_API double gs_wire_value(const gs_wire_chunk *c, int i);
+
+/* ========================================================================
+   >>net
+   The network side of a world: peers, sending within a rate and a
+   bandwidth budget, receiving through validation into the ghosts' queues.
+   It rides on a transport: the simulated network, POSIX UDP, or yours.
+   ======================================================================== */
+typedef struct gs_net gs_net;
+
+/* Sends one datagram to a peer host; it may be dropped on the way. */
+typedef gs_result (*gs_send_fn)(void *user, uint32_t host, const void *data,
+                                size_t size);
+
+typedef struct gs_net_desc {
+    uint32_t session;   /* datagrams of other sessions are refused; default 1 */
+    gs_send_fn send;    /* required */
+    void *send_user;
+    double bandwidth;   /* bytes/s to each peer at most; default 1e7 */
+    double time_window; /* s; refuse snapshots further than this from the
+                           local time; 0 = none (a late joiner must be able
+                           to take the others' state) */
+    int max_peers;      /* default 16 */
+} gs_net_desc;
+
+/* Per peer statistics. */
+typedef struct gs_peer_stats {
+    uint64_t datagrams_sent, datagrams_received;
+    uint64_t bytes_sent, bytes_received;
+    uint64_t snapshots_sent, snapshots_received; /* chunks 0 of snapshots */
+    uint64_t chunks_received;
+    uint64_t lost;          /* datagrams missing from the sequence */
+    uint64_t duplicates;
+    uint64_t rejected[GS_REJECT_COUNT]; /* by reason */
+    uint64_t rejected_total;
+    double last_remote_time; /* s; newest simulation time received */
+    double gap;              /* s; last_remote_time - local time then */
+    double rtt;              /* s; latest round-trip estimate, 0 unknown */
+    double divergence;       /* m; RMS distance between the local state and
+                                the peer's latest snapshot of each object
+                                (brought to local time when extrapolating) */
+} gs_peer_stats;
+
+GS_API gs_result gs_net_create(gs_world *w, const gs_net_desc *desc,
+                               gs_net **out);
+GS_API void gs_net_destroy(gs_net *net);
+GS_API gs_result gs_net_add_peer(gs_net *net, uint32_t host);
+GS_API gs_result gs_net_remove_peer(gs_net *net, uint32_t host);
+/* Sends what is due at wall time `now` (s): each ghost's latest state at its
+   rate, within each peer's bandwidth. */
+GS_API gs_result gs_net_update(gs_net *net, double now);
+/* Hands a received datagram to ghostsim. Returns GS_OK when it was queued,
+   GS_ERR_REJECTED (reason in *why, may be NULL) when refused; refused
+   datagrams are counted and never blended. */
+GS_API gs_result gs_net_deliver(gs_net *net, const void *data, size_t size,
+                                double now, gs_reject *why);
+GS_API gs_result gs_net_peer_stats(const gs_net *net, uint32_t host,
+                                   gs_peer_stats *out);
+/* Datagrams refused before their sender was known (bad magic, checksum,
+   unknown sender...), by reason. */
+GS_API gs_result gs_net_unknown_stats(const gs_net *net,
+                                      uint64_t rejected[GS_REJECT_COUNT]);
+GS_API gs_net *gs_world_net(const gs_world *w);
+
+/* Optional lock around the queues, for transports that deliver from another
+   thread (the UDP gather thread sets it). */
+typedef struct gs_net_lock {
+    void (*lock)(void *user);
+    void (*unlock)(void *user);
+    void *user;
+} gs_net_lock;
+GS_API void gs_net_set_lock(gs_net *net, gs_net_lock lock);
+
+/* ========================================================================
+   >>simnet
+   Several worlds in one process on a virtual clock. Each directed link has
+   latency, jitter, loss, duplication, reordering, a bandwidth cap and outage
+   windows, all drawn from one seed: the same seed gives the same run.
+   ======================================================================== */
+typedef struct gs_simnet gs_simnet;
+
+#define GS_MAX_OUTAGES 4
+typedef struct gs_link_desc {
+    double latency;    /* s, one way */
+    double jitter;     /* s; uniform in [0, jitter] added */
+    double loss;       /* probability a datagram is lost */
+    double duplicate;  /* probability it arrives twice */
+    double reorder;    /* probability it is held back by up to a latency */
+    double bandwidth;  /* bytes/s; 0 = unlimited */
+    double outage_start[GS_MAX_OUTAGES]; /* s of virtual time; the link is */
+    double outage_end[GS_MAX_OUTAGES];   /* cut in [start, end) */
+} gs_link_desc;
+
+typedef struct gs_simnet_desc {
+    uint64_t seed;        /* default 1 */
+    int max_in_flight;    /* datagrams on the wire at once; default 16384 */
+    gs_allocator allocator;
+} gs_simnet_desc;
+
+GS_API gs_result gs_simnet_create(const gs_simnet_desc *desc, gs_simnet **out);
+/* Destroys the simnet (not the worlds). */
+GS_API void gs_simnet_destroy(gs_simnet *sim);
+/* Joins a world: creates its net on the simnet's transport (desc.send is
+   ignored) and links it both ways to every world joined so far with a
+   perfect link. */
+GS_API gs_result gs_simnet_join(gs_simnet *sim, gs_world *w,
+                                const gs_net_desc *desc, gs_net **out);
+/* Sets the link from host a to host b (one direction). */
+GS_API gs_result gs_simnet_link(gs_simnet *sim, uint32_t a, uint32_t b,
+                                const gs_link_desc *desc);
+/* Runs every world for `seconds` of virtual time in frames of `frame`
+   seconds: each frame advances each world, sends what is due and delivers
+   what has arrived. */
+GS_API gs_result gs_simnet_run(gs_simnet *sim, double seconds, double frame);
+GS_API double gs_simnet_time(const gs_simnet *sim);
+/* Datagrams the simnet dropped (loss, outage, full), duplicated, delivered. */
+GS_API void gs_simnet_counts(const gs_simnet *sim, uint64_t *dropped,
+                             uint64_t *duplicated, uint64_t *delivered);
+
+/* ========================================================================
+   >>udp
+   POSIX UDP (left out by GHOSTSIM_NO_UDP): the paper's gather thread
+   (receive, validate, queue) and scatter thread (send what is due), or
+   no threads at all: call gs_udp_poll from your loop.
+   ======================================================================== */
+#ifndef GHOSTSIM_NO_UDP
+typedef struct gs_udp gs_udp;
+
+typedef struct gs_udp_desc {
+    const char *bind;      /* "HOST:PORT", "[v6]:PORT"; required */
+    int threads;           /* 1: gather and scatter threads; 0: poll mode */
+    int rcvbuf;            /* bytes; default 4 MiB */
+    gs_net_desc net;       /* session, bandwidth...; send is ignored */
+} gs_udp_desc;
+
+GS_API gs_result gs_udp_open(gs_world *w, const gs_udp_desc *desc,
+                             gs_udp **out);
+/* Joins the threads, closes the socket, frees everything. */
+GS_API void gs_udp_close(gs_udp *u);
+GS_API gs_net *gs_udp_net(gs_udp *u);
+/* Adds or replaces a peer's address ("HOST:PORT", IPv4 or IPv6). */
+GS_API gs_result gs_udp_add_peer(gs_udp *u, uint32_t host, const char *addr);
+GS_API gs_result gs_udp_remove_peer(gs_udp *u, uint32_t host);
+/* Poll mode: receives every waiting datagram and sends what is due at wall
+   time now. In thread mode it only wakes the scatter thread. */
+GS_API gs_result gs_udp_poll(gs_udp *u, double now);
+/* The wall clock gs_udp uses (CLOCK_MONOTONIC seconds). */
+GS_API double gs_udp_now(void);
+#endif
 
 #ifdef __cplusplus
 }
@@ -817,6 +1151,11 @@ typedef struct gs__kind {
     void (*get_state)(const gs_agent *a, double *out);
     gs_result (*set_state)(gs_agent *a, const double *in); /* finite input */
     uint64_t (*hash)(const gs_agent *a, uint64_t h);
+    /* Moves a state (without its time) dt seconds along its own velocities;
+       NULL: the kind cannot (ghosts then blend it as it is). */
+    void (*extrapolate)(const gs_agent *a, double *state, double dt);
+    /* How many leading state values are positions (m), for divergence. */
+    size_t (*positions)(const gs_agent *a);
 } gs__kind;
 
 struct gs_agent {
@@ -836,6 +1175,7 @@ struct gs_agent {
     int failed;
     uint64_t enqueued_at; /* world->dispatches when it was queued */
     gs_agent_stats stats;
+    void *ghost;         /* gs__ghost, if one is attached */
 };
 
 struct gs_world {
@@ -853,6 +1193,7 @@ struct gs_world {
     gs_agent **agents;
     int agent_count, agent_cap;
     uint64_t dispatches;
+    gs_net *net;         /* at most one */
     int ground;          /* a plane y = ground_height */
     double ground_height;
     gs_material ground_material;
@@ -954,11 +1295,18 @@ GS_API gs_result gs_world_create(const gs_world_desc *desc, gs_world **out) {
     return GS_OK;
 }
 
+struct gs__ghost;
+GS__PRIVATE void gs__ghost_free(struct gs__ghost *g);
+
 GS_API void gs_world_destroy(gs_world *w) {
     int i;
     if (!w) return;
     GS_ASSERT(!w->busy && "gs_world_destroy inside gs_world_advance");
-    for (i = 0; i < w->agent_count; ++i) gs__free(w, w->agents[i]);
+    gs_net_destroy(w->net);
+    for (i = 0; i < w->agent_count; ++i) {
+        if (w->agents[i]->ghost) gs__ghost_free((struct gs__ghost *)w->agents[i]->ghost);
+        gs__free(w, w->agents[i]);
+    }
     gs__free(w, w->agents);
     w->alloc.free(w, w->alloc.user);
 }
@@ -1165,12 +1513,16 @@ GS__PRIVATE void gs__activate(gs_world *w, gs_agent *a, double t_min,
     a->stats.activations++;
 }
 
+GS__PRIVATE void gs__ghost_after_step(gs_agent *a);
+
+/* One step; then the agent's ghost, if any, publishes and blends. */
 GS__PRIVATE gs_result gs__agent_step(gs_agent *a) {
     gs_result r = a->kind->step(a, a->dt);
     a->result = r;
     if (r == GS_OK) {
         a->steps++;
         a->stats.steps++;
+        if (a->ghost) gs__ghost_after_step(a);
     }
     return r;
 }
@@ -1410,6 +1762,7 @@ GS_API gs_result gs_agent_destroy(gs_agent *a) {
     if (w->busy)
         return gs__fail(w, GS_ERR_BUSY,
                         "gs_agent_destroy: the world is advancing");
+    if (a->ghost) gs_ghost_detach(a);
     for (i = a->index + 1; i < w->agent_count; ++i) {
         w->agents[i - 1] = w->agents[i];
         w->agents[i - 1]->index = i - 1;
@@ -1451,7 +1804,7 @@ GS__PRIVATE uint64_t gs__custom_hash(const gs_agent *a, uint64_t h) {
 
 static const gs__kind gs__custom_kind = {
     "custom", gs__custom_step, gs__custom_state_size, gs__custom_get_state,
-    gs__custom_set_state, gs__custom_hash};
+    gs__custom_set_state, gs__custom_hash, NULL, NULL};
 
 GS__PRIVATE gs_result gs__world_unlocked(gs_world *w, const char *who) {
     if (!w) return GS_ERR_INVALID_ARG;
@@ -1460,17 +1813,25 @@ GS__PRIVATE gs_result gs__world_unlocked(gs_world *w, const char *who) {
     return GS_OK;
 }
 
+/* Refuses a NULL world or out, and any call while the world advances. */
+GS__PRIVATE gs_result gs__create_begin(gs_world *w, const void *desc,
+                                       gs_agent **out, const char *who) {
+    gs_result r = gs__world_unlocked(w, who);
+    if (out) *out = NULL;
+    if (r != GS_OK) return r;
+    if (!desc || !out)
+        return gs__fail(w, GS_ERR_INVALID_ARG, "%s: desc and out are required",
+                        who);
+    return GS_OK;
+}
+
 GS_API gs_result gs_custom_create(gs_world *w, const gs_custom_desc *desc,
                                   gs_agent **out) {
     gs__check c;
     gs__custom *a;
-    gs_result r = gs__world_unlocked(w, "gs_custom_create");
+    gs_result r = gs__create_begin(w, desc, out, "gs_custom_create");
     if (r != GS_OK) return r;
     c = gs__check_begin(w, "gs_custom_create");
-    if (!out || !desc)
-        gs__check_fail(&c, GS_ERR_INVALID_ARG, "desc and out are required");
-    if (out) *out = NULL;
-    if (c.r != GS_OK) return c.r;
     gs__check_positive(&c, "dt", desc->dt);
     if (!desc->step) gs__check_fail(&c, GS_ERR_INVALID_ARG, "step is NULL");
     if (desc->state_size && (!desc->get_state || !desc->set_state))
@@ -1939,12 +2300,35 @@ GS__PRIVATE uint64_t gs__mesh_hash(const gs_agent *a, uint64_t h) {
     return gs__fnv(h, m->v, (size_t)m->n * sizeof(gs_vec3));
 }
 
+/* Dead reckoning: positions move along the velocities that follow them. */
+/* Dead reckoning of a mesh: a rigid translation by its mean velocity, since
+   its particles' own velocities carry its vibrations. */
+GS__PRIVATE void gs__mesh_extrapolate(const gs_agent *a, double *s, double dt) {
+    size_t n = (size_t)((const gs__mesh *)a)->n, i;
+    double mx = 0.0, my = 0.0, mz = 0.0;
+    for (i = 0; i < n; ++i) {
+        mx += s[3 * n + 3 * i];
+        my += s[3 * n + 3 * i + 1];
+        mz += s[3 * n + 3 * i + 2];
+    }
+    mx *= dt / (double)n; my *= dt / (double)n; mz *= dt / (double)n;
+    for (i = 0; i < n; ++i) {
+        s[3 * i] += mx;
+        s[3 * i + 1] += my;
+        s[3 * i + 2] += mz;
+    }
+}
+
+GS__PRIVATE size_t gs__mesh_positions(const gs_agent *a) {
+    return 3 * (size_t)((const gs__mesh *)a)->n;
+}
+
 static const gs__kind gs__mesh_kind = {
     "mesh", gs__mesh_step, gs__mesh_state_size, gs__mesh_get_state,
-    gs__mesh_set_state, gs__mesh_hash};
+    gs__mesh_set_state, gs__mesh_hash, gs__mesh_extrapolate, gs__mesh_positions};
 static const gs__kind gs__cloth_kind = {
     "cloth", gs__mesh_step, gs__mesh_state_size, gs__mesh_get_state,
-    gs__mesh_set_state, gs__mesh_hash};
+    gs__mesh_set_state, gs__mesh_hash, gs__mesh_extrapolate, gs__mesh_positions};
 
 GS__PRIVATE gs__mesh *gs__as_mesh(const gs_agent *a) {
     if (!a || (a->kind != &gs__mesh_kind && a->kind != &gs__cloth_kind))
@@ -2143,18 +2527,6 @@ GS__PRIVATE gs_result gs__mesh_check(gs_world *w, const gs_mesh_desc *d) {
     gs__check_material(&c, &d->material);
     gs__check_solver(&c, &d->solver);
     return c.r;
-}
-
-/* Refuses a NULL world or out, and any call while the world advances. */
-GS__PRIVATE gs_result gs__create_begin(gs_world *w, const void *desc,
-                                       gs_agent **out, const char *who) {
-    gs_result r = gs__world_unlocked(w, who);
-    if (out) *out = NULL;
-    if (r != GS_OK) return r;
-    if (!desc || !out)
-        return gs__fail(w, GS_ERR_INVALID_ARG, "%s: desc and out are required",
-                        who);
-    return GS_OK;
 }
 
 GS_API gs_result gs_mesh_create(gs_world *w, const gs_mesh_desc *desc,
@@ -3010,12 +3382,26 @@ GS__PRIVATE uint64_t gs__rigid_hash(const gs_agent *a, uint64_t h) {
     return gs__fnv(h, s, sizeof s);
 }
 
+/* Dead reckoning of [position, quaternion, velocity, angular velocity]. */
+GS__PRIVATE void gs__rigid_extrapolate(const gs_agent *a, double *s, double dt) {
+    gs_quat q = gs__quat_integrate(gs__quat(s[3], s[4], s[5], s[6]),
+                                   gs__v3(s[10], s[11], s[12]), dt);
+    (void)a;
+    s[0] += s[7] * dt; s[1] += s[8] * dt; s[2] += s[9] * dt;
+    s[3] = q.x; s[4] = q.y; s[5] = q.z; s[6] = q.w;
+}
+
+GS__PRIVATE size_t gs__rigid_positions(const gs_agent *a) {
+    (void)a;
+    return 3;
+}
+
 static const gs__kind gs__rigid_kind = {
     "rigid", gs__rigid_step, gs__rigid_state_size, gs__rigid_get_state,
-    gs__rigid_set_state, gs__rigid_hash};
+    gs__rigid_set_state, gs__rigid_hash, gs__rigid_extrapolate, gs__rigid_positions};
 static const gs__kind gs__probe_kind = {
     "probe", gs__probe_step, gs__rigid_state_size, gs__rigid_get_state,
-    gs__rigid_set_state, gs__rigid_hash};
+    gs__rigid_set_state, gs__rigid_hash, gs__rigid_extrapolate, gs__rigid_positions};
 
 GS__PRIVATE gs__rigid *gs__as_rigid(const gs_agent *a) {
     if (!a || (a->kind != &gs__rigid_kind && a->kind != &gs__probe_kind))
@@ -3723,6 +4109,1595 @@ GS_API gs_result gs_scene_create(gs_world *w, const gs_scene_desc *desc,
     }
     return r;
 }
+
+/* ========================================================================
+   >>ghost
+   ======================================================================== */
+#define GS__MAX_PEERS 16
+
+GS_API double gs_weight_cs(const gs_weight_in *in, void *user) {
+    (void)user;
+    return in->x_comp >= in->x_max ? 1.0 : 0.0;
+}
+
+GS_API double gs_weight_exp(const gs_weight_in *in, void *user) {
+    double rate = user ? *(const double *)user : 1.0;
+    double e = rate * in->x_comp;
+    return exp(e > 700.0 ? 700.0 : e < -700.0 ? -700.0 : e);
+}
+
+GS_API double gs_weight_owner(const gs_weight_in *in, void *user) {
+    (void)user;
+    if (in->owner == 0) return 1.0;
+    return in->host == in->owner ? 1.0 : 0.0;
+}
+
+/* One snapshot from one peer, assembled from its chunks as they come. */
+typedef struct gs__snap {
+    int used;
+    uint32_t seq;
+    double time;        /* s, remote simulation time */
+    double age;         /* s, estimated one-way delay when it came */
+    int chunks;         /* chunks received */
+    unsigned char *got; /* per chunk index */
+    double *data;       /* the state after its time; valid where got */
+} gs__snap;
+
+struct gs__ghost {
+    gs_agent *agent;
+    gs_ghost_desc d;
+    size_t n;             /* state size, time included */
+    int per_chunk;        /* values per chunk */
+    int nchunks;          /* chunks per snapshot */
+    double *B;            /* the published state (with its time) */
+    uint32_t b_seq, sent_seq;
+    double next_publish;  /* s, simulation time */
+    double next_send;     /* s, wall time */
+    gs__snap *q[GS__MAX_PEERS]; /* queue_size snapshots per peer slot */
+    double *num, *den, *local, *scratch, *offset;
+    double *wq;           /* weight of each queued snapshot in a blend */
+    double offset_t;      /* s; simulation time the offset was last set */
+    double t_local;       /* s; the agent's time after its last step, for
+                             the receiving side (written under the lock) */
+    double divergence[GS__MAX_PEERS];
+    gs_ghost_stats stats;
+};
+typedef struct gs__ghost gs__ghost;
+
+typedef struct gs__peer {
+    int used;
+    uint32_t host;
+    gs_peer_stats st;
+    uint32_t send_seq;        /* our next datagram sequence to them */
+    uint32_t recv_top;        /* highest datagram sequence received */
+    uint64_t recv_window;     /* bit i: recv_top - i received */
+    int recv_any;
+    double their_send_time;   /* echo: their latest send time, and */
+    double their_recv_now;    /* our clock when it came */
+    double tokens;            /* bytes the budget allows now */
+    double tokens_at;         /* s, wall time of the last refill */
+} gs__peer;
+
+struct gs_net {
+    gs_world *world;
+    gs_net_desc d;
+    gs__peer peers[GS__MAX_PEERS];
+    uint64_t unknown_rejected[GS_REJECT_COUNT];
+    gs_net_lock lock;
+    double now;               /* s, wall time of the last update/deliver */
+    unsigned char buf[GS_WIRE_MAX_DATAGRAM];
+    gs_wire_view view;        /* decode scratch (too big for the stack) */
+};
+
+GS__PRIVATE void gs__lock(gs_net *net) {
+    if (net && net->lock.lock) net->lock.lock(net->lock.user);
+}
+GS__PRIVATE void gs__unlock(gs_net *net) {
+    if (net && net->lock.unlock) net->lock.unlock(net->lock.user);
+}
+
+GS_API gs_ghost_desc gs_ghost_desc_default(void) {
+    gs_ghost_desc d;
+    memset(&d, 0, sizeof d);
+    d.weight = gs_weight_exp;
+    d.send_rate = 60.0;
+    d.encoding = GS_ENCODING_F64;
+    d.queue_size = 8;
+    d.smoothing = 0.1;
+    d.catchup = GS_CATCHUP_NONE;
+    return d;
+}
+
+GS__PRIVATE size_t gs__value_size(gs_encoding e) {
+    return e == GS_ENCODING_F32 ? 4 : 8;
+}
+
+/* A ghost's queue for one peer slot: queue_size snapshots. */
+GS__PRIVATE gs__snap *gs__snaps_new(gs_world *w, const gs__ghost *g) {
+    size_t qs = (size_t)g->d.queue_size, vars = g->n - 1, i;
+    size_t bytes = qs * (sizeof(gs__snap) + vars * sizeof(double) + (size_t)g->nchunks);
+    gs__snap *s = (gs__snap *)gs__alloc(w, bytes);
+    char *p;
+    if (!s) return NULL;
+    memset(s, 0, bytes);
+    p = (char *)(s + qs);
+    for (i = 0; i < qs; ++i, p += vars * sizeof(double)) s[i].data = (double *)p;
+    for (i = 0; i < qs; ++i, p += g->nchunks) s[i].got = (unsigned char *)p;
+    return s;
+}
+
+GS__PRIVATE gs__ghost *gs__ghost_of(const gs_agent *a);
+GS__PRIVATE gs_result gs__ghost_add_peer(gs__ghost *g, int slot) {
+    gs_world *w = g->agent->world;
+    if (g->q[slot]) return GS_OK;
+    g->q[slot] = gs__snaps_new(w, g);
+    return g->q[slot] ? GS_OK : gs__fail(w, GS_ERR_NO_MEMORY, "ghost: out of memory for a peer queue");
+}
+
+GS__PRIVATE void gs__ghost_free(gs__ghost *g) {
+    gs_world *w = g->agent->world;
+    int i;
+    for (i = 0; i < GS__MAX_PEERS; ++i) gs__free(w, g->q[i]);
+    gs__free(w, g);
+}
+
+GS__PRIVATE gs__ghost *gs__ghost_of(const gs_agent *a) {
+    return (gs__ghost *)a->ghost;
+}
+
+GS__PRIVATE gs__ghost *gs__ghost_find(const gs_world *w, uint32_t object_id) {
+    int i;
+    for (i = 0; i < w->agent_count; ++i) {
+        gs__ghost *g = gs__ghost_of(w->agents[i]);
+        if (g && g->d.object_id == object_id) return g;
+    }
+    return NULL;
+}
+
+GS__PRIVATE gs_ghost_desc gs__ghost_defaults(const gs_ghost_desc *in) {
+    gs_ghost_desc def = gs_ghost_desc_default(), d = *in;
+    if (!d.weight) { d.weight = def.weight; d.weight_user = NULL; }
+    if (d.send_rate == 0.0) d.send_rate = def.send_rate;
+    if (d.encoding == GS_ENCODING_DEFAULT) d.encoding = def.encoding;
+    if (d.queue_size == 0) d.queue_size = def.queue_size;
+    if (d.smoothing == 0.0) d.smoothing = def.smoothing;
+    if (d.catchup == GS_CATCHUP_DEFAULT) d.catchup = def.catchup;
+    return d;
+}
+
+GS__PRIVATE gs_result gs__ghost_check(gs_world *w, const gs_ghost_desc *d) {
+    gs__check c = gs__check_begin(w, "gs_ghost_attach");
+    if (d->object_id == 0)
+        gs__check_fail(&c, GS_ERR_INVALID_ARG, "object_id is 0, must be > 0");
+    else if (gs__ghost_find(w, d->object_id))
+        gs__check_fail(&c, GS_ERR_INVALID_ARG, "object_id %lu is already used",
+                       (unsigned long)d->object_id);
+    gs__check_positive(&c, "send_rate", d->send_rate);
+    gs__check_int(&c, "encoding", (long)d->encoding, 1, GS__ENCODING_COUNT - 1);
+    gs__check_int(&c, "queue_size", d->queue_size, 1, 1024);
+    gs__check_positive(&c, "smoothing", d->smoothing);
+    gs__check_int(&c, "catchup", (long)d->catchup, 1, GS__CATCHUP_COUNT - 1);
+    return c.r;
+}
+
+GS__PRIVATE gs_result gs__ghost_queues(gs__ghost *g);
+
+GS_API gs_result gs_ghost_attach(gs_agent *a, const gs_ghost_desc *desc) {
+    gs_world *w = a->world;
+    gs_ghost_desc d;
+    gs__ghost *g;
+    size_t n = gs_agent_state_size(a), vars = n - 1, bytes;
+    gs_result r = gs__world_unlocked(w, "gs_ghost_attach");
+    if (r != GS_OK) return r;
+    if (!desc) return gs__fail(w, GS_ERR_INVALID_ARG, "gs_ghost_attach: desc is NULL");
+    if (a->ghost) return gs__fail(w, GS_ERR_INVALID_ARG, "gs_ghost_attach: the agent has a ghost");
+    d = gs__ghost_defaults(desc);
+    r = gs__ghost_check(w, &d);
+    if (r != GS_OK) return r;
+    bytes = sizeof *g + (6 * n + (size_t)GS__MAX_PEERS * (size_t)d.queue_size) * sizeof(double);
+    g = (gs__ghost *)gs__alloc(w, bytes);
+    if (!g) return gs__fail(w, GS_ERR_NO_MEMORY, "gs_ghost_attach: out of memory");
+    memset(g, 0, bytes);
+    g->agent = a;
+    g->d = d;
+    g->n = n;
+    g->per_chunk = (int)((GS_WIRE_MAX_DATAGRAM - GS_WIRE_HEADER - GS_WIRE_CHUNK_HEADER - 4) /
+                         gs__value_size(d.encoding));
+    g->nchunks = vars ? (int)((vars + (size_t)g->per_chunk - 1) / (size_t)g->per_chunk) : 1;
+    g->B = (double *)(g + 1);
+    g->num = g->B + n;
+    g->den = g->num + n;
+    g->local = g->den + n;
+    g->scratch = g->local + n;
+    g->offset = g->scratch + n;
+    g->wq = g->offset + n;
+    gs_agent_get_state(a, g->B, n);
+    g->b_seq = 1;
+    a->ghost = g;
+    r = gs__ghost_queues(g);
+    if (r != GS_OK) {
+        a->ghost = NULL;
+        gs__ghost_free(g);
+    }
+    return r;
+}
+
+GS_API gs_result gs_ghost_detach(gs_agent *a) {
+    gs_result r = gs__world_unlocked(a->world, "gs_ghost_detach");
+    gs__ghost *g = gs__ghost_of(a);
+    if (r != GS_OK) return r;
+    if (!g) return GS_OK;
+    gs__lock(a->world->net);
+    a->ghost = NULL;
+    gs__unlock(a->world->net);
+    gs__ghost_free(g);
+    return GS_OK;
+}
+
+GS_API gs_result gs_ghost_get_stats(const gs_agent *a, gs_ghost_stats *out) {
+    const gs__ghost *g = gs__ghost_of(a);
+    if (!g || !out) return GS_ERR_INVALID_ARG;
+    *out = g->stats;
+    return GS_OK;
+}
+
+/* Render smoothing: the offset decays as exp(-(t - offset_t) / smoothing). */
+GS__PRIVATE double gs__offset_fade(const gs__ghost *g, double t) {
+    double dt = t - g->offset_t;
+    return dt <= 0.0 ? 1.0 : exp(-dt / g->d.smoothing);
+}
+
+GS_API gs_result gs_ghost_render_state(const gs_agent *a, double *out,
+                                       size_t n) {
+    const gs__ghost *g = gs__ghost_of(a);
+    gs_result r = gs_agent_get_state(a, out, n);
+    double f;
+    size_t i;
+    if (r != GS_OK) return r;
+    if (!g) return GS_OK;
+    f = gs__offset_fade(g, out[0]);
+    for (i = 1; i < n; ++i) out[i] += f * g->offset[i];
+    return GS_OK;
+}
+
+/* After a step: the latest state goes to B at the ghost's rate (simulation
+   time stands in for wall time here: the world keeps pace with it). */
+GS__PRIVATE void gs__ghost_publish(gs__ghost *g, gs_net *net) {
+    double t = gs__agent_time(g->agent);
+    if (t < g->next_publish && g->next_publish - t < 1.0 / g->d.send_rate) return;
+    gs__lock(net);
+    gs_agent_get_state(g->agent, g->B, g->n);
+    g->b_seq++;
+    gs__unlock(net);
+    g->next_publish = t + 1.0 / g->d.send_rate;
+}
+
+GS__PRIVATE double gs__sane_weight(gs__ghost *g, double w) {
+    if (gs__finite(w) && w >= 0.0) return w;
+    g->stats.bad_weights++;
+    return 0.0;
+}
+
+GS__PRIVATE gs_weight_in gs__weight_in(const gs__ghost *g, uint32_t host,
+                                       double x, double age, int local) {
+    gs_weight_in in;
+    gs_world *w = g->agent->world;
+    in.x = x;
+    in.x_comp = g->d.raw_time ? x : x + age;
+    in.x_max = 0.0;
+    in.age = age;
+    in.host = host;
+    in.owner = g->d.owner;
+    in.local = local;
+    in.local_owns = g->d.owner != 0 && g->d.owner == w->host_id;
+    return in;
+}
+
+/* The snapshot as a full state vector: received values, the local state
+   where chunks are missing, carried to the local time along its velocities
+   when the ghost dead-reckons. */
+GS__PRIVATE const double *gs__snap_view(gs__ghost *g, const gs__snap *s,
+                                        double t_i) {
+    const gs__kind *k = g->agent->kind;
+    size_t vars = g->n - 1;
+    int c;
+    if (s->chunks == g->nchunks && !(g->d.catchup == GS_CATCHUP_VELOCITY && k->extrapolate))
+        return s->data;
+    memcpy(g->scratch, g->local + 1, vars * sizeof(double));
+    for (c = 0; c < g->nchunks; ++c) {
+        size_t first = (size_t)c * (size_t)g->per_chunk, cnt = (size_t)g->per_chunk;
+        if (!s->got[c]) continue;
+        if (first + cnt > vars) cnt = vars - first;
+        memcpy(g->scratch + first, s->data + first, cnt * sizeof(double));
+    }
+    if (g->d.catchup == GS_CATCHUP_VELOCITY && k->extrapolate)
+        k->extrapolate(g->agent, g->scratch, t_i - s->time);
+    return g->scratch;
+}
+
+/* Adds one weighted snapshot to the sums; returns the RMS distance of its
+   position values from the local ones (m). */
+GS__PRIVATE double gs__snap_accumulate(gs__ghost *g, const gs__snap *s,
+                                       const double *v, double w) {
+    size_t npos = g->agent->kind->positions ? g->agent->kind->positions(g->agent) : g->n - 1;
+    double d2 = 0.0;
+    size_t e, counted = 0;
+    int c;
+    for (c = 0; c < g->nchunks; ++c) {
+        size_t first = (size_t)c * (size_t)g->per_chunk, end = first + (size_t)g->per_chunk;
+        if (!s->got[c]) continue;
+        if (end > g->n - 1) end = g->n - 1;
+        for (e = first; e < end; ++e) { /* differences: exact 0 when equal */
+            g->num[e] += w * (v[e] - g->local[1 + e]);
+            g->den[e] += w;
+            if (e < npos) {
+                double d = v[e] - g->local[1 + e];
+                d2 += d * d;
+                counted++;
+            }
+        }
+    }
+    return counted ? sqrt(3.0 * d2 / (double)counted) : 0.0;
+}
+
+/* x_comp of every queued snapshot, their largest, and the weights. Returns
+   the local weight; all weights are scaled so that the largest is 1. */
+GS__PRIVATE double gs__ghost_weigh(gs__ghost *g, double t_i, double *wq) {
+    gs_world *wd = g->agent->world;
+    gs_weight_in in0 = gs__weight_in(g, wd->host_id, 0.0, 0.0, 1);
+    double x_max = 0.0, w0, wmax;
+    int p, k, m = 0;
+    for (p = 0; p < GS__MAX_PEERS; ++p)
+        for (k = 0; g->q[p] && k < g->d.queue_size; ++k) {
+            const gs__snap *s = &g->q[p][k];
+            double xc = g->d.raw_time ? s->time - t_i : s->time + s->age - t_i;
+            if (s->used && xc > x_max) x_max = xc;
+        }
+    in0.x_max = x_max;
+    wmax = w0 = gs__sane_weight(g, g->d.weight(&in0, g->d.weight_user));
+    for (p = 0; p < GS__MAX_PEERS; ++p)
+        for (k = 0; g->q[p] && k < g->d.queue_size; ++k) {
+            const gs__snap *s = &g->q[p][k];
+            gs_weight_in in;
+            if (!s->used) continue;
+            in = gs__weight_in(g, wd->net->peers[p].host, s->time - t_i, s->age, 0);
+            in.x_max = x_max;
+            wq[m] = gs__sane_weight(g, g->d.weight(&in, g->d.weight_user));
+            if (wq[m] > wmax) wmax = wq[m];
+            m++;
+        }
+    if (wmax <= 0.0) return -1.0; /* every weight 0: the local state stands */
+    for (k = 0; k < m; ++k) wq[k] /= wmax;
+    return w0 / wmax;
+}
+
+GS__PRIVATE void gs__ghost_clear(gs__ghost *g) {
+    int p, k;
+    for (p = 0; p < GS__MAX_PEERS; ++p)
+        for (k = 0; g->q[p] && k < g->d.queue_size; ++k) {
+            gs__snap *s = &g->q[p][k];
+            if (!s->used) continue;
+            s->used = 0;
+            s->chunks = 0;
+            memset(s->got, 0, (size_t)g->nchunks);
+        }
+}
+
+/* Sums every queued snapshot into num/den and the blended time; fills the
+   per-peer divergence and gap. Returns the number of snapshots. */
+GS__PRIVATE int gs__ghost_gather(gs__ghost *g, double t_i, double *num_t,
+                                 double *den_t) {
+    gs_net *net = g->agent->world->net;
+    int p, k, m = 0, used = 0;
+    for (p = 0; p < GS__MAX_PEERS; ++p)
+        for (k = 0; g->q[p] && k < g->d.queue_size; ++k) {
+            const gs__snap *s = &g->q[p][k];
+            double w, tq;
+            if (!s->used) continue;
+            w = g->wq[m++];
+            tq = g->d.raw_time ? s->time : s->time + s->age;
+            g->divergence[p] = gs__snap_accumulate(g, s, gs__snap_view(g, s, t_i), w);
+            net->peers[p].st.divergence = g->divergence[p];
+            net->peers[p].st.gap = s->time - t_i;
+            *num_t += w * (tq - t_i);
+            *den_t += w;
+            used++;
+        }
+    return used;
+}
+
+/* The paper's ghost update, after a step: blend every queued snapshot once
+   with the local state, then empty the queues. */
+GS__PRIVATE void gs__ghost_blend(gs__ghost *g, gs_net *net) {
+    size_t n = g->n, e;
+    double t_i, w0, num_t = 0.0, den_t = 0.0, fade, corr2 = 0.0;
+    int used;
+    gs__lock(net);
+    gs_agent_get_state(g->agent, g->local, n);
+    t_i = g->local[0];
+    w0 = gs__ghost_weigh(g, t_i, g->wq);
+    if (w0 < 0.0) { gs__ghost_clear(g); gs__unlock(net); return; }
+    memset(g->num, 0, n * sizeof(double));
+    memset(g->den, 0, n * sizeof(double));
+    used = gs__ghost_gather(g, t_i, &num_t, &den_t);
+    if (used == 0 || w0 + den_t <= 0.0) { gs__ghost_clear(g); gs__unlock(net); return; }
+    /* the paper's (w0 S + sum w q) / (w0 + sum w), written as S plus the
+       weighted mean difference so that agreeing states give exactly S */
+    g->scratch[0] = t_i + num_t / (w0 + den_t);
+    fade = gs__offset_fade(g, g->scratch[0]);
+    for (e = 0; e + 1 < n; ++e) {
+        double old = g->local[1 + e], d = w0 + g->den[e];
+        double nv = d > 0.0 ? old + g->num[e] / d : old;
+        g->scratch[1 + e] = nv;
+        g->offset[1 + e] = fade * g->offset[1 + e] + (old - nv);
+        corr2 += (old - nv) * (old - nv);
+    }
+    g->offset_t = g->scratch[0];
+    gs_agent_set_state(g->agent, g->scratch, n);
+    g->stats.blends++;
+    g->stats.snapshots_blended += (uint64_t)used;
+    g->stats.last_correction = n > 1 ? sqrt(corr2 / (double)(n - 1)) : 0.0;
+    gs__ghost_clear(g);
+    gs__unlock(net);
+}
+
+/* Any snapshot waiting? Read under the lock by the caller. */
+GS__PRIVATE int gs__ghost_pending(const gs__ghost *g) {
+    int p, k;
+    for (p = 0; p < GS__MAX_PEERS; ++p)
+        for (k = 0; g->q[p] && k < g->d.queue_size; ++k)
+            if (g->q[p][k].used) return 1;
+    return 0;
+}
+
+GS__PRIVATE void gs__ghost_after_step(gs_agent *a) {
+    gs__ghost *g = gs__ghost_of(a);
+    gs_net *net = a->world->net;
+    int pending;
+    gs__ghost_publish(g, net);
+    if (!net) return;
+    gs__lock(net);
+    g->t_local = gs__agent_time(a);
+    pending = gs__ghost_pending(g);
+    gs__unlock(net);
+    if (pending) gs__ghost_blend(g, net);
+}
+
+/* ========================================================================
+   >>wire
+   ======================================================================== */
+/* CRC-32 (IEEE 802.3, reflected 0xEDB88320) */
+static const uint32_t gs__crc_table[256] = {
+    0x00000000u, 0x77073096u, 0xee0e612cu, 0x990951bau, 0x076dc419u, 0x706af48fu,
+    0xe963a535u, 0x9e6495a3u, 0x0edb8832u, 0x79dcb8a4u, 0xe0d5e91eu, 0x97d2d988u,
+    0x09b64c2bu, 0x7eb17cbdu, 0xe7b82d07u, 0x90bf1d91u, 0x1db71064u, 0x6ab020f2u,
+    0xf3b97148u, 0x84be41deu, 0x1adad47du, 0x6ddde4ebu, 0xf4d4b551u, 0x83d385c7u,
+    0x136c9856u, 0x646ba8c0u, 0xfd62f97au, 0x8a65c9ecu, 0x14015c4fu, 0x63066cd9u,
+    0xfa0f3d63u, 0x8d080df5u, 0x3b6e20c8u, 0x4c69105eu, 0xd56041e4u, 0xa2677172u,
+    0x3c03e4d1u, 0x4b04d447u, 0xd20d85fdu, 0xa50ab56bu, 0x35b5a8fau, 0x42b2986cu,
+    0xdbbbc9d6u, 0xacbcf940u, 0x32d86ce3u, 0x45df5c75u, 0xdcd60dcfu, 0xabd13d59u,
+    0x26d930acu, 0x51de003au, 0xc8d75180u, 0xbfd06116u, 0x21b4f4b5u, 0x56b3c423u,
+    0xcfba9599u, 0xb8bda50fu, 0x2802b89eu, 0x5f058808u, 0xc60cd9b2u, 0xb10be924u,
+    0x2f6f7c87u, 0x58684c11u, 0xc1611dabu, 0xb6662d3du, 0x76dc4190u, 0x01db7106u,
+    0x98d220bcu, 0xefd5102au, 0x71b18589u, 0x06b6b51fu, 0x9fbfe4a5u, 0xe8b8d433u,
+    0x7807c9a2u, 0x0f00f934u, 0x9609a88eu, 0xe10e9818u, 0x7f6a0dbbu, 0x086d3d2du,
+    0x91646c97u, 0xe6635c01u, 0x6b6b51f4u, 0x1c6c6162u, 0x856530d8u, 0xf262004eu,
+    0x6c0695edu, 0x1b01a57bu, 0x8208f4c1u, 0xf50fc457u, 0x65b0d9c6u, 0x12b7e950u,
+    0x8bbeb8eau, 0xfcb9887cu, 0x62dd1ddfu, 0x15da2d49u, 0x8cd37cf3u, 0xfbd44c65u,
+    0x4db26158u, 0x3ab551ceu, 0xa3bc0074u, 0xd4bb30e2u, 0x4adfa541u, 0x3dd895d7u,
+    0xa4d1c46du, 0xd3d6f4fbu, 0x4369e96au, 0x346ed9fcu, 0xad678846u, 0xda60b8d0u,
+    0x44042d73u, 0x33031de5u, 0xaa0a4c5fu, 0xdd0d7cc9u, 0x5005713cu, 0x270241aau,
+    0xbe0b1010u, 0xc90c2086u, 0x5768b525u, 0x206f85b3u, 0xb966d409u, 0xce61e49fu,
+    0x5edef90eu, 0x29d9c998u, 0xb0d09822u, 0xc7d7a8b4u, 0x59b33d17u, 0x2eb40d81u,
+    0xb7bd5c3bu, 0xc0ba6cadu, 0xedb88320u, 0x9abfb3b6u, 0x03b6e20cu, 0x74b1d29au,
+    0xead54739u, 0x9dd277afu, 0x04db2615u, 0x73dc1683u, 0xe3630b12u, 0x94643b84u,
+    0x0d6d6a3eu, 0x7a6a5aa8u, 0xe40ecf0bu, 0x9309ff9du, 0x0a00ae27u, 0x7d079eb1u,
+    0xf00f9344u, 0x8708a3d2u, 0x1e01f268u, 0x6906c2feu, 0xf762575du, 0x806567cbu,
+    0x196c3671u, 0x6e6b06e7u, 0xfed41b76u, 0x89d32be0u, 0x10da7a5au, 0x67dd4accu,
+    0xf9b9df6fu, 0x8ebeeff9u, 0x17b7be43u, 0x60b08ed5u, 0xd6d6a3e8u, 0xa1d1937eu,
+    0x38d8c2c4u, 0x4fdff252u, 0xd1bb67f1u, 0xa6bc5767u, 0x3fb506ddu, 0x48b2364bu,
+    0xd80d2bdau, 0xaf0a1b4cu, 0x36034af6u, 0x41047a60u, 0xdf60efc3u, 0xa867df55u,
+    0x316e8eefu, 0x4669be79u, 0xcb61b38cu, 0xbc66831au, 0x256fd2a0u, 0x5268e236u,
+    0xcc0c7795u, 0xbb0b4703u, 0x220216b9u, 0x5505262fu, 0xc5ba3bbeu, 0xb2bd0b28u,
+    0x2bb45a92u, 0x5cb36a04u, 0xc2d7ffa7u, 0xb5d0cf31u, 0x2cd99e8bu, 0x5bdeae1du,
+    0x9b64c2b0u, 0xec63f226u, 0x756aa39cu, 0x026d930au, 0x9c0906a9u, 0xeb0e363fu,
+    0x72076785u, 0x05005713u, 0x95bf4a82u, 0xe2b87a14u, 0x7bb12baeu, 0x0cb61b38u,
+    0x92d28e9bu, 0xe5d5be0du, 0x7cdcefb7u, 0x0bdbdf21u, 0x86d3d2d4u, 0xf1d4e242u,
+    0x68ddb3f8u, 0x1fda836eu, 0x81be16cdu, 0xf6b9265bu, 0x6fb077e1u, 0x18b74777u,
+    0x88085ae6u, 0xff0f6a70u, 0x66063bcau, 0x11010b5cu, 0x8f659effu, 0xf862ae69u,
+    0x616bffd3u, 0x166ccf45u, 0xa00ae278u, 0xd70dd2eeu, 0x4e048354u, 0x3903b3c2u,
+    0xa7672661u, 0xd06016f7u, 0x4969474du, 0x3e6e77dbu, 0xaed16a4au, 0xd9d65adcu,
+    0x40df0b66u, 0x37d83bf0u, 0xa9bcae53u, 0xdebb9ec5u, 0x47b2cf7fu, 0x30b5ffe9u,
+    0xbdbdf21cu, 0xcabac28au, 0x53b39330u, 0x24b4a3a6u, 0xbad03605u, 0xcdd70693u,
+    0x54de5729u, 0x23d967bfu, 0xb3667a2eu, 0xc4614ab8u, 0x5d681b02u, 0x2a6f2b94u,
+    0xb40bbe37u, 0xc30c8ea1u, 0x5a05df1bu, 0x2d02ef8du,
+};
+
+GS__PRIVATE uint32_t gs__crc32(const unsigned char *p, size_t n) {
+    uint32_t c = 0xffffffffu;
+    size_t i;
+    for (i = 0; i < n; ++i) c = gs__crc_table[(c ^ p[i]) & 0xffu] ^ (c >> 8);
+    return c ^ 0xffffffffu;
+}
+
+GS_API const char *gs_reject_str(gs_reject r) {
+    switch (r) {
+#define GS__REJECT_CASE(name, text) case name: return text;
+        GS__REJECT_LIST(GS__REJECT_CASE)
+#undef GS__REJECT_CASE
+    default: return "unknown reason";
+    }
+}
+
+/* Little-endian field access, whatever the host's byte order. */
+GS__PRIVATE void gs__put32(unsigned char *p, uint32_t v) {
+    p[0] = (unsigned char)v; p[1] = (unsigned char)(v >> 8);
+    p[2] = (unsigned char)(v >> 16); p[3] = (unsigned char)(v >> 24);
+}
+GS__PRIVATE void gs__put16(unsigned char *p, uint16_t v) {
+    p[0] = (unsigned char)v; p[1] = (unsigned char)(v >> 8);
+}
+GS__PRIVATE void gs__put64(unsigned char *p, uint64_t v) {
+    gs__put32(p, (uint32_t)v);
+    gs__put32(p + 4, (uint32_t)(v >> 32));
+}
+GS__PRIVATE uint32_t gs__get32(const unsigned char *p) {
+    return (uint32_t)p[0] | (uint32_t)p[1] << 8 | (uint32_t)p[2] << 16 | (uint32_t)p[3] << 24;
+}
+GS__PRIVATE uint16_t gs__get16(const unsigned char *p) {
+    return (uint16_t)(p[0] | p[1] << 8);
+}
+GS__PRIVATE uint64_t gs__get64(const unsigned char *p) {
+    return (uint64_t)gs__get32(p) | (uint64_t)gs__get32(p + 4) << 32;
+}
+GS__PRIVATE void gs__putf64(unsigned char *p, double v) {
+    uint64_t u;
+    memcpy(&u, &v, 8);
+    gs__put64(p, u);
+}
+GS__PRIVATE double gs__getf64(const unsigned char *p) {
+    uint64_t u = gs__get64(p);
+    double v;
+    memcpy(&v, &u, 8);
+    return v;
+}
+GS__PRIVATE void gs__putf32(unsigned char *p, float v) {
+    uint32_t u;
+    memcpy(&u, &v, 4);
+    gs__put32(p, u);
+}
+GS__PRIVATE float gs__getf32(const unsigned char *p) {
+    uint32_t u = gs__get32(p);
+    float v;
+    memcpy(&v, &u, 4);
+    return v;
+}
+
+GS_API gs_result gs_wire_begin(unsigned char *buf, size_t cap,
+                               const gs_wire_header *h, size_t *size) {
+    if (!buf || !h || !size || cap < GS_WIRE_HEADER + 4) return GS_ERR_INVALID_ARG;
+    memcpy(buf, "GSIM", 4);
+    buf[4] = GS_WIRE_VERSION;
+    buf[5] = 0;
+    gs__put16(buf + 6, 0);
+    gs__put32(buf + 8, h->session);
+    gs__put32(buf + 12, h->sender);
+    gs__put32(buf + 16, h->sequence);
+    gs__put32(buf + 20, 0);
+    gs__putf64(buf + 24, h->send_time);
+    gs__putf64(buf + 32, h->echo_time);
+    gs__putf64(buf + 40, h->echo_hold);
+    *size = GS_WIRE_HEADER;
+    return GS_OK;
+}
+
+GS_API gs_result gs_wire_add(unsigned char *buf, size_t cap, size_t *size,
+                             const gs_wire_chunk *c, const double *values) {
+    size_t vs, need;
+    unsigned char *p;
+    int i;
+    if (!buf || !size || !c || (c->elements && !values)) return GS_ERR_INVALID_ARG;
+    if (c->encoding != GS_ENCODING_F64 && c->encoding != GS_ENCODING_F32)
+        return GS_ERR_INVALID_ARG;
+    if (gs__get16(buf + 6) >= GS_WIRE_MAX_CHUNKS) return GS_ERR_CAPACITY;
+    vs = gs__value_size(c->encoding);
+    need = GS_WIRE_CHUNK_HEADER + vs * c->elements;
+    if (*size + need + 4 > cap || *size + need + 4 > GS_WIRE_MAX_DATAGRAM) return GS_ERR_CAPACITY;
+    if (!gs__finite(c->time)) return GS_ERR_NOT_FINITE;
+    for (i = 0; i < c->elements; ++i)
+        if (!gs__finite(values[i])) return GS_ERR_NOT_FINITE;
+    p = buf + *size;
+    gs__put32(p, c->object_id);
+    gs__put32(p + 4, c->sequence);
+    gs__putf64(p + 8, c->time);
+    gs__put16(p + 16, c->index);
+    gs__put16(p + 18, c->count);
+    gs__put32(p + 20, c->first);
+    gs__put16(p + 24, c->elements);
+    p[26] = (unsigned char)c->encoding;
+    p[27] = 0;
+    gs__put32(p + 28, 0);
+    p += GS_WIRE_CHUNK_HEADER;
+    for (i = 0; i < c->elements; ++i, p += vs) {
+        if (c->encoding == GS_ENCODING_F32) gs__putf32(p, (float)values[i]);
+        else gs__putf64(p, values[i]);
+    }
+    *size += need;
+    gs__put16(buf + 6, (uint16_t)(gs__get16(buf + 6) + 1));
+    return GS_OK;
+}
+
+GS_API size_t gs_wire_end(unsigned char *buf, size_t size) {
+    gs__put32(buf + size, gs__crc32(buf, size));
+    return size + 4;
+}
+
+GS_API double gs_wire_value(const gs_wire_chunk *c, int i) {
+    if (c->encoding == GS_ENCODING_F32) return (double)gs__getf32(c->payload + 4 * (size_t)i);
+    return gs__getf64(c->payload + 8 * (size_t)i);
+}
+
+/* One chunk at *off: its header, its length, its values all finite. */
+GS__PRIVATE int gs__wire_chunk(const unsigned char *buf, size_t end, size_t *off,
+                               gs_wire_chunk *c, gs_reject *why) {
+    const unsigned char *p = buf + *off;
+    size_t len;
+    int i;
+    if (*off + GS_WIRE_CHUNK_HEADER > end) { *why = GS_REJECT_SHORT; return 0; }
+    c->object_id = gs__get32(p);
+    c->sequence = gs__get32(p + 4);
+    c->time = gs__getf64(p + 8);
+    c->index = gs__get16(p + 16);
+    c->count = gs__get16(p + 18);
+    c->first = gs__get32(p + 20);
+    c->elements = gs__get16(p + 24);
+    c->encoding = (gs_encoding)p[26];
+    if ((c->encoding != GS_ENCODING_F64 && c->encoding != GS_ENCODING_F32) ||
+        c->count == 0 || c->index >= c->count) { *why = GS_REJECT_LAYOUT; return 0; }
+    len = gs__value_size(c->encoding) * c->elements;
+    if (*off + GS_WIRE_CHUNK_HEADER + len > end) { *why = GS_REJECT_SHORT; return 0; }
+    if (!gs__finite(c->time) || c->time < 0.0) { *why = GS_REJECT_TIME; return 0; }
+    c->payload = p + GS_WIRE_CHUNK_HEADER;
+    for (i = 0; i < c->elements; ++i)
+        if (!gs__finite(gs_wire_value(c, i))) { *why = GS_REJECT_NOT_FINITE; return 0; }
+    *off += GS_WIRE_CHUNK_HEADER + len;
+    return 1;
+}
+
+GS_API int gs_wire_decode(const unsigned char *buf, size_t size,
+                          gs_wire_view *out, gs_reject *why) {
+    gs_reject dummy;
+    size_t off = GS_WIRE_HEADER, end;
+    int i, n;
+    if (!why) why = &dummy;
+    if (!buf || !out || size < GS_WIRE_HEADER + 4) { *why = GS_REJECT_SHORT; return 0; }
+    if (size > GS_WIRE_MAX_DATAGRAM) { *why = GS_REJECT_LAYOUT; return 0; }
+    if (memcmp(buf, "GSIM", 4) != 0) { *why = GS_REJECT_MAGIC; return 0; }
+    if (buf[4] != GS_WIRE_VERSION) { *why = GS_REJECT_VERSION; return 0; }
+    end = size - 4;
+    if (gs__crc32(buf, end) != gs__get32(buf + end)) { *why = GS_REJECT_CHECKSUM; return 0; }
+    n = gs__get16(buf + 6);
+    if (n < 1 || n > GS_WIRE_MAX_CHUNKS) { *why = GS_REJECT_LAYOUT; return 0; }
+    out->header.session = gs__get32(buf + 8);
+    out->header.sender = gs__get32(buf + 12);
+    out->header.sequence = gs__get32(buf + 16);
+    out->header.send_time = gs__getf64(buf + 24);
+    out->header.echo_time = gs__getf64(buf + 32);
+    out->header.echo_hold = gs__getf64(buf + 40);
+    if (!gs__finite(out->header.send_time) || !gs__finite(out->header.echo_time) ||
+        !gs__finite(out->header.echo_hold)) { *why = GS_REJECT_NOT_FINITE; return 0; }
+    for (i = 0; i < n; ++i)
+        if (!gs__wire_chunk(buf, end, &off, &out->chunks[i], why)) return 0;
+    if (off != end) { *why = GS_REJECT_LAYOUT; return 0; }
+    out->chunk_count = n;
+    return 1;
+}
+
+/* ========================================================================
+   >>net
+   ======================================================================== */
+GS__PRIVATE gs_result gs__ghost_queues(gs__ghost *g) {
+    gs_net *net = g->agent->world->net;
+    int p;
+    if (!net) return GS_OK;
+    for (p = 0; p < GS__MAX_PEERS; ++p)
+        if (net->peers[p].used) {
+            gs_result r = gs__ghost_add_peer(g, p);
+            if (r != GS_OK) return r;
+        }
+    return GS_OK;
+}
+
+GS_API gs_result gs_net_create(gs_world *w, const gs_net_desc *desc,
+                               gs_net **out) {
+    gs__check c;
+    gs_net_desc d;
+    gs_net *net;
+    gs_result r = gs__world_unlocked(w, "gs_net_create");
+    if (out) *out = NULL;
+    if (r != GS_OK) return r;
+    c = gs__check_begin(w, "gs_net_create");
+    if (!desc || !out) gs__check_fail(&c, GS_ERR_INVALID_ARG, "desc and out are required");
+    else if (w->net) gs__check_fail(&c, GS_ERR_INVALID_ARG, "the world has a net already");
+    if (c.r != GS_OK) return c.r;
+    d = *desc;
+    if (d.session == 0) d.session = 1;
+    if (d.bandwidth == 0.0) d.bandwidth = 1e7;
+    if (d.max_peers == 0) d.max_peers = GS__MAX_PEERS;
+    if (!d.send) gs__check_fail(&c, GS_ERR_INVALID_ARG, "send is NULL");
+    gs__check_positive(&c, "bandwidth", d.bandwidth);
+    gs__check_nonneg(&c, "time_window", d.time_window);
+    gs__check_int(&c, "max_peers", d.max_peers, 1, GS__MAX_PEERS);
+    if (c.r != GS_OK) return c.r;
+    net = (gs_net *)gs__alloc(w, sizeof *net);
+    if (!net) return gs__fail(w, GS_ERR_NO_MEMORY, "gs_net_create: out of memory");
+    memset(net, 0, sizeof *net);
+    net->world = w;
+    net->d = d;
+    w->net = net;
+    *out = net;
+    return GS_OK;
+}
+
+GS_API void gs_net_destroy(gs_net *net) {
+    gs_world *w;
+    int i, p;
+    if (!net) return;
+    w = net->world;
+    for (i = 0; i < w->agent_count; ++i) { /* queues belong to peers */
+        gs__ghost *g = gs__ghost_of(w->agents[i]);
+        for (p = 0; g && p < GS__MAX_PEERS; ++p) {
+            gs__free(w, g->q[p]);
+            g->q[p] = NULL;
+        }
+    }
+    w->net = NULL;
+    gs__free(w, net);
+}
+
+GS_API gs_net *gs_world_net(const gs_world *w) { return w->net; }
+
+GS_API void gs_net_set_lock(gs_net *net, gs_net_lock lock) { net->lock = lock; }
+
+GS__PRIVATE int gs__peer_slot(const gs_net *net, uint32_t host) {
+    int p;
+    for (p = 0; p < GS__MAX_PEERS; ++p)
+        if (net->peers[p].used && net->peers[p].host == host) return p;
+    return -1;
+}
+
+GS_API gs_result gs_net_add_peer(gs_net *net, uint32_t host) {
+    gs_world *w = net->world;
+    int p, i, count = 0;
+    if (host == 0 || host == w->host_id)
+        return gs__fail(w, GS_ERR_INVALID_ARG, "gs_net_add_peer: host %lu is 0 or this host",
+                        (unsigned long)host);
+    if (gs__peer_slot(net, host) >= 0) return GS_OK;
+    for (p = 0; p < GS__MAX_PEERS; ++p) count += net->peers[p].used;
+    for (p = 0; p < GS__MAX_PEERS && net->peers[p].used; ++p) {}
+    if (p == GS__MAX_PEERS || count >= net->d.max_peers)
+        return gs__fail(w, GS_ERR_CAPACITY, "gs_net_add_peer: max_peers (%d) reached",
+                        net->d.max_peers);
+    for (i = 0; i < w->agent_count; ++i) {
+        gs__ghost *g = gs__ghost_of(w->agents[i]);
+        if (g && gs__ghost_add_peer(g, p) != GS_OK) return GS_ERR_NO_MEMORY;
+    }
+    gs__lock(net);
+    memset(&net->peers[p], 0, sizeof net->peers[p]);
+    net->peers[p].used = 1;
+    net->peers[p].host = host;
+    net->peers[p].tokens = -1.0; /* filled on first use */
+    gs__unlock(net);
+    return GS_OK;
+}
+
+GS_API gs_result gs_net_remove_peer(gs_net *net, uint32_t host) {
+    gs_world *w = net->world;
+    int p = gs__peer_slot(net, host), i;
+    if (p < 0) return gs__fail(w, GS_ERR_INVALID_ARG, "gs_net_remove_peer: no peer %lu",
+                               (unsigned long)host);
+    gs__lock(net);
+    net->peers[p].used = 0;
+    for (i = 0; i < w->agent_count; ++i) {
+        gs__ghost *g = gs__ghost_of(w->agents[i]);
+        if (!g) continue;
+        gs__free(w, g->q[p]);
+        g->q[p] = NULL;
+    }
+    gs__unlock(net);
+    return GS_OK;
+}
+
+GS_API gs_result gs_net_peer_stats(const gs_net *net, uint32_t host,
+                                   gs_peer_stats *out) {
+    int p = gs__peer_slot(net, host);
+    if (p < 0 || !out) return GS_ERR_INVALID_ARG;
+    gs__lock((gs_net *)net);
+    *out = net->peers[p].st;
+    gs__unlock((gs_net *)net);
+    return GS_OK;
+}
+
+GS_API gs_result gs_net_unknown_stats(const gs_net *net,
+                                      uint64_t rejected[GS_REJECT_COUNT]) {
+    gs__lock((gs_net *)net);
+    memcpy(rejected, net->unknown_rejected, sizeof net->unknown_rejected);
+    gs__unlock((gs_net *)net);
+    return GS_OK;
+}
+
+/* ---- sending ---- */
+
+/* The budget: a token bucket of bandwidth bytes/s holding at most 50 ms. */
+GS__PRIVATE int gs__peer_budget(gs_net *net, gs__peer *pe, size_t bytes, double now) {
+    double cap = 0.05 * net->d.bandwidth;
+    if (cap < GS_WIRE_MAX_DATAGRAM) cap = GS_WIRE_MAX_DATAGRAM;
+    if (pe->tokens < 0.0) { pe->tokens = cap; pe->tokens_at = now; }
+    pe->tokens += (now - pe->tokens_at) * net->d.bandwidth;
+    pe->tokens_at = now;
+    if (pe->tokens > cap) pe->tokens = cap;
+    if (pe->tokens < (double)bytes) return 0;
+    pe->tokens -= (double)bytes;
+    return 1;
+}
+
+GS__PRIVATE void gs__datagram_begin(gs_net *net, gs__peer *pe, double now, size_t *size) {
+    gs_wire_header h;
+    h.session = net->d.session;
+    h.sender = net->world->host_id;
+    h.sequence = pe->send_seq;
+    h.send_time = now;
+    h.echo_time = pe->their_send_time;
+    h.echo_hold = pe->recv_any ? now - pe->their_recv_now : 0.0;
+    gs_wire_begin(net->buf, sizeof net->buf, &h, size);
+}
+
+/* Sends the datagram being built if it holds a chunk and the budget allows. */
+GS__PRIVATE void gs__datagram_flush(gs_net *net, gs__peer *pe, double now, size_t *size) {
+    size_t n;
+    if (gs__get16(net->buf + 6) == 0) return;
+    n = gs_wire_end(net->buf, *size);
+    if (gs__peer_budget(net, pe, n, now)) {
+        pe->send_seq++;
+        pe->st.datagrams_sent++;
+        pe->st.bytes_sent += n;
+        net->d.send(net->d.send_user, pe->host, net->buf, n);
+    }
+    gs__datagram_begin(net, pe, now, size);
+}
+
+/* Appends every chunk of a ghost's B to the datagrams for one peer. */
+GS__PRIVATE void gs__send_ghost(gs_net *net, gs__peer *pe, const gs__ghost *g,
+                                double now, size_t *size) {
+    size_t vars = g->n - 1;
+    int c;
+    for (c = 0; c < g->nchunks; ++c) {
+        gs_wire_chunk ch;
+        size_t first = (size_t)c * (size_t)g->per_chunk, cnt = (size_t)g->per_chunk;
+        if (first + cnt > vars) cnt = vars - first;
+        ch.object_id = g->d.object_id;
+        ch.sequence = g->b_seq;
+        ch.time = g->B[0];
+        ch.index = (uint16_t)c;
+        ch.count = (uint16_t)g->nchunks;
+        ch.first = (uint32_t)first;
+        ch.elements = (uint16_t)cnt;
+        ch.encoding = g->d.encoding;
+        ch.payload = NULL;
+        if (gs_wire_add(net->buf, sizeof net->buf, size, &ch, g->B + 1 + first) == GS_ERR_CAPACITY) {
+            gs__datagram_flush(net, pe, now, size);
+            gs_wire_add(net->buf, sizeof net->buf, size, &ch, g->B + 1 + first);
+        }
+    }
+    pe->st.snapshots_sent++;
+}
+
+GS_API gs_result gs_net_update(gs_net *net, double now) {
+    gs_world *w = net->world;
+    int p, i;
+    if (!gs__finite(now)) return GS_ERR_NOT_FINITE;
+    gs__lock(net);
+    net->now = now;
+    for (p = 0; p < GS__MAX_PEERS; ++p) {
+        gs__peer *pe = &net->peers[p];
+        size_t size;
+        if (!pe->used) continue;
+        gs__datagram_begin(net, pe, now, &size);
+        for (i = 0; i < w->agent_count; ++i) {
+            gs__ghost *g = gs__ghost_of(w->agents[i]);
+            if (g && now >= g->next_send && g->b_seq != g->sent_seq)
+                gs__send_ghost(net, pe, g, now, &size);
+        }
+        gs__datagram_flush(net, pe, now, &size);
+    }
+    for (i = 0; i < w->agent_count; ++i) {
+        gs__ghost *g = gs__ghost_of(w->agents[i]);
+        if (!g || now < g->next_send || g->b_seq == g->sent_seq) continue;
+        g->sent_seq = g->b_seq;
+        g->next_send = now + 1.0 / g->d.send_rate;
+    }
+    gs__unlock(net);
+    return GS_OK;
+}
+
+/* ---- receiving ---- */
+
+/* Wrap-safe: a is newer than b. */
+GS__PRIVATE int gs__seq_newer(uint32_t a, uint32_t b) {
+    return (int32_t)(a - b) > 0;
+}
+
+/* Loss and duplicates from the datagram sequence, with a 64-wide window.
+   Returns 0 for a duplicate. */
+GS__PRIVATE int gs__peer_sequence(gs__peer *pe, uint32_t seq) {
+    if (!pe->recv_any) {
+        pe->recv_any = 1;
+        pe->recv_top = seq;
+        pe->recv_window = 1;
+        return 1;
+    }
+    if (gs__seq_newer(seq, pe->recv_top)) {
+        uint32_t ahead = seq - pe->recv_top;
+        pe->st.lost += ahead - 1; /* taken back if they come late */
+        pe->recv_window = ahead >= 64 ? 0 : pe->recv_window << ahead;
+        pe->recv_window |= 1;
+        pe->recv_top = seq;
+        return 1;
+    }
+    {
+        uint32_t behind = pe->recv_top - seq;
+        if (behind >= 64) return 1; /* too old to tell: let it through */
+        if (pe->recv_window & ((uint64_t)1 << behind)) return 0;
+        pe->recv_window |= (uint64_t)1 << behind;
+        if (pe->st.lost) pe->st.lost--;
+        return 1;
+    }
+}
+
+/* Every chunk must name a known object and fit its state; checked before
+   anything is queued, so that a datagram counts whole or not at all. */
+GS__PRIVATE int gs__chunks_fit(gs_net *net, const gs_wire_view *v, double now,
+                               gs_reject *why) {
+    int i;
+    (void)now;
+    for (i = 0; i < v->chunk_count; ++i) {
+        const gs_wire_chunk *c = &v->chunks[i];
+        const gs__ghost *g = gs__ghost_find(net->world, c->object_id);
+        if (!g) { *why = GS_REJECT_OBJECT; return 0; }
+        if (c->count != g->nchunks || c->encoding != g->d.encoding ||
+            c->first != (uint32_t)c->index * (uint32_t)g->per_chunk ||
+            (size_t)c->first + c->elements > g->n - 1 ||
+            (c->elements != g->per_chunk && c->index + 1 != c->count)) {
+            *why = GS_REJECT_RANGE;
+            return 0;
+        }
+        if (net->d.time_window > 0.0 && fabs(c->time - g->t_local) > net->d.time_window) {
+            *why = GS_REJECT_TIME;
+            return 0;
+        }
+    }
+    return 1;
+}
+
+/* The queue slot for snapshot seq from peer p: the one being assembled, or
+   a free one, or the oldest (which is dropped and counted). */
+GS__PRIVATE gs__snap *gs__snap_slot(gs__ghost *g, int p, const gs_wire_chunk *c,
+                                    double age) {
+    gs__snap *q = g->q[p], *free_s = NULL, *oldest = NULL;
+    int k;
+    for (k = 0; k < g->d.queue_size; ++k) {
+        gs__snap *s = &q[k];
+        if (s->used && s->seq == c->sequence) return s;
+        if (!s->used && !free_s) free_s = s;
+        if (s->used && (!oldest || gs__seq_newer(oldest->seq, s->seq))) oldest = s;
+    }
+    if (!free_s) {
+        free_s = oldest;
+        g->stats.queue_dropped++;
+        memset(free_s->got, 0, (size_t)g->nchunks);
+    }
+    free_s->used = 1;
+    free_s->seq = c->sequence;
+    free_s->time = c->time;
+    free_s->age = age;
+    free_s->chunks = 0;
+    return free_s;
+}
+
+GS__PRIVATE void gs__queue_chunk(gs_net *net, int p, const gs_wire_chunk *c, double age) {
+    gs__ghost *g = gs__ghost_find(net->world, c->object_id);
+    gs__snap *s = gs__snap_slot(g, p, c, age);
+    int i;
+    if (s->got[c->index]) return; /* a duplicated chunk */
+    for (i = 0; i < c->elements; ++i) s->data[c->first + (uint32_t)i] = gs_wire_value(c, i);
+    s->got[c->index] = 1;
+    s->chunks++;
+    net->peers[p].st.chunks_received++;
+    if (c->index == 0) net->peers[p].st.snapshots_received++;
+    if (c->time > net->peers[p].st.last_remote_time) net->peers[p].st.last_remote_time = c->time;
+}
+
+GS__PRIVATE gs_result gs__reject(gs_net *net, int p, gs_reject r, gs_reject *why) {
+    if (p >= 0) {
+        net->peers[p].st.rejected[r]++;
+        net->peers[p].st.rejected_total++;
+    } else {
+        net->unknown_rejected[r]++;
+    }
+    if (why) *why = r;
+    return GS_ERR_REJECTED;
+}
+
+/* Round trip from the echo: now - echo_time - the time they held it. */
+GS__PRIVATE void gs__peer_clock(gs__peer *pe, const gs_wire_header *h, double now) {
+    if (h->echo_time > 0.0) {
+        double rtt = now - h->echo_time - h->echo_hold;
+        if (rtt >= 0.0 && rtt < 60.0) pe->st.rtt = rtt;
+    }
+    pe->their_send_time = h->send_time;
+    pe->their_recv_now = now;
+}
+
+GS_API gs_result gs_net_deliver(gs_net *net, const void *data, size_t size,
+                                double now, gs_reject *why) {
+    gs_wire_view *v = &net->view;
+    gs_reject r = GS_REJECT_SHORT;
+    gs_result res = GS_OK;
+    int p, i;
+    gs__lock(net);
+    if (!gs_wire_decode((const unsigned char *)data, size, v, &r)) {
+        res = gs__reject(net, -1, r, why);
+    } else if (v->header.session != net->d.session) {
+        res = gs__reject(net, -1, GS_REJECT_SESSION, why);
+    } else if ((p = gs__peer_slot(net, v->header.sender)) < 0) {
+        res = gs__reject(net, -1, GS_REJECT_SENDER, why);
+    } else if (!gs__chunks_fit(net, v, now, &r)) {
+        res = gs__reject(net, p, r, why);
+    } else if (!gs__peer_sequence(&net->peers[p], v->header.sequence)) {
+        net->peers[p].st.duplicates++;
+        res = gs__reject(net, p, GS_REJECT_DUPLICATE, why);
+    } else {
+        gs__peer *pe = &net->peers[p];
+        double age = 0.5 * pe->st.rtt;
+        gs__peer_clock(pe, &v->header, now);
+        pe->st.datagrams_received++;
+        pe->st.bytes_received += size;
+        for (i = 0; i < v->chunk_count; ++i) gs__queue_chunk(net, p, &v->chunks[i], age);
+    }
+    gs__unlock(net);
+    return res;
+}
+
+/* ========================================================================
+   >>simnet
+   ======================================================================== */
+#define GS__SIM_MAX_HOSTS 16
+
+typedef struct gs__flight {
+    double at;       /* s, virtual delivery time */
+    uint64_t order;  /* ties broken by send order: deterministic */
+    int to;          /* host slot */
+    uint16_t size;
+    unsigned char *data;
+} gs__flight;
+
+typedef struct gs__sim_host {
+    gs_simnet *sim;
+    gs_world *world;
+    gs_net *net;
+    uint32_t host;
+    double busy_until[GS__SIM_MAX_HOSTS]; /* bandwidth: link free again at */
+} gs__sim_host;
+
+struct gs_simnet {
+    gs_allocator alloc;
+    uint64_t rng;
+    double now;
+    int hosts;
+    gs__sim_host host[GS__SIM_MAX_HOSTS];
+    gs_link_desc link[GS__SIM_MAX_HOSTS][GS__SIM_MAX_HOSTS];
+    gs__flight *heap;   /* a binary min-heap on (at, order) */
+    unsigned char *pool;
+    int *free_slots, nfree;
+    int count, cap;
+    uint64_t order, dropped, duplicated, delivered;
+};
+
+/* xorshift64*: one stream for the whole simnet, so a seed fixes the run. */
+GS__PRIVATE double gs__sim_rand(gs_simnet *s) {
+    s->rng ^= s->rng >> 12;
+    s->rng ^= s->rng << 25;
+    s->rng ^= s->rng >> 27;
+    return (double)((s->rng * 2685821657736338717ull) >> 11) / 9007199254740992.0;
+}
+
+GS_API gs_result gs_simnet_create(const gs_simnet_desc *desc, gs_simnet **out) {
+    gs_simnet_desc d;
+    gs_simnet *s;
+    size_t bytes;
+    int i;
+    if (!out) return GS_ERR_INVALID_ARG;
+    *out = NULL;
+    memset(&d, 0, sizeof d);
+    if (desc) d = *desc;
+    if (d.seed == 0) d.seed = 1;
+    if (d.max_in_flight == 0) d.max_in_flight = 16384;
+    if (d.max_in_flight < 1 || d.max_in_flight > (1 << 22)) return GS_ERR_INVALID_ARG;
+    if (!d.allocator.alloc != !d.allocator.free) return GS_ERR_INVALID_ARG;
+    if (!d.allocator.alloc) { d.allocator.alloc = gs__default_alloc; d.allocator.free = gs__default_free; }
+    bytes = sizeof *s + (size_t)d.max_in_flight * (sizeof(gs__flight) + sizeof(int) + GS_WIRE_MAX_DATAGRAM);
+    s = (gs_simnet *)d.allocator.alloc(bytes, d.allocator.user);
+    if (!s) return GS_ERR_NO_MEMORY;
+    memset(s, 0, sizeof *s);
+    s->alloc = d.allocator;
+    s->rng = d.seed;
+    s->cap = d.max_in_flight;
+    s->heap = (gs__flight *)(s + 1);
+    s->free_slots = (int *)(s->heap + s->cap);
+    s->pool = (unsigned char *)(s->free_slots + s->cap);
+    for (i = 0; i < s->cap; ++i) s->free_slots[i] = s->cap - 1 - i;
+    s->nfree = s->cap;
+    *out = s;
+    return GS_OK;
+}
+
+GS_API void gs_simnet_destroy(gs_simnet *s) {
+    if (s) s->alloc.free(s, s->alloc.user);
+}
+
+GS__PRIVATE int gs__flight_less(const gs__flight *a, const gs__flight *b) {
+    return a->at < b->at || (a->at == b->at && a->order < b->order);
+}
+
+GS__PRIVATE void gs__heap_push(gs_simnet *s, gs__flight f) {
+    int i = s->count++;
+    while (i > 0) {
+        int parent = (i - 1) / 2;
+        if (!gs__flight_less(&f, &s->heap[parent])) break;
+        s->heap[i] = s->heap[parent];
+        i = parent;
+    }
+    s->heap[i] = f;
+}
+
+GS__PRIVATE gs__flight gs__heap_pop(gs_simnet *s) {
+    gs__flight top = s->heap[0], last = s->heap[--s->count];
+    int i = 0;
+    for (;;) {
+        int c = 2 * i + 1;
+        if (c >= s->count) break;
+        if (c + 1 < s->count && gs__flight_less(&s->heap[c + 1], &s->heap[c])) c++;
+        if (!gs__flight_less(&s->heap[c], &last)) break;
+        s->heap[i] = s->heap[c];
+        i = c;
+    }
+    if (s->count > 0) s->heap[i] = last;
+    return top;
+}
+
+GS__PRIVATE int gs__sim_slot(const gs_simnet *s, uint32_t host) {
+    int i;
+    for (i = 0; i < s->hosts; ++i)
+        if (s->host[i].host == host) return i;
+    return -1;
+}
+
+GS__PRIVATE int gs__link_cut(const gs_link_desc *l, double now) {
+    int i;
+    for (i = 0; i < GS_MAX_OUTAGES; ++i)
+        if (l->outage_end[i] > l->outage_start[i] && now >= l->outage_start[i] &&
+            now < l->outage_end[i])
+            return 1;
+    return 0;
+}
+
+/* One copy onto the wire: bandwidth queueing, latency, jitter, reordering. */
+GS__PRIVATE void gs__sim_launch(gs_simnet *s, gs__sim_host *from, int to,
+                                const void *data, size_t size) {
+    const gs_link_desc *l = &s->link[from - s->host][to];
+    gs__flight f;
+    double depart = s->now;
+    int slot;
+    if (s->nfree == 0) { s->dropped++; return; }
+    if (l->bandwidth > 0.0) {
+        if (from->busy_until[to] > depart) depart = from->busy_until[to];
+        from->busy_until[to] = depart + (double)size / l->bandwidth;
+        depart = from->busy_until[to];
+    }
+    f.at = depart + l->latency + l->jitter * gs__sim_rand(s);
+    if (l->reorder > 0.0 && gs__sim_rand(s) < l->reorder) f.at += l->latency * gs__sim_rand(s);
+    slot = s->free_slots[--s->nfree];
+    f.data = s->pool + (size_t)slot * GS_WIRE_MAX_DATAGRAM;
+    memcpy(f.data, data, size);
+    f.size = (uint16_t)size;
+    f.to = to;
+    f.order = s->order++;
+    gs__heap_push(s, f);
+}
+
+GS__PRIVATE gs_result gs__sim_send(void *user, uint32_t host, const void *data, size_t size) {
+    gs__sim_host *from = (gs__sim_host *)user;
+    gs_simnet *s = from->sim;
+    int to = gs__sim_slot(s, host);
+    const gs_link_desc *l;
+    if (to < 0 || size > GS_WIRE_MAX_DATAGRAM) return GS_ERR_INVALID_ARG;
+    l = &s->link[from - s->host][to];
+    if (gs__link_cut(l, s->now) || gs__sim_rand(s) < l->loss) {
+        s->dropped++;
+        return GS_OK;
+    }
+    gs__sim_launch(s, from, to, data, size);
+    if (l->duplicate > 0.0 && gs__sim_rand(s) < l->duplicate) {
+        s->duplicated++;
+        gs__sim_launch(s, from, to, data, size);
+    }
+    return GS_OK;
+}
+
+GS_API gs_result gs_simnet_join(gs_simnet *s, gs_world *w, const gs_net_desc *desc,
+                                gs_net **out) {
+    gs_net_desc d;
+    gs__sim_host *h;
+    gs_result r;
+    int i;
+    if (!s || !w || !out) return GS_ERR_INVALID_ARG;
+    *out = NULL;
+    if (s->hosts == GS__SIM_MAX_HOSTS || gs__sim_slot(s, w->host_id) >= 0)
+        return gs__fail(w, GS_ERR_INVALID_ARG, "gs_simnet_join: host %lu already joined or "
+                        "the simnet is full", (unsigned long)w->host_id);
+    memset(&d, 0, sizeof d);
+    if (desc) d = *desc;
+    h = &s->host[s->hosts];
+    memset(h, 0, sizeof *h);
+    h->sim = s;
+    h->world = w;
+    h->host = w->host_id;
+    d.send = gs__sim_send;
+    d.send_user = h;
+    r = gs_net_create(w, &d, &h->net);
+    if (r != GS_OK) return r;
+    for (i = 0; i < s->hosts; ++i) {
+        memset(&s->link[i][s->hosts], 0, sizeof(gs_link_desc));
+        memset(&s->link[s->hosts][i], 0, sizeof(gs_link_desc));
+        if (gs_net_add_peer(h->net, s->host[i].host) != GS_OK ||
+            gs_net_add_peer(s->host[i].net, h->host) != GS_OK) {
+            gs_net_destroy(h->net);
+            return GS_ERR_NO_MEMORY;
+        }
+    }
+    s->hosts++;
+    *out = h->net;
+    return GS_OK;
+}
+
+GS_API gs_result gs_simnet_link(gs_simnet *s, uint32_t a, uint32_t b,
+                                const gs_link_desc *desc) {
+    int i = gs__sim_slot(s, a), j = gs__sim_slot(s, b), k;
+    if (i < 0 || j < 0 || !desc) return GS_ERR_INVALID_ARG;
+    if (!(desc->latency >= 0.0) || !(desc->jitter >= 0.0) || !(desc->loss >= 0.0) ||
+        !(desc->loss <= 1.0) || !(desc->duplicate >= 0.0) || !(desc->duplicate <= 1.0) ||
+        !(desc->reorder >= 0.0) || !(desc->reorder <= 1.0) || !(desc->bandwidth >= 0.0) ||
+        !gs__finite(desc->latency + desc->jitter + desc->bandwidth))
+        return GS_ERR_INVALID_ARG;
+    for (k = 0; k < GS_MAX_OUTAGES; ++k)
+        if (!gs__finite(desc->outage_start[k]) || !gs__finite(desc->outage_end[k]))
+            return GS_ERR_NOT_FINITE;
+    s->link[i][j] = *desc;
+    return GS_OK;
+}
+
+GS__PRIVATE void gs__sim_deliver_due(gs_simnet *s) {
+    while (s->count > 0 && s->heap[0].at <= s->now) {
+        gs__flight f = gs__heap_pop(s);
+        gs__sim_host *to = &s->host[f.to];
+        gs_net_deliver(to->net, f.data, f.size, s->now, NULL);
+        s->free_slots[s->nfree++] = (int)((f.data - s->pool) / GS_WIRE_MAX_DATAGRAM);
+        s->delivered++;
+    }
+}
+
+GS_API gs_result gs_simnet_run(gs_simnet *s, double seconds, double frame) {
+    double end;
+    gs_result first = GS_OK;
+    int i;
+    if (!s || !gs__finite(seconds) || seconds < 0.0 || !gs__finite(frame) || frame <= 0.0)
+        return GS_ERR_INVALID_ARG;
+    end = s->now + seconds;
+    while (s->now < end - 0.5 * frame) {
+        s->now += frame;
+        for (i = 0; i < s->hosts; ++i) {
+            gs_result r = gs_world_advance(s->host[i].world, frame, NULL);
+            if (r != GS_OK && first == GS_OK) first = r;
+            gs_net_update(s->host[i].net, s->now);
+        }
+        gs__sim_deliver_due(s);
+    }
+    return first;
+}
+
+GS_API double gs_simnet_time(const gs_simnet *s) { return s->now; }
+
+GS_API void gs_simnet_counts(const gs_simnet *s, uint64_t *dropped,
+                             uint64_t *duplicated, uint64_t *delivered) {
+    if (dropped) *dropped = s->dropped;
+    if (duplicated) *duplicated = s->duplicated;
+    if (delivered) *delivered = s->delivered;
+}
+
+/* ========================================================================
+   >>udp
+   ======================================================================== */
+#ifndef GHOSTSIM_NO_UDP
+#if !defined(_WIN32)
+#include <arpa/inet.h>
+#include <errno.h>
+#include <netdb.h>
+#include <netinet/in.h>
+#include <poll.h>
+#include <pthread.h>
+#include <sys/socket.h>
+#include <unistd.h>
+#endif
+
+typedef struct gs__udp_peer {
+    int used;
+    uint32_t host;
+    struct sockaddr_storage addr;
+    socklen_t len;
+} gs__udp_peer;
+
+struct gs_udp {
+    gs_world *world;
+    gs_net *net;
+    int fd;
+    int threads;
+    int stop;
+    pthread_t gather, scatter;
+    pthread_mutex_t mu;      /* the net lock: queues, peers, stats */
+    pthread_mutex_t wake_mu; /* the scatter thread's wake-up */
+    pthread_cond_t wake;
+    gs__udp_peer peers[GS__MAX_PEERS];
+    unsigned char rbuf[GS_WIRE_MAX_DATAGRAM + 64];
+};
+
+GS_API double gs_udp_now(void) {
+    struct timespec ts;
+    clock_gettime(CLOCK_MONOTONIC, &ts);
+    return (double)ts.tv_sec + 1e-9 * (double)ts.tv_nsec;
+}
+
+GS__PRIVATE void gs__udp_lock(void *user) { pthread_mutex_lock(&((gs_udp *)user)->mu); }
+GS__PRIVATE void gs__udp_unlock(void *user) { pthread_mutex_unlock(&((gs_udp *)user)->mu); }
+
+/* "HOST:PORT" or "[IPV6]:PORT" to a socket address. */
+GS__PRIVATE int gs__udp_resolve(const char *text, struct sockaddr_storage *out,
+                                socklen_t *len) {
+    char host[256];
+    const char *colon, *port;
+    struct addrinfo hints, *res = NULL;
+    size_t n;
+    if (!text) return 0;
+    if (text[0] == '[') {
+        const char *end = strchr(text, ']');
+        if (!end || end[1] != ':') return 0;
+        n = (size_t)(end - text - 1);
+        if (n >= sizeof host) return 0;
+        memcpy(host, text + 1, n);
+        port = end + 2;
+    } else {
+        colon = strrchr(text, ':');
+        if (!colon) return 0;
+        n = (size_t)(colon - text);
+        if (n >= sizeof host) return 0;
+        memcpy(host, text, n);
+        port = colon + 1;
+    }
+    host[n] = '\0';
+    memset(&hints, 0, sizeof hints);
+    hints.ai_family = AF_UNSPEC;
+    hints.ai_socktype = SOCK_DGRAM;
+    if (*port == '\0' || getaddrinfo(host, port, &hints, &res) != 0 || !res) return 0;
+    memcpy(out, res->ai_addr, res->ai_addrlen);
+    *len = (socklen_t)res->ai_addrlen;
+    freeaddrinfo(res);
+    return 1;
+}
+
+/* The transport's send: called by gs_net_update under the net lock. */
+GS__PRIVATE gs_result gs__udp_send(void *user, uint32_t host, const void *data,
+                                   size_t size) {
+    gs_udp *u = (gs_udp *)user;
+    int p;
+    for (p = 0; p < GS__MAX_PEERS; ++p)
+        if (u->peers[p].used && u->peers[p].host == host) {
+            ssize_t r = sendto(u->fd, data, size, 0, (const struct sockaddr *)&u->peers[p].addr,
+                               u->peers[p].len);
+            return r == (ssize_t)size ? GS_OK : GS_ERR_SYSTEM;
+        }
+    return GS_ERR_INVALID_ARG;
+}
+
+/* Receives what is waiting (at most `max`, without blocking). */
+GS__PRIVATE void gs__udp_drain(gs_udp *u, int max) {
+    int i;
+    for (i = 0; i < max; ++i) {
+        ssize_t n = recv(u->fd, u->rbuf, sizeof u->rbuf, MSG_DONTWAIT);
+        if (n < 0) break;
+        gs_net_deliver(u->net, u->rbuf, (size_t)n, gs_udp_now(), NULL);
+    }
+}
+
+/* The paper's gather thread: receive, validate, queue. */
+GS__PRIVATE void *gs__udp_gather(void *arg) {
+    gs_udp *u = (gs_udp *)arg;
+    while (!__atomic_load_n(&u->stop, __ATOMIC_ACQUIRE)) {
+        struct pollfd pfd;
+        pfd.fd = u->fd;
+        pfd.events = POLLIN;
+        pfd.revents = 0;
+        if (poll(&pfd, 1, 20) > 0) gs__udp_drain(u, 256);
+    }
+    return NULL;
+}
+
+/* The paper's scatter thread: sends what is due, every millisecond or when
+   woken by gs_udp_poll. */
+GS__PRIVATE void *gs__udp_scatter(void *arg) {
+    gs_udp *u = (gs_udp *)arg;
+    while (!__atomic_load_n(&u->stop, __ATOMIC_ACQUIRE)) {
+        struct timespec until;
+        clock_gettime(CLOCK_REALTIME, &until);
+        until.tv_nsec += 1000000;
+        if (until.tv_nsec >= 1000000000) { until.tv_sec++; until.tv_nsec -= 1000000000; }
+        pthread_mutex_lock(&u->wake_mu);
+        if (!__atomic_load_n(&u->stop, __ATOMIC_ACQUIRE))
+            pthread_cond_timedwait(&u->wake, &u->wake_mu, &until);
+        pthread_mutex_unlock(&u->wake_mu);
+        gs_net_update(u->net, gs_udp_now());
+    }
+    return NULL;
+}
+
+GS__PRIVATE gs_result gs__udp_socket(gs_udp *u, const gs_udp_desc *d) {
+    struct sockaddr_storage addr;
+    socklen_t len;
+    int rcv = d->rcvbuf ? d->rcvbuf : 4 << 20;
+    if (!gs__udp_resolve(d->bind, &addr, &len))
+        return gs__fail(u->world, GS_ERR_INVALID_ARG, "gs_udp_open: bind address \"%s\" is "
+                        "not HOST:PORT or [IPV6]:PORT", d->bind ? d->bind : "(null)");
+    u->fd = socket(addr.ss_family, SOCK_DGRAM, 0);
+    if (u->fd < 0)
+        return gs__fail(u->world, GS_ERR_SYSTEM, "gs_udp_open: socket: %s", strerror(errno));
+    setsockopt(u->fd, SOL_SOCKET, SO_RCVBUF, &rcv, sizeof rcv);
+    if (bind(u->fd, (const struct sockaddr *)&addr, len) != 0) {
+        gs_result r = gs__fail(u->world, GS_ERR_SYSTEM, "gs_udp_open: bind %s: %s", d->bind,
+                               strerror(errno));
+        close(u->fd);
+        u->fd = -1;
+        return r;
+    }
+    return GS_OK;
+}
+
+GS__PRIVATE gs_result gs__udp_start(gs_udp *u) {
+    if (pthread_create(&u->gather, NULL, gs__udp_gather, u) != 0)
+        return gs__fail(u->world, GS_ERR_SYSTEM, "gs_udp_open: cannot start the gather thread");
+    if (pthread_create(&u->scatter, NULL, gs__udp_scatter, u) != 0) {
+        __atomic_store_n(&u->stop, 1, __ATOMIC_RELEASE);
+        pthread_join(u->gather, NULL);
+        return gs__fail(u->world, GS_ERR_SYSTEM, "gs_udp_open: cannot start the scatter thread");
+    }
+    return GS_OK;
+}
+
+GS_API gs_result gs_udp_open(gs_world *w, const gs_udp_desc *desc, gs_udp **out) {
+    gs_net_desc nd;
+    gs_net_lock lk;
+    gs_udp *u;
+    gs_result r;
+    if (!w || !desc || !out) return GS_ERR_INVALID_ARG;
+    *out = NULL;
+    u = (gs_udp *)gs__alloc(w, sizeof *u);
+    if (!u) return gs__fail(w, GS_ERR_NO_MEMORY, "gs_udp_open: out of memory");
+    memset(u, 0, sizeof *u);
+    u->world = w;
+    u->threads = desc->threads;
+    pthread_mutex_init(&u->mu, NULL);
+    pthread_mutex_init(&u->wake_mu, NULL);
+    pthread_cond_init(&u->wake, NULL);
+    r = gs__udp_socket(u, desc);
+    nd = desc->net;
+    nd.send = gs__udp_send;
+    nd.send_user = u;
+    if (r == GS_OK) r = gs_net_create(w, &nd, &u->net);
+    if (r == GS_OK) {
+        lk.lock = gs__udp_lock;
+        lk.unlock = gs__udp_unlock;
+        lk.user = u;
+        gs_net_set_lock(u->net, lk);
+        if (u->threads) r = gs__udp_start(u);
+    }
+    if (r != GS_OK) {
+        if (u->net) gs_net_destroy(u->net);
+        if (u->fd > 0) close(u->fd);
+        pthread_cond_destroy(&u->wake);
+        pthread_mutex_destroy(&u->wake_mu);
+        pthread_mutex_destroy(&u->mu);
+        gs__free(w, u);
+        return r;
+    }
+    *out = u;
+    return GS_OK;
+}
+
+GS_API void gs_udp_close(gs_udp *u) {
+    gs_world *w;
+    if (!u) return;
+    w = u->world;
+    if (u->threads) {
+        __atomic_store_n(&u->stop, 1, __ATOMIC_RELEASE);
+        pthread_mutex_lock(&u->wake_mu);
+        pthread_cond_signal(&u->wake);
+        pthread_mutex_unlock(&u->wake_mu);
+        pthread_join(u->gather, NULL);
+        pthread_join(u->scatter, NULL);
+    }
+    gs_net_destroy(u->net);
+    close(u->fd);
+    pthread_cond_destroy(&u->wake);
+    pthread_mutex_destroy(&u->wake_mu);
+    pthread_mutex_destroy(&u->mu);
+    gs__free(w, u);
+}
+
+GS_API gs_net *gs_udp_net(gs_udp *u) { return u->net; }
+
+GS_API gs_result gs_udp_add_peer(gs_udp *u, uint32_t host, const char *addr) {
+    struct sockaddr_storage a;
+    socklen_t len;
+    int p, slot = -1;
+    gs_result r;
+    if (!gs__udp_resolve(addr, &a, &len))
+        return gs__fail(u->world, GS_ERR_INVALID_ARG, "gs_udp_add_peer: address \"%s\" is not "
+                        "HOST:PORT or [IPV6]:PORT", addr ? addr : "(null)");
+    r = gs_net_add_peer(u->net, host);
+    if (r != GS_OK) return r;
+    pthread_mutex_lock(&u->mu);
+    for (p = 0; p < GS__MAX_PEERS; ++p) {
+        if (u->peers[p].used && u->peers[p].host == host) { slot = p; break; }
+        if (!u->peers[p].used && slot < 0) slot = p;
+    }
+    if (slot >= 0) {
+        u->peers[slot].used = 1;
+        u->peers[slot].host = host;
+        u->peers[slot].addr = a;
+        u->peers[slot].len = len;
+    }
+    pthread_mutex_unlock(&u->mu);
+    return GS_OK;
+}
+
+GS_API gs_result gs_udp_remove_peer(gs_udp *u, uint32_t host) {
+    int p;
+    pthread_mutex_lock(&u->mu);
+    for (p = 0; p < GS__MAX_PEERS; ++p)
+        if (u->peers[p].used && u->peers[p].host == host) u->peers[p].used = 0;
+    pthread_mutex_unlock(&u->mu);
+    return gs_net_remove_peer(u->net, host);
+}
+
+GS_API gs_result gs_udp_poll(gs_udp *u, double now) {
+    if (!gs__finite(now)) return GS_ERR_NOT_FINITE;
+    if (u->threads) {
+        pthread_mutex_lock(&u->wake_mu);
+        pthread_cond_signal(&u->wake);
+        pthread_mutex_unlock(&u->wake_mu);
+        return GS_OK;
+    }
+    gs__udp_drain(u, 4096);
+    return gs_net_update(u->net, now);
+}
+#endif /* GHOSTSIM_NO_UDP */
 
 #ifdef __cplusplus
 }
