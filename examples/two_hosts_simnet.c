@@ -1,8 +1,12 @@
 /* two_hosts_simnet: two hosts of the paper's scene on a simulated network.
-   Each host builds the same scene, nudged a little differently (as if each
-   had been poked before they met). Ghosts on every object blend the hosts'
-   states over a link of 50 ms latency and 2% loss; nobody interacts, so the
-   two copies converge. We print how far apart they are every half second. */
+   Each host builds the same scene, one sphere nudged 1 cm on host 2 (as if
+   it had been poked before they met). Ghosts on every object blend the
+   hosts' states over a link of 50 ms latency and 2% loss; nobody interacts.
+   Every half second we print how far apart the two copies are, the round
+   trip the ghosts measured and what arrived. Both hosts keep wall-clock pace
+   (their simulation times match the simnet's clock). The copies come within
+   millimetres of each other but do not meet exactly: see "Convergence" in the
+   README for why contacts keep them apart. */
 #define GHOSTSIM_IMPLEMENTATION
 #include "ghostsim.h"
 
