@@ -11,8 +11,9 @@
            #define GHOSTSIM_IMPLEMENTATION
            #include "ghostsim.h"
        Every other file includes the header alone. The implementation needs
-       POSIX (clock_gettime): compile that file with -D_POSIX_C_SOURCE=200809L,
-       -std=gnu99 or as C++. Link with -lm (and later with libccd).
+       POSIX (clock_gettime, sockets, pthreads): compile that file with
+       -D_POSIX_C_SOURCE=200809L, -std=gnu99 or as C++. Link with
+       $(pkg-config --libs ccd) -lm -lpthread.
 
    QUICK START
        gs_world *w;
@@ -46,6 +47,16 @@
                   behaviour rule moves its priority when it is activated.
        state      A flat array of doubles: [t, then the agent's variables].
                   This is what ghosts blend between hosts.
+       contact    Penalty forces between agents (gs_material): each agent
+                  computes the force on itself from the other agent's state
+                  brought to its own simulation time.
+       ghost      Wraps an agent under an object id shared by all hosts:
+                  publishes its state, blends the snapshots peers send with
+                  the paper's weighted mean (gs_weight_fn rules).
+       snapshot   One agent's state at one simulation time, on the wire in
+                  chunks of at most one datagram (wire format v1).
+       transport  What carries datagrams: gs_simnet (simulated, seeded),
+                  gs_udp (POSIX), or your send callback + gs_net_deliver.
 
    OPTIONS (macros)
        macro                    where            default
@@ -55,6 +66,8 @@
        GS_FREE(p, ctx)          implementation   free(p)      or neither)
        GS_ASSERT(c)             implementation   assert(c)
        GS_MAX_QUEUES            implementation   64: most priority queues
+       GHOSTSIM_NO_UDP          before include   off: the POSIX UDP transport
+                                                 is in (link -lpthread)
        A runtime allocator {alloc, free, user} in gs_world_desc overrides
        GS_MALLOC/GS_FREE for that world.
 
@@ -76,10 +89,17 @@
    THREADS
        A world and everything in it belongs to the thread that calls into
        it. Two worlds on two threads share nothing. The library has no
-       global mutable state.
+       global mutable state. gs_udp (threads = 1) runs a gather thread
+       (receive, validate, queue) and a scatter thread (send what is due);
+       they touch only the net's peers, queues, published states and
+       statistics, under one mutex that the world thread also takes when a
+       ghost publishes or blends. gs_net_* calls are safe from any thread;
+       everything else belongs to the world's thread.
 
    REVISION HISTORY
-       0.1.0 (2026-11-23)  world, scheduler, spring-mass agents, integrators.
+       0.1.0 (2026-11-23)  world, scheduler, spring-mass agents, integrators,
+                           rigid bodies, probes, contacts, the paper's scene,
+                           ghosts, wire format v1, simnet, POSIX UDP.
 
    LICENSE: MIT, at the end of this file.
 */
