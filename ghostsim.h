@@ -219,7 +219,9 @@ GS_API gs_world_desc gs_world_desc_default(void);
    desc, GS_ERR_NO_MEMORY. *out is NULL on failure. */
 GS_API gs_result gs_world_create(const gs_world_desc *desc, gs_world **out);
 
-/* Destroys the world and every agent in it. NULL is ignored. */
+/* Destroys the world, every agent and ghost in it, and its net. Close its
+   gs_udp first (its threads use the net), and do not run a gs_simnet it
+   joined afterwards. NULL is ignored. */
 GS_API void gs_world_destroy(gs_world *w);
 
 /* Moves the target time on by `seconds` (>= 0) and runs agent steps, most
@@ -911,7 +913,7 @@ typedef struct gs_simnet_desc {
 } gs_simnet_desc;
 
 GS_API gs_result gs_simnet_create(const gs_simnet_desc *desc, gs_simnet **out);
-/* Destroys the simnet (not the worlds). */
+/* Destroys the simnet (not the worlds or their nets). */
 GS_API void gs_simnet_destroy(gs_simnet *sim);
 /* Joins a world: creates its net on the simnet's transport (desc.send is
    ignored) and links it both ways to every world joined so far with a
