@@ -3133,6 +3133,7 @@ typedef struct gs__rigid {
     double mass, inv_mass;     /* kg, 1/kg (0 for a probe) */
     gs__sym3 inertia_body, inv_inertia_body;
     gs_vec3 x, v, w;           /* m, m/s, rad/s (world) */
+    gs_vec3 v_prev, w_prev;    /* at the start of the last step */
     gs_quat q;
     gs_vec3 force, torque;     /* contact sums for the current substep */
     double k_sum, c_sum;       /* N/m, N s/m of the contacts touching it */
@@ -3336,6 +3337,8 @@ GS__PRIVATE gs_result gs__rigid_step(gs_agent *a, double dt) {
     gs_quat q0 = r->q;
     int n_sub, i;
     gs_result res;
+    r->v_prev = v0;
+    r->w_prev = w0;
     gs__rigid_contacts(r, gs__agent_time(a));
     res = gs__rigid_plan(r, dt, &n_sub);
     if (res != GS_OK) return res;
@@ -3344,6 +3347,7 @@ GS__PRIVATE gs_result gs__rigid_step(gs_agent *a, double dt) {
         gs__rigid_integrate(r, dt / n_sub);
         if (gs__rigid_sane(r)) continue;
         r->x = x0; r->v = v0; r->w = w0; r->q = q0;
+        r->v_prev = v0; r->w_prev = w0;
         return gs__fail(a->world, GS_ERR_UNSTABLE,
                         "rigid agent %d: a step of %g s blew up (non-finite "
                         "state or a speed over %g m/s); state kept",
@@ -3389,8 +3393,8 @@ GS__PRIVATE gs_result gs__rigid_set_state(gs_agent *a, const double *in) {
                         "gs_agent_set_state: the orientation quaternion is zero");
     r->x = gs__v3(in[0], in[1], in[2]);
     r->q = gs__quat_normalize(q);
-    r->v = gs__v3(in[7], in[8], in[9]);
-    r->w = gs__v3(in[10], in[11], in[12]);
+    r->v = r->v_prev = gs__v3(in[7], in[8], in[9]);
+    r->w = r->w_prev = gs__v3(in[10], in[11], in[12]);
     if (r->probe) {
         r->target = r->x;
         r->target_q = r->q;
@@ -3453,8 +3457,8 @@ GS_API gs_result gs_rigid_create(gs_world *w, const gs_rigid_desc *desc,
     gs__rigid_mass(r, &d);
     r->x = d.position;
     r->q = gs__quat_normalize(d.orientation);
-    r->v = d.velocity;
-    r->w = d.angular_velocity;
+    r->v = r->v_prev = d.velocity;
+    r->w = r->w_prev = d.angular_velocity;
     r->mat = d.material;
     r->solver = d.solver;
     r->continuous = d.continuous;
@@ -3547,9 +3551,10 @@ GS_API double gs_rigid_stable_dt(const gs_agent *a) {
 
 /* ========================================================================
    >>contact
-   Narrow phase: exact answers for spheres and boxes against spheres, vertex
-   in polytope for boxes and hulls (several points, so that a box rests on a
-   face), libccd's MPR where nothing exact applies. Penalty forces: each
+   Narrow phase: exact answers for spheres and boxes against spheres;
+   boxes and hulls against each other through libccd's MPR for the normal
+   and depth and their vertices inside each other for the points (several,
+   so that a box rests on a face); MPR alone for spheres against hulls. Penalty forces: each
    agent computes the forces on itself from the other agent's current state,
    whatever that agent's simulation time.
    ======================================================================== */
@@ -3656,28 +3661,53 @@ GS__PRIVATE int gs__mpr(const gs__body *a, const gs__body *b, gs_contact *c) {
     return 1;
 }
 
-/* Vertices of a inside polytope b: one contact each, along b's face of least
-   penetration. Returns the number written (at most max). */
-GS__PRIVATE int gs__verts_in(const gs__body *a, const gs__body *b,
-                             gs_contact *out, int max, int flip) {
-    int i, f, n = 0;
+/* Largest extent of a body along direction n (its support value). */
+GS__PRIVATE double gs__support_along(const gs__body *b, gs_vec3 n) {
+    return gs__dot(gs__body_support(b, n), n);
+}
+
+/* Whether world point p lies inside polytope b, its faces moved out by eps
+   (a corner lying exactly on a face, as when equal boxes stand aligned,
+   still counts). */
+GS__PRIVATE int gs__inside(const gs__body *b, gs_vec3 p, double eps) {
+    gs_vec3 l = gs__unrotate(b->q, gs__sub(p, b->p));
+    int f;
+    for (f = 0; f < b->s->nf; ++f)
+        if (gs__dot(b->s->fn[f], l) - b->s->fd[f] > eps) return 0;
+    return 1;
+}
+
+/* Polytope against polytope: MPR gives the normal n (b to a) and depth of
+   least translation; every vertex of either body inside the other becomes a
+   contact along that one normal, with its own depth, so a box resting on a
+   face gets four points and no torque from a single off-centre one. Edge
+   against edge has no vertex inside: the MPR point stands alone. */
+GS__PRIVATE int gs__poly_poly(const gs__body *a, const gs__body *b,
+                              gs_contact *out, int max) {
+    gs_contact m;
+    double eps, top_b, bottom_a;
+    int i, n = 0;
+    if (!gs__mpr(a, b, &m)) return 0;
+    eps = 1e-6 * fmin(a->s->size, b->s->size);
+    top_b = gs__support_along(b, m.normal);                      /* b's far side */
+    bottom_a = -gs__support_along(a, gs__scale(m.normal, -1.0)); /* a's near side */
     for (i = 0; i < a->s->nv && n < max; ++i) {
-        gs_vec3 vw = gs__add(a->p, gs__rotate(a->q, a->s->v[i]));
-        gs_vec3 vl = gs__unrotate(b->q, gs__sub(vw, b->p));
-        double best = -HUGE_VAL;
-        int bf = -1;
-        for (f = 0; f < b->s->nf; ++f) {
-            double sd = gs__dot(b->s->fn[f], vl) - b->s->fd[f];
-            if (sd >= 0.0) { bf = -1; break; }
-            if (sd > best) { best = sd; bf = f; }
-        }
-        if (bf < 0) continue;
-        out[n].normal = gs__rotate(b->q, b->s->fn[bf]);
-        if (flip) out[n].normal = gs__scale(out[n].normal, -1.0);
-        out[n].depth = -best;
-        out[n].point = vw;
+        gs_vec3 v = gs__add(a->p, gs__rotate(a->q, a->s->v[i]));
+        if (!gs__inside(b, v, eps)) continue;
+        out[n].normal = m.normal;
+        out[n].point = v;
+        out[n].depth = fmin(m.depth, fmax(0.0, top_b - gs__dot(v, m.normal)));
         n++;
     }
+    for (i = 0; i < b->s->nv && n < max; ++i) {
+        gs_vec3 v = gs__add(b->p, gs__rotate(b->q, b->s->v[i]));
+        if (!gs__inside(a, v, eps)) continue;
+        out[n].normal = m.normal;
+        out[n].point = v;
+        out[n].depth = fmin(m.depth, fmax(0.0, gs__dot(v, m.normal) - bottom_a));
+        n++;
+    }
+    if (n == 0) out[n++] = m;
     return n;
 }
 
@@ -3696,9 +3726,7 @@ GS__PRIVATE int gs__collide(const gs__body *a, const gs__body *b,
         return n;
     }
     if (ta == GS_SHAPE_SPHERE || tb == GS_SHAPE_SPHERE) return gs__mpr(a, b, out);
-    n = gs__verts_in(a, b, out, max, 0);
-    n += gs__verts_in(b, a, out + n, max - n, 1);
-    return n ? n : gs__mpr(a, b, out);
+    return gs__poly_poly(a, b, out, max);
 }
 
 GS__PRIVATE gs__body gs__body_of(const gs__rigid *r) {
@@ -3818,20 +3846,28 @@ GS__PRIVATE void gs__rigid_ground(gs__rigid *r) {
     }
 }
 
-/* o is taken where its velocity puts it at r's time t. */
+/* o is taken where it is at r's time t: its position carried along its
+   velocity, and its velocities interpolated along the change of its last
+   step. Were o's velocity taken as it stands, a body that has already
+   stepped would offer the velocity this very contact gave it, and the
+   damping would not be equal and opposite: momentum would leak. */
 GS__PRIVATE void gs__rigid_vs_rigid(gs__rigid *r, const gs__rigid *o, double t) {
     gs_contact cs[2 * GS_MAX_HULL_POINTS];
     gs__body a = gs__body_of(r), b = gs__body_of(o);
     double reach = r->shape.bound + o->shape.bound;
     double lag = fmax(-0.1, fmin(0.1, t - gs__agent_time(&o->base)));
+    double f = o->probe ? 0.0 : fmax(-1.0, fmin(1.0, lag / o->base.dt));
+    gs_vec3 ov = gs__madd(o->v, gs__sub(o->v, o->v_prev), f);
+    gs_vec3 ow = gs__madd(o->w, gs__sub(o->w, o->w_prev), f);
     int n, i;
     if (!o->probe) b.p = gs__madd(o->x, o->v, lag);
     if (gs__dot(gs__sub(r->x, b.p), gs__sub(r->x, b.p)) >= reach * reach) return;
     n = gs__collide(&a, &b, cs, 2 * GS_MAX_HULL_POINTS);
-    for (i = 0; i < n; ++i)
-        gs__rigid_apply(r, &cs[i], gs__sub(gs__point_velocity(r, cs[i].point),
-                                           gs__point_velocity(o, cs[i].point)), &o->mat,
+    for (i = 0; i < n; ++i) {
+        gs_vec3 vo = gs__add(ov, gs__cross(ow, gs__sub(cs[i].point, b.p)));
+        gs__rigid_apply(r, &cs[i], gs__sub(gs__point_velocity(r, cs[i].point), vo), &o->mat,
                         o->probe ? 0.0 : o->reach2);
+    }
 }
 
 GS__PRIVATE void gs__mesh_bounds(const gs_agent *a, gs_vec3 *lo, gs_vec3 *hi);
