@@ -1216,6 +1216,11 @@ struct gs_world {
     int agent_count, agent_cap;
     uint64_t dispatches;
     gs_net *net;         /* at most one */
+    struct gs__rigid **bodies; /* the broad phase: rigid bodies and probes
+                                  sorted by the low end of their sweep on x */
+    int nbodies, bodies_cap;
+    double sweep_max;    /* m; the largest sweep half-width of any body */
+    int nmeshes;         /* spring-mass agents (contacts loop over them) */
     int ground;          /* a plane y = ground_height */
     double ground_height;
     gs_material ground_material;
@@ -1330,6 +1335,7 @@ GS_API void gs_world_destroy(gs_world *w) {
         gs__free(w, w->agents[i]);
     }
     gs__free(w, w->agents);
+    gs__free(w, w->bodies);
     w->alloc.free(w, w->alloc.user);
 }
 
@@ -1588,6 +1594,8 @@ GS__PRIVATE int gs__dispatch(gs_world *w, gs_result *first_error,
     return 1;
 }
 
+GS__PRIVATE void gs__sap_refresh(gs_world *w);
+
 GS_API gs_result gs_world_advance(gs_world *w, double seconds,
                                   gs_advance_report *report) {
     gs_advance_report rep;
@@ -1603,6 +1611,7 @@ GS_API gs_result gs_world_advance(gs_world *w, double seconds,
                         ">= 0", seconds);
     w->busy = 1;
     w->target += seconds;
+    gs__sap_refresh(w);
     if (w->budget > 0.0) start = w->clock(w->clock_user);
     gs__queue_all(w);
     rep.reached = 1;
@@ -1778,6 +1787,8 @@ GS_API void gs_agent_set_behaviour(gs_agent *a, gs_behaviour_fn fn,
     a->behaviour_user = fn ? user : NULL;
 }
 
+GS__PRIVATE void gs__agent_unlink(gs_agent *a);
+
 GS_API gs_result gs_agent_destroy(gs_agent *a) {
     gs_world *w = a->world;
     int i;
@@ -1785,6 +1796,7 @@ GS_API gs_result gs_agent_destroy(gs_agent *a) {
         return gs__fail(w, GS_ERR_BUSY,
                         "gs_agent_destroy: the world is advancing");
     if (a->ghost) gs_ghost_detach(a);
+    gs__agent_unlink(a);
     for (i = a->index + 1; i < w->agent_count; ++i) {
         w->agents[i - 1] = w->agents[i];
         w->agents[i - 1]->index = i - 1;
@@ -2418,6 +2430,7 @@ GS__PRIVATE gs_result gs__mesh_new(gs_world *w, const gs__kind *kind, int n,
         gs__free(w, m);
         return r;
     }
+    w->nmeshes++;
     *out = m;
     return GS_OK;
 }
@@ -3134,6 +3147,10 @@ typedef struct gs__rigid {
     gs__sym3 inertia_body, inv_inertia_body;
     gs_vec3 x, v, w;           /* m, m/s, rad/s (world) */
     gs_vec3 v_prev, w_prev;    /* at the start of the last step */
+    int sap;                   /* index in world->bodies */
+    double sweep;              /* m; half-width on x: bound + 0.1 s of travel
+                                  (contacts look up to 0.1 s ahead or back) */
+    double key;                /* m; x - sweep, the sort key */
     gs_quat q;
     gs_vec3 force, torque;     /* contact sums for the current substep */
     double k_sum, c_sum;       /* N/m, N s/m of the contacts touching it */
@@ -3148,6 +3165,10 @@ typedef struct gs__rigid {
     double max_speed;          /* probe, m/s */
     uint32_t owner;
 } gs__rigid;
+
+GS__PRIVATE gs_result gs__sap_add(gs_world *w, gs__rigid *r);
+GS__PRIVATE void gs__sap_update(gs__rigid *r);
+GS__PRIVATE void gs__sap_remove(gs_world *w, gs__rigid *r);
 
 GS__PRIVATE gs__rigid *gs__as_rigid(const gs_agent *a);
 
@@ -3354,6 +3375,7 @@ GS__PRIVATE gs_result gs__rigid_step(gs_agent *a, double dt) {
                         a->index, dt / n_sub, r->solver.max_speed);
     }
     a->stats.substeps += (uint64_t)n_sub;
+    gs__sap_update(r);
     return GS_OK;
 }
 
@@ -3368,6 +3390,7 @@ GS__PRIVATE gs_result gs__probe_step(gs_agent *a, double dt) {
     r->q = r->target_q;
     r->w = gs__v3(0.0, 0.0, 0.0);
     a->stats.substeps++;
+    gs__sap_update(r);
     return GS_OK;
 }
 
@@ -3399,6 +3422,7 @@ GS__PRIVATE gs_result gs__rigid_set_state(gs_agent *a, const double *in) {
         r->target = r->x;
         r->target_q = r->q;
     }
+    gs__sap_update(r);
     return GS_OK;
 }
 
@@ -3436,6 +3460,19 @@ GS__PRIVATE gs__rigid *gs__as_rigid(const gs_agent *a) {
 }
 
 
+/* The last step of creating a body: the broad phase takes it, or the world
+   lets it go again. */
+GS__PRIVATE gs_result gs__rigid_register(gs_world *w, gs__rigid *r, gs_agent **out) {
+    gs_result res = gs__sap_add(w, r);
+    if (res != GS_OK) {
+        w->agent_count--; /* it was the last one added */
+        gs__free(w, r);
+        return res;
+    }
+    *out = &r->base;
+    return GS_OK;
+}
+
 GS_API gs_result gs_rigid_create(gs_world *w, const gs_rigid_desc *desc,
                                  gs_agent **out) {
     gs_rigid_desc d;
@@ -3467,8 +3504,7 @@ GS_API gs_result gs_rigid_create(gs_world *w, const gs_rigid_desc *desc,
     r->c_sum = r->mat.damping;
     r->stable_dt = gs__rigid_bound(r);
     r->k_sum = r->c_sum = 0.0;
-    *out = &r->base;
-    return GS_OK;
+    return gs__rigid_register(w, r, out);
 }
 
 GS_API gs_result gs_probe_create(gs_world *w, const gs_probe_desc *desc,
@@ -3506,8 +3542,7 @@ GS_API gs_result gs_probe_create(gs_world *w, const gs_probe_desc *desc,
     r->max_speed = d.max_speed;
     r->owner = d.owner;
     r->stable_dt = HUGE_VAL;
-    *out = &r->base;
-    return GS_OK;
+    return gs__rigid_register(w, r, out);
 }
 
 GS_API gs_result gs_probe_set_target(gs_agent *a, gs_vec3 position,
@@ -3558,6 +3593,80 @@ GS_API double gs_rigid_stable_dt(const gs_agent *a) {
    agent computes the forces on itself from the other agent's current state,
    whatever that agent's simulation time.
    ======================================================================== */
+/* ---- broad phase: sweep and prune on x ----
+   Bodies stay sorted by the low end of their sweep; a body that moved is
+   bubbled to its place (a step moves it little, so this is about O(1)), and
+   a query is a binary search plus the bodies it could touch. */
+GS__PRIVATE void gs__sap_swap(gs_world *w, int i, int j) {
+    struct gs__rigid *t = w->bodies[i];
+    w->bodies[i] = w->bodies[j];
+    w->bodies[j] = t;
+    w->bodies[i]->sap = i;
+    w->bodies[j]->sap = j;
+}
+
+GS__PRIVATE void gs__sap_update(gs__rigid *r) {
+    gs_world *w = r->base.world;
+    int i = r->sap;
+    r->sweep = r->shape.bound + 0.1 * gs__len(r->v);
+    r->key = r->x.x - r->sweep;
+    if (r->sweep > w->sweep_max) w->sweep_max = r->sweep;
+    while (i > 0 && w->bodies[i - 1]->key > r->key) { gs__sap_swap(w, i - 1, i); --i; }
+    while (i + 1 < w->nbodies && w->bodies[i + 1]->key < r->key) { gs__sap_swap(w, i, i + 1); ++i; }
+}
+
+GS__PRIVATE gs_result gs__sap_add(gs_world *w, gs__rigid *r) {
+    if (w->nbodies == w->bodies_cap) {
+        int cap = w->bodies_cap ? 2 * w->bodies_cap : 16;
+        struct gs__rigid **list = (struct gs__rigid **)gs__alloc(w, (size_t)cap * sizeof *list);
+        if (!list) return gs__fail(w, GS_ERR_NO_MEMORY, "broad phase: out of memory");
+        if (w->nbodies) memcpy(list, w->bodies, (size_t)w->nbodies * sizeof *list);
+        gs__free(w, w->bodies);
+        w->bodies = list;
+        w->bodies_cap = cap;
+    }
+    r->sap = w->nbodies;
+    w->bodies[w->nbodies++] = r;
+    gs__sap_update(r);
+    return GS_OK;
+}
+
+GS__PRIVATE void gs__sap_remove(gs_world *w, gs__rigid *r) {
+    int i;
+    for (i = r->sap + 1; i < w->nbodies; ++i) {
+        w->bodies[i - 1] = w->bodies[i];
+        w->bodies[i - 1]->sap = i - 1;
+    }
+    w->nbodies--;
+}
+
+/* Takes an agent out of the contact bookkeeping before it is destroyed. */
+GS__PRIVATE void gs__agent_unlink(gs_agent *a) {
+    gs__rigid *r = gs__as_rigid(a);
+    if (r) gs__sap_remove(a->world, r);
+    else if (gs__as_mesh(a)) a->world->nmeshes--;
+}
+
+/* The largest sweep of any body, exactly (updates only ever raise it). */
+GS__PRIVATE void gs__sap_refresh(gs_world *w) {
+    int i;
+    w->sweep_max = 0.0;
+    for (i = 0; i < w->nbodies; ++i)
+        if (w->bodies[i]->sweep > w->sweep_max) w->sweep_max = w->bodies[i]->sweep;
+}
+
+/* The first body whose sweep could reach past x = lo. */
+GS__PRIVATE int gs__sap_first(const gs_world *w, double lo) {
+    int a = 0, b = w->nbodies;
+    lo -= 2.0 * w->sweep_max;
+    while (a < b) {
+        int mid = (a + b) / 2;
+        if (w->bodies[mid]->key < lo) a = mid + 1;
+        else b = mid;
+    }
+    return a;
+}
+
 typedef struct gs__body {
     const gs__shape *s;
     gs_vec3 p;
@@ -3810,11 +3919,7 @@ GS__PRIVATE int gs__particle_contact(gs_vec3 x, double rp, const gs__rigid *r,
 GS__PRIVATE int gs__is_collider(const gs_agent *a) { return gs__as_rigid(a) != NULL; }
 
 GS__PRIVATE int gs__world_has_contacts(const gs_world *w) {
-    int i;
-    if (w->ground) return 1;
-    for (i = 0; i < w->agent_count; ++i)
-        if (gs__is_collider(w->agents[i])) return 1;
-    return 0;
+    return w->ground || w->nbodies > 0;
 }
 
 GS__PRIVATE void gs__rigid_apply(gs__rigid *r, const gs_contact *c,
@@ -3907,15 +4012,14 @@ GS__PRIVATE void gs__rigid_vs_mesh(gs__rigid *r, const gs_agent *m, double t) {
 GS__PRIVATE void gs__rigid_contacts(gs__rigid *r, double t) {
     gs_world *w = r->base.world;
     int i;
+    double hi = r->x.x + r->sweep;
     r->force = r->torque = gs__v3(0.0, 0.0, 0.0);
     r->k_sum = r->c_sum = 0.0;
     if (w->ground) gs__rigid_ground(r);
-    for (i = 0; i < w->agent_count; ++i) {
-        const gs_agent *o = w->agents[i];
-        if (o == &r->base) continue;
-        if (gs__is_collider(o)) gs__rigid_vs_rigid(r, (const gs__rigid *)o, t);
-        else if (gs__mesh_info(o, NULL, NULL, NULL, NULL)) gs__rigid_vs_mesh(r, o, t);
-    }
+    for (i = gs__sap_first(w, r->x.x - r->sweep); i < w->nbodies && w->bodies[i]->key <= hi; ++i)
+        if (w->bodies[i] != r) gs__rigid_vs_rigid(r, w->bodies[i], t);
+    for (i = 0; w->nmeshes > 0 && i < w->agent_count; ++i)
+        if (gs__mesh_info(w->agents[i], NULL, NULL, NULL, NULL)) gs__rigid_vs_mesh(r, w->agents[i], t);
 }
 
 GS_API gs_result gs_world_set_ground(gs_world *w, int enabled, double height,
@@ -4025,9 +4129,8 @@ GS__PRIVATE void gs__mesh_contacts(gs__mesh *m, double t) {
             gs__mesh_touch(m, i, &c, gs__v3(0.0, 0.0, 0.0), &w->ground_material, 0.0);
         }
     }
-    for (i = 0; i < w->agent_count; ++i)
-        if (gs__is_collider(w->agents[i]))
-            gs__mesh_vs_rigid(m, (const gs__rigid *)w->agents[i], t);
+    for (i = gs__sap_first(w, m->lo.x); i < w->nbodies && w->bodies[i]->key <= m->hi.x; ++i)
+        gs__mesh_vs_rigid(m, w->bodies[i], t);
 }
 
 /* ========================================================================
