@@ -234,7 +234,9 @@ GS_API void gs_world_destroy(gs_world *w);
 GS_API gs_result gs_world_advance(gs_world *w, double seconds,
                                   gs_advance_report *report);
 
-/* The target time reached by the advance calls so far, in seconds. */
+/* The target time reached by the advance calls so far, in seconds. When
+   ghost blending has moved every agent past it (a host that joins late takes
+   the others' time), the next advance starts from the slowest agent. */
 GS_API double gs_world_time(const gs_world *w);
 
 /* The detail of the last failed call on this world ("" if none). The text
@@ -707,6 +709,11 @@ typedef struct gs_ghost_desc {
                               latency trap in the README) */
     double smoothing;      /* s; render corrections fade over this time;
                               default 0.1 */
+    double time_deadband;  /* s; time corrections smaller than this are not
+                              applied (hosts in step differ by about the
+                              error of the latency estimate, and chasing it
+                              makes agents skip steps); default the world's
+                              tolerance; negative: none, the formula as is */
 } gs_ghost_desc;
 
 GS_API gs_ghost_desc gs_ghost_desc_default(void);
@@ -802,7 +809,7 @@ GS_API gs_result gs_wire_begin(unsigned char *buf, size_t cap,
                                const gs_wire_header *h, size_t *size);
 /* Appends a chunk of `c->elements` values. GS_ERR_CAPACITY if it does not
    fit in cap (leave room for the 4-byte checksum), GS_ERR_NOT_FINITE for a
-   NaN value (never sent). */
+   NaN or infinite value, or one beyond float range in f32 (never sent). */
 GS_API gs_result gs_wire_add(unsigned char *buf, size_t cap, size_t *size,
                              const gs_wire_chunk *c, const double *values);
 /* Writes the chunk count and the checksum; returns the datagram size. */
@@ -1596,6 +1603,24 @@ GS__PRIVATE int gs__dispatch(gs_world *w, gs_result *first_error,
 
 GS__PRIVATE void gs__sap_refresh(gs_world *w);
 
+/* The world's clock follows its agents: when every agent is ahead of it
+   (blending took them to the time of hosts that are further on, as for a
+   host that joins late), it jumps to the slowest of them. Otherwise they
+   would stand still until the clock caught up. */
+GS__PRIVATE void gs__world_follow(gs_world *w) {
+    double t_min, t_max, dt_max = 0.0;
+    int i;
+    for (i = 0; i < w->agent_count; ++i) {
+        w->agents[i]->failed = 0;
+        if (w->agents[i]->dt > dt_max) dt_max = w->agents[i]->dt;
+    }
+    if (w->agent_count == 0) return;
+    gs__time_span(w, &t_min, &t_max);
+    /* agents stop up to half a step past the target: only a lead beyond
+       that and the tolerance is a jump */
+    if (t_min > w->target + w->tolerance + dt_max) w->target = t_min;
+}
+
 GS_API gs_result gs_world_advance(gs_world *w, double seconds,
                                   gs_advance_report *report) {
     gs_advance_report rep;
@@ -1610,6 +1635,7 @@ GS_API gs_result gs_world_advance(gs_world *w, double seconds,
                         "gs_world_advance: seconds is %g, must be finite and "
                         ">= 0", seconds);
     w->busy = 1;
+    gs__world_follow(w);
     w->target += seconds;
     gs__sap_refresh(w);
     if (w->budget > 0.0) start = w->clock(w->clock_user);
@@ -4437,6 +4463,7 @@ GS__PRIVATE gs_result gs__ghost_check(gs_world *w, const gs_ghost_desc *d) {
     gs__check_int(&c, "encoding", (long)d->encoding, 1, GS__ENCODING_COUNT - 1);
     gs__check_int(&c, "queue_size", d->queue_size, 1, 1024);
     gs__check_positive(&c, "smoothing", d->smoothing);
+    gs__check_finite(&c, "time_deadband", d->time_deadband);
     gs__check_int(&c, "catchup", (long)d->catchup, 1, GS__CATCHUP_COUNT - 1);
     return c.r;
 }
@@ -4474,6 +4501,7 @@ GS_API gs_result gs_ghost_attach(gs_agent *a, const gs_ghost_desc *desc) {
     g->wq = g->offset + n;
     gs_agent_get_state(a, g->B, n);
     g->b_seq = 1;
+    g->t_local = g->B[0];
     a->ghost = g;
     r = gs__ghost_queues(g);
     if (r != GS_OK) {
@@ -4667,6 +4695,18 @@ GS__PRIVATE int gs__ghost_gather(gs__ghost *g, double t_i, double *num_t,
     return used;
 }
 
+/* Simulation time is blended only past the deadband (by default the world's
+   tolerance). Hosts in step
+   differ by less, and there the correction is mostly the error of the age
+   estimate (half a round trip, quantized to when datagrams are sent and
+   read): applied at every blend it would push the time on, and the agent
+   would skip steps to stay on its world's clock. A host far behind (one
+   that joins late) is pulled to the others at once. */
+GS__PRIVATE double gs__time_correction(const gs__ghost *g, double dt) {
+    double band = g->d.time_deadband == 0.0 ? g->agent->world->tolerance : g->d.time_deadband;
+    return fabs(dt) > band ? dt : 0.0;
+}
+
 /* The paper's ghost update, after a step: blend every queued snapshot once
    with the local state, then empty the queues. */
 GS__PRIVATE void gs__ghost_blend(gs__ghost *g, gs_net *net) {
@@ -4684,7 +4724,7 @@ GS__PRIVATE void gs__ghost_blend(gs__ghost *g, gs_net *net) {
     if (used == 0 || w0 + den_t <= 0.0) { gs__ghost_clear(g); gs__unlock(net); return; }
     /* the paper's (w0 S + sum w q) / (w0 + sum w), written as S plus the
        weighted mean difference so that agreeing states give exactly S */
-    g->scratch[0] = t_i + num_t / (w0 + den_t);
+    g->scratch[0] = t_i + gs__time_correction(g, num_t / (w0 + den_t));
     fade = gs__offset_fade(g, g->scratch[0]);
     for (e = 0; e + 1 < n; ++e) {
         double old = g->local[1 + e], d = w0 + g->den[e];
@@ -4865,8 +4905,10 @@ GS_API gs_result gs_wire_add(unsigned char *buf, size_t cap, size_t *size,
     need = GS_WIRE_CHUNK_HEADER + vs * c->elements;
     if (*size + need + 4 > cap || *size + need + 4 > GS_WIRE_MAX_DATAGRAM) return GS_ERR_CAPACITY;
     if (!gs__finite(c->time)) return GS_ERR_NOT_FINITE;
-    for (i = 0; i < c->elements; ++i)
-        if (!gs__finite(values[i])) return GS_ERR_NOT_FINITE;
+    for (i = 0; i < c->elements; ++i) /* f32 holds up to 3.4e38: past it, inf */
+        if (!gs__finite(values[i]) ||
+            (c->encoding == GS_ENCODING_F32 && fabs(values[i]) > 3.4028234663852886e38))
+            return GS_ERR_NOT_FINITE;
     p = buf + *size;
     gs__put32(p, c->object_id);
     gs__put32(p + 4, c->sequence);
@@ -5225,10 +5267,13 @@ GS__PRIVATE int gs__chunks_fit(gs_net *net, const gs_wire_view *v, double now,
         const gs_wire_chunk *c = &v->chunks[i];
         const gs__ghost *g = gs__ghost_find(net->world, c->object_id);
         if (!g) { *why = GS_REJECT_OBJECT; return 0; }
+        size_t first = (size_t)c->index * (size_t)g->per_chunk;
+        size_t want = first < g->n - 1 ? g->n - 1 - first : 0;
+        if (want > (size_t)g->per_chunk) want = (size_t)g->per_chunk;
+        /* chunk i holds exactly values [i per_chunk, its end): anything else
+           would leave part of its range unfilled but marked received */
         if (c->count != g->nchunks || c->encoding != g->d.encoding ||
-            c->first != (uint32_t)c->index * (uint32_t)g->per_chunk ||
-            (size_t)c->first + c->elements > g->n - 1 ||
-            (c->elements != g->per_chunk && c->index + 1 != c->count)) {
+            c->first != first || c->elements != want) {
             *why = GS_REJECT_RANGE;
             return 0;
         }
