@@ -2814,7 +2814,11 @@ GS_API gs_result gs_mesh_energy(const gs_agent *a, double *kinetic,
     double ke = 0.0, pe = 0.0;
     gs_vec3 g;
     int i;
-    if (!m) return GS_ERR_INVALID_ARG;
+    if (!a) return GS_ERR_INVALID_ARG;
+    if (!m)
+        return gs__fail(a->world, GS_ERR_INVALID_ARG,
+                        "gs_mesh_energy: agent %d is a %s, not a spring-mass agent",
+                        a->index, a->kind->name);
     g = m->base.world->gravity;
     for (i = 0; i < m->n; ++i) {
         ke += 0.5 * m->mass[i] * gs__dot(m->v[i], m->v[i]);
@@ -2832,7 +2836,11 @@ GS_API gs_result gs_mesh_energy(const gs_agent *a, double *kinetic,
 
 GS_API gs_result gs_mesh_move_pin(gs_agent *a, int particle, gs_vec3 pos) {
     gs__mesh *m = gs__as_mesh(a);
-    if (!m) return GS_ERR_INVALID_ARG;
+    if (!a) return GS_ERR_INVALID_ARG;
+    if (!m)
+        return gs__fail(a->world, GS_ERR_INVALID_ARG,
+                        "gs_mesh_move_pin: agent %d is a %s, not a spring-mass agent",
+                        a->index, a->kind->name);
     if (particle < 0 || particle >= m->n)
         return gs__fail(a->world, GS_ERR_OUT_OF_RANGE,
                         "gs_mesh_move_pin: particle %d, the mesh has %d",
@@ -3574,7 +3582,11 @@ GS_API gs_result gs_probe_create(gs_world *w, const gs_probe_desc *desc,
 GS_API gs_result gs_probe_set_target(gs_agent *a, gs_vec3 position,
                                      gs_quat orientation) {
     gs__rigid *r = gs__as_rigid(a);
-    if (!r || !r->probe) return GS_ERR_INVALID_ARG;
+    if (!a) return GS_ERR_INVALID_ARG;
+    if (!r || !r->probe)
+        return gs__fail(a->world, GS_ERR_INVALID_ARG,
+                        "gs_probe_set_target: agent %d is a %s, not a probe", a->index,
+                        a->kind->name);
     if (!gs__finite3(position) || !gs__finite(orientation.x) ||
         !gs__finite(orientation.y) || !gs__finite(orientation.z) ||
         !gs__finite(orientation.w))
