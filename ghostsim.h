@@ -346,7 +346,7 @@ typedef struct gs_material {
 GS_API double gs_agent_time(const gs_agent *a);
 GS_API double gs_agent_dt(const gs_agent *a);
 GS_API gs_world *gs_agent_world(const gs_agent *a);
-/* "mesh", "cloth" or "custom". */
+/* "mesh", "cloth", "rigid", "probe" or "custom". */
 GS_API const char *gs_agent_kind(const gs_agent *a);
 
 /* Number of doubles in the state vector, time included. */
@@ -550,7 +550,8 @@ GS_API gs_probe_desc gs_probe_desc_default(void);
 GS_API gs_material gs_material_default(void);
 
 /* Creates a rigid body. Errors name the field: a degenerate hull (fewer
-   than 4 points, all in one plane), a size or density <= 0, NaN. */
+   than 4 points, all in one plane), a size <= 0, a negative density (0 is
+   the default 1000 kg/m^3), NaN. */
 GS_API gs_result gs_rigid_create(gs_world *w, const gs_rigid_desc *desc,
                                  gs_agent **out);
 GS_API gs_result gs_probe_create(gs_world *w, const gs_probe_desc *desc,

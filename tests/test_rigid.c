@@ -278,9 +278,12 @@ static double nopull_restitution(double k, double c, double m_eff, double v0) {
    opposite. The bound 1e-12 kg m/s is round-off (some 1e3 ulps of the
    4 kg m/s exchanged); an O(dt) leak would show as 1e-2.
    Restitution. With damping 0, 20, 100 N s/m it must fall, and undamped it
-   must stay above 0.95 (below 1 + 0.005: the step of 1 ms is 0.45 of the
-   contact's 1/omega, and the onset of the spring between two steps may add
-   energy of order (omega dt)^2 / 2 ... measured 0.35%). */
+   must stay above 0.95 and within 1% of 1: the contact (omega = 447 rad/s)
+   lasts only 7 steps of 1 ms, and the spring switches on and off between
+   steps, at a penetration of up to v dt = 4 mm, so each contact gains or
+   loses a little energy according to where the steps fall. Over 40 entry
+   phases (shifting one sphere by tenths of a step) e spans 0.9967 to
+   1.0035; 1% is three times that. */
 static void test_head_on_momentum(void **state) {
     head_on_result r0 = head_on(0.0, 1e-3, 1e-3, 0.0);
     head_on_result r1 = head_on(20.0, 1e-3, 1e-3, 0.0);
@@ -291,7 +294,7 @@ static void test_head_on_momentum(void **state) {
     assert_true(fabs(r0.dp) < 1e-12);
     assert_true(fabs(r1.dp) < 1e-12);
     assert_true(fabs(r2.dp) < 1e-12);
-    assert_true(r0.e > 0.95 && r0.e < 1.005);
+    assert_true(r0.e > 0.95 && fabs(r0.e - 1.0) < 0.01);
     assert_true(r0.e > r1.e && r1.e > r2.e);
 }
 
@@ -330,35 +333,72 @@ static void test_head_on_restitution(void **state) {
     }
 }
 
-/* Spheres on different steps (1 ms and 0.7 ms) do not step in lockstep:
-   each sees the other up to one of its steps away, brought over by a
-   linear extrapolation whose error in velocity is a dt (a = the contact
-   acceleration, up to k x_max / m = 894 m/s^2). With the world's tolerance
-   at 1 us the lead between them stays within one step, and the momentum
-   the pair makes or loses is bounded by the damping force on that error
-   and the spring force on the matching position error ½ a dt^2 over the
-   contact time T = pi / omega = 7 ms:
-     |dp| <= (c a dt + k a dt^2 / 2) T = 0.63 + 0.03 kg m/s (c = 100)
-                                        = 0.03 kg m/s        (c = 0).
-   With the world's default tolerance (10 ms, longer than the contact)
-   the lead may be ten steps and no such bound exists: that case is
-   printed, and only finiteness is checked (see the report in the file's
-   history: undamped restitution up to 1.09 there). */
+/* Spheres on different steps (1 ms and 0.7 ms) do not step in lockstep,
+   and the back-extrapolation is no longer exact: each sees the other
+   brought over up to one of its steps by a linear extrapolation, whose
+   error is a dt in velocity and a dt^2 / 2 in position, with a the contact
+   acceleration (at most k x_max / m = sqrt(k m_eff) v_rel / m = 894 m/s^2).
+   Integrated over the contact time T = pi / omega = 7.0 ms, the momentum
+   the pair makes or loses is at most
+     |dp| <= (c a dt + k a dt^2 / 2) T  with dt = 1 ms (the larger step):
+          =  0.31 kg m/s for c = 0,  0.94 kg m/s for c = 100
+   (of 4 kg m/s approaching; measured 0.04 and 0.08). That bound holds
+   while the lead between the two stays within a step, which the world's
+   tolerance ensures when it is small: 1 us here. The restitution can move
+   by that impulse over the 4 m/s: undamped, e within 1 + 0.31 / 4 = 1.08
+   (plus the 1% of the steps). */
+static const double HEAD_ON_A = 894.4; /* m/s^2, sqrt(1e5 * 0.5) * 4 / 1 */
+static const double HEAD_ON_T = 7.025e-3; /* s, pi / sqrt(2e5) */
+
+static double head_on_dp_bound(double c, double dt) {
+    return (c * HEAD_ON_A * dt + 1e5 * HEAD_ON_A * dt * dt / 2.0) * HEAD_ON_T;
+}
+
 static void test_head_on_unequal_steps(void **state) {
-    const double a_max = sqrt(1e5 * 0.5) * 4.0 / 1.0; /* k x_max / m */
-    const double dt = 1e-3, T = PI / sqrt(2e5);
     head_on_result r0 = head_on(0.0, 1e-3, 7e-4, 1e-6);
     head_on_result r2 = head_on(100.0, 1e-3, 7e-4, 1e-6);
-    head_on_result d0 = head_on(0.0, 1e-3, 7e-4, 0.0);
-    head_on_result d2 = head_on(100.0, 1e-3, 7e-4, 0.0);
     (void)state;
-    print_message("dt 1 / 0.7 ms, lead <= 1 step: e = %.4f %.4f, dp = %.3g %.3g kg m/s\n",
-                  r0.e, r2.e, r0.dp, r2.dp);
-    print_message("dt 1 / 0.7 ms, default tolerance: e = %.4f %.4f, dp = %.3g %.3g kg m/s\n",
-                  d0.e, d2.e, d0.dp, d2.dp);
-    assert_true(fabs(r0.dp) < 1e5 * a_max * dt * dt / 2.0 * T);
-    assert_true(fabs(r2.dp) < (100.0 * a_max * dt + 1e5 * a_max * dt * dt / 2.0) * T);
-    assert_true(r0.e > 0.95 && r0.e < 1.0 + 0.05); /* omega dt = 0.45: see above */
+    print_message("dt 1 / 0.7 ms, lead <= 1 step: e = %.4f %.4f, dp = %.3g %.3g kg m/s "
+                  "(bounds %.2f %.2f)\n", r0.e, r2.e, r0.dp, r2.dp,
+                  head_on_dp_bound(0.0, 1e-3), head_on_dp_bound(100.0, 1e-3));
+    assert_true(fabs(r0.dp) < head_on_dp_bound(0.0, 1e-3));
+    assert_true(fabs(r2.dp) < head_on_dp_bound(100.0, 1e-3));
+    assert_true(r0.e > 0.95 && r0.e < 1.0 + head_on_dp_bound(0.0, 1e-3) / 4.0 + 0.01);
+    assert_true(r0.e > r2.e);
+}
+
+/* The same collision in a world with the default tolerance (10 ms, longer
+   than the 7 ms contact), steps of 1 ms against 0.7 ms and against 0.3 ms.
+   The scheduler alternates the two agents step for step, so the one with
+   the larger step runs ahead until it leads by the tolerance: during the
+   contact each may see the other up to 10 ms away, carried there along a
+   velocity the contact is changing. The README promises that a head-on
+   collision conserves momentum, with no condition on the steps; the O(dt)
+   bound above (dt = the larger step, 1 ms) is the most a user of the
+   default world should see. */
+static void test_head_on_unequal_steps_default_tolerance(void **state) {
+    /* Known limit, not yet fixed (README, "Loose synchronization in
+       contacts"): with the default tolerance a body may lead the other by
+       more than a whole contact, and carrying it across that gap along its
+       velocity breaks momentum (measured: 0.41 kg m/s undamped and
+       restitution 1.58 at 1 ms against 0.3 ms). Skipped so that the
+       measurement stays here for the fix; test_head_on_unequal_steps holds
+       the condition under which it is conserved. */
+    skip();
+    const double dtb[2] = {7e-4, 3e-4};
+    int i, bad = 0;
+    (void)state;
+    for (i = 0; i < 2; ++i) {
+        head_on_result r0 = head_on(0.0, 1e-3, dtb[i], 0.0);
+        head_on_result r2 = head_on(100.0, 1e-3, dtb[i], 0.0);
+        print_message("dt 1 / %.1f ms, default tolerance: e = %.4f %.4f, dp = %.3g %.3g "
+                      "kg m/s (bounds %.2f %.2f)\n", dtb[i] * 1e3, r0.e, r2.e, r0.dp,
+                      r2.dp, head_on_dp_bound(0.0, 1e-3), head_on_dp_bound(100.0, 1e-3));
+        bad += !(fabs(r0.dp) < head_on_dp_bound(0.0, 1e-3));
+        bad += !(fabs(r2.dp) < head_on_dp_bound(100.0, 1e-3));
+        bad += !(r0.e < 1.0 + head_on_dp_bound(0.0, 1e-3) / 4.0 + 0.01);
+    }
+    assert_int_equal(bad, 0);
 }
 
 /* ========================================================================
@@ -398,8 +438,8 @@ static box_watch watch_box(gs_world *w, const gs_agent *b, double seconds) {
    slab (9.81 N over 4 x 1e5 N/m = 25 um; its own contact decays at
    4 x 100 / (2 x 1 kg) = 200 1/s), so what it shows is the slab's own
    remaining motion in the ground, bounded in each case below. Finally
-   the cube still sits on the slab: bottom face on top face within 1 mm
-   (the penetrations are 25 um and 2.5 mm / 25 um for the slabs). */
+   the cube still sits on the slab: its bottom face on the slab's top face
+   within 1 mm (the cube is 25 um into the slab). */
 static void stack_case(double slab_mass, gs_material ground, double jitter_bound) {
     gs_material m = gs_material_default();
     gs_world *w = world_with_ground(ground);
@@ -419,8 +459,9 @@ static void stack_case(double slab_mass, gs_material ground, double jitter_bound
 
 /* A 100 kg slab on default ground: four corner contacts of 1e5 N/m and
    100 N s/m hold it 2.5 mm deep; its motion decays at 4 x 100 / (2 x 100 kg)
-   = 2 1/s, so at 5 s what is left of the ~3 mm drop is e^-10 of it, about
-   1.5e-7 m: the bound is 1e-6 m. */
+   = 2 1/s, so at 5 s what is left of that 2.5 mm sink is e^-10 of it,
+   1.1e-7 m, and the excursion from where the watch starts can be twice
+   that: the bound is 1e-6 m. */
 static void test_box_rests_on_box(void **state) {
     (void)state;
     stack_case(100.0, gs_material_default(), 1e-6);
@@ -429,8 +470,8 @@ static void test_box_rests_on_box(void **state) {
 /* A very heavy slab (1e4 kg) on a stiff, well damped ground
    (2e7 N/m, 2e5 N s/m: the pair takes the means, 1.0e7 and 1.0e5, per
    corner): 2.5 mm deep again, damping ratio 0.32, decaying at
-   4 x 1e5 / (2 x 1e4 kg) = 20 1/s: by 5 s it is still to e^-100. The cube on
-   it then sits at a fixed depth to round-off: bound 1e-9 m. */
+   4 x 1e5 / (2 x 1e4 kg) = 20 1/s: by 5 s it is down by e^-100. The cube
+   on it then sits at a fixed depth to round-off: bound 1e-9 m. */
 static void test_box_rests_on_heavy_box(void **state) {
     (void)state;
     stack_case(1e4, material(2e7, 2e5, 0.5), 1e-9);
@@ -440,44 +481,69 @@ static void test_box_rests_on_heavy_box(void **state) {
    4. the scene: a sphere on the cloth
    ======================================================================== */
 
-/* The paper's scene with one sphere (0.1 kg) dropped from 0.3 m over the
-   centre of the hanging cloth. After 3 s it lies on the cloth: slower than
-   1 cm/s (the cloth's air damping of 0.5 1/s and its spring damping have
-   had 3 s; a 1 cm/s sway is 1 mm per 0.1 s, invisible), its centre above
-   the cloth's centre particle, and the cloth there lower than it hung
-   alone (by more than 5 mm: 0.1 kg on a cloth whose own 1 kg hangs it by
-   about 0.17 m sags it by centimetres). */
-static void test_sphere_rests_on_cloth(void **state) {
+/* The height of the centre particle of the paper's scene cloth (default
+   desc, no probe) with `spheres` spheres, after `seconds`; with one sphere,
+   it is put 0.3 m above the cloth's centre first. */
+static double scene_cloth_centre(int spheres, double seconds, double *before,
+                                 gs_vec3 *sphere_p, double *sphere_speed) {
     gs_world *w = world_new();
     gs_scene sc;
     gs_scene_desc sd = gs_scene_desc_default();
-    double st[14], before, cy;
-    gs_vec3 p;
+    double st[14], y;
     int centre;
-    (void)state;
-    sd.sphere_count = 1;
+    sd.sphere_count = spheres;
     sd.probe_count = 0;
     assert_int_equal(gs_scene_create(w, &sd, &sc), GS_OK);
-    assert_int_equal(sc.sphere_count, 1);
+    assert_int_equal(sc.sphere_count, spheres);
     assert_int_equal(sc.probe_count, 0);
-    assert_int_equal(gs_agent_state_size(sc.spheres[0]), 14u);
     centre = sd.cloth_n / 2 + sd.cloth_n * (sd.cloth_n / 2);
-    before = gs_mesh_positions(sc.cloth)[centre].y;
-    assert_int_equal(gs_agent_get_state(sc.spheres[0], st, 14), GS_OK);
-    st[1] = 0.0; st[2] = 0.3; st[3] = 0.0;
-    assert_int_equal(gs_agent_set_state(sc.spheres[0], st, 14), GS_OK);
-    run(w, 3.0);
-    p = gs_rigid_position(sc.spheres[0]);
-    cy = gs_mesh_positions(sc.cloth)[centre].y;
-    print_message("cloth centre %.4f -> %.4f m, sphere at %.4f m, %.3g m/s\n",
-                  before, cy, p.y, len3(gs_rigid_velocity(sc.spheres[0])));
-    assert_true(len3(gs_rigid_velocity(sc.spheres[0])) < 0.01);
-    assert_true(p.y > cy);
-    assert_true(cy < before - 0.005);
-    /* it lies near the centre: it fell straight and the cloth is symmetric
-       (within a particle spacing, 1/15 m) */
-    assert_true(hypot(p.x, p.z) < 1.0 / 15.0);
+    *before = gs_mesh_positions(sc.cloth)[centre].y;
+    if (spheres) {
+        assert_int_equal(gs_agent_state_size(sc.spheres[0]), 14u);
+        assert_int_equal(gs_agent_get_state(sc.spheres[0], st, 14), GS_OK);
+        st[1] = 0.0; st[2] = 0.3; st[3] = 0.0;
+        assert_int_equal(gs_agent_set_state(sc.spheres[0], st, 14), GS_OK);
+    }
+    run(w, seconds);
+    y = gs_mesh_positions(sc.cloth)[centre].y;
+    if (spheres) {
+        *sphere_p = gs_rigid_position(sc.spheres[0]);
+        *sphere_speed = len3(gs_rigid_velocity(sc.spheres[0]));
+    }
     gs_world_destroy(w);
+    return y;
+}
+
+/* The paper's scene with one sphere (0.1 kg) dropped from 0.3 m over the
+   centre of the hanging cloth (it lands at 2.6 m/s). After 3 s it lies on
+   the cloth:
+   - slower than 1 cm/s. The implicit cloth takes the weight slowly: the
+     sphere creeps down to its rest, exponentially with a time constant of
+     about 3 s (3.5 mm/s at 3 s, 0.3 mm/s at 10 s); 1 cm/s is 0.17 mm per
+     60 Hz frame, at rest to the eye;
+   - its centre above the cloth's centre particle;
+   - the cloth there lower than before, and lower than the same cloth
+     3 s later without the sphere by more than 5 mm. The scene's cloth,
+     settled for 3 s before the start, still swings by several mm on its
+     own (its centre is 5 mm lower at 3 s, alone), so the sphere's sag is
+     measured against that; the extra tenth of the cloth's weight at one
+     point gives 16 mm of it by 3 s, 5 mm is a third of that.
+   It lies near the centre: it fell straight onto a symmetric cloth
+   (within one particle spacing, 1/15 m). */
+static void test_sphere_rests_on_cloth(void **state) {
+    double before, before_alone, speed = 0.0, cy, alone;
+    gs_vec3 p = {0.0, 0.0, 0.0};
+    (void)state;
+    cy = scene_cloth_centre(1, 3.0, &before, &p, &speed);
+    alone = scene_cloth_centre(0, 3.0, &before_alone, NULL, NULL);
+    print_message("cloth centre %.4f -> %.4f m (%.4f alone), sphere at %.4f m, %.3g m/s\n",
+                  before, cy, alone, p.y, speed);
+    assert_true(before == before_alone); /* the same settled cloth */
+    assert_true(speed < 0.01);
+    assert_true(p.y > cy);
+    assert_true(cy < before);
+    assert_true(cy < alone - 0.005);
+    assert_true(hypot(p.x, p.z) < 1.0 / 15.0);
 }
 
 /* ========================================================================
@@ -530,9 +596,11 @@ static void test_collide_sphere_sphere(void **state) {
 
 /* Box against box goes through libccd's MPR (normal and depth) and the
    vertices inside the other box (points); the answer is the deepest point.
-   Cases with a known answer: MPR converges to 1e-6 (libccd's
-   mpr_tolerance), and on these axis-aligned faces it lands on the face
-   itself, so depths are checked to 1e-9 m and normals to 1e-9. */
+   Cases with a known answer. MPR stops within libccd's mpr_tolerance
+   (1e-6) of the surface of the Minkowski difference, but here the portal it
+   settles on is a face of that difference (made of a face of one box and a
+   face or edge of the other), so the plane's normal and distance come out
+   exact up to round-off: depths are checked to 1e-9 m, normals to 1e-9. */
 static void test_collide_box_box(void **state) {
     gs_shape_desc cube = box_shape(v3(0.1, 0.1, 0.1));
     gs_shape_desc slab = box_shape(v3(0.5, 0.1, 0.5));
@@ -810,6 +878,7 @@ static void test_probe_max_speed(void **state) {
     (void)state;
     pd.shape = sphere_shape(0.05);
     pd.max_speed = 2.0;
+    pd.dt = 0.0;
     assert_int_equal(gs_probe_create(w, &pd, &probe), GS_OK);
     assert_true(gs_agent_dt(probe) == 0.001); /* dt 0 = the default 1 ms */
     assert_int_equal(gs_probe_set_target(probe, v3(1000.0, 0, 0), Q_ID), GS_OK);
@@ -836,13 +905,17 @@ static void test_probe_max_speed(void **state) {
    ======================================================================== */
 
 /* A mass ratio of 1e3 in a stack of two 0.4 x 0.2 x 0.4 m boxes on the
-   ground, default material and substepping, either way up. Substepping may
-   run out (GS_ERR_UNSTABLE) but must leave every state finite; in the end
-   the stack is in order (the top box's centre above the bottom's by at
-   least 0.15 m of the 0.2 m of their half heights: the heavy one's weight,
-   9.8 kN on four corner springs of 1e5 N/m, sinks it 2.5 cm), and the
-   bottom box has not been squeezed out sideways (1 mm: the contacts are
-   symmetric). */
+   ground, default material and substepping, either way up, for 3 s.
+   Substepping may run out (GS_ERR_UNSTABLE) but must leave every state
+   finite. In the end the stack is in order: the top box's centre above the
+   bottom's by at least 0.15 m of the 0.2 m their half heights make, i.e.
+   less than 5 cm of squeeze between them; the 9.8 kN of a 1000 kg box over
+   at least four corner springs of 1e5 N/m is 2.5 cm at rest, and twice
+   that leaves room for the bounce still going on (on default material the
+   1000 kg box has a damping ratio of 0.01: it is far from settled at 3 s).
+   The bottom box stays above the ground (its centre at y > 0) and neither
+   box is squeezed out sideways: 1 mm, for contacts that are symmetric and
+   push straight down. */
 static void mass_ratio_case(double bottom_mass, double top_mass) {
     gs_material m = gs_material_default();
     gs_world *w = world_with_ground(m);
@@ -850,8 +923,9 @@ static void mass_ratio_case(double bottom_mass, double top_mass) {
     gs_agent *top = make_box(w, v3(0.2, 0.1, 0.2), top_mass, v3(0, 0.3, 0), m);
     int unstable = run_tolerant(w, 3.0);
     gs_vec3 pb = gs_rigid_position(bottom), pt = gs_rigid_position(top);
-    print_message("%g kg on %g kg: bottom y %.4f, top y %.4f m, %d unstable frames, "
-                  "substeps/steps %llu/%llu\n", top_mass, bottom_mass, pb.y, pt.y,
+    print_message("%g kg on %g kg: bottom y %.4f, top y %.4f m, sideways %.2g %.2g m, "
+                  "%d unstable frames, substeps/steps %llu/%llu\n", top_mass, bottom_mass,
+                  pb.y, pt.y, hypot(pb.x, pb.z), hypot(pt.x, pt.z),
                   unstable, (unsigned long long)gs_agent_get_stats(top).substeps,
                   (unsigned long long)gs_agent_get_stats(top).steps);
     assert_true(pt.y > pb.y + 0.15);
@@ -1326,6 +1400,7 @@ int main(void) {
         cmocka_unit_test(test_head_on_momentum),
         cmocka_unit_test(test_head_on_restitution),
         cmocka_unit_test(test_head_on_unequal_steps),
+        cmocka_unit_test(test_head_on_unequal_steps_default_tolerance),
         cmocka_unit_test(test_box_rests_on_box),
         cmocka_unit_test(test_box_rests_on_heavy_box),
         cmocka_unit_test(test_sphere_rests_on_cloth),
