@@ -5244,13 +5244,13 @@ GS__PRIVATE int gs__seq_newer(uint32_t a, uint32_t b) {
 }
 
 /* Loss and duplicates from the datagram sequence, with a 64-wide window.
-   Returns 0 for a duplicate. */
+   Returns 0 for a duplicate, 2 for the newest so far, 1 for a late one. */
 GS__PRIVATE int gs__peer_sequence(gs__peer *pe, uint32_t seq) {
     if (!pe->recv_any) {
         pe->recv_any = 1;
         pe->recv_top = seq;
         pe->recv_window = 1;
-        return 1;
+        return 2;
     }
     if (gs__seq_newer(seq, pe->recv_top)) {
         uint32_t ahead = seq - pe->recv_top;
@@ -5258,7 +5258,7 @@ GS__PRIVATE int gs__peer_sequence(gs__peer *pe, uint32_t seq) {
         pe->recv_window = ahead >= 64 ? 0 : pe->recv_window << ahead;
         pe->recv_window |= 1;
         pe->recv_top = seq;
-        return 1;
+        return 2;
     }
     {
         uint32_t behind = pe->recv_top - seq;
@@ -5347,11 +5347,15 @@ GS__PRIVATE gs_result gs__reject(gs_net *net, int p, gs_reject r, gs_reject *why
     return GS_ERR_REJECTED;
 }
 
-/* Round trip from the echo: now - echo_time - the time they held it. */
+/* Round trip from the echo: now - echo_time - the time they held it,
+   smoothed as TCP does (7/8 old, 1/8 new). Only the newest datagram counts:
+   one held back by reordering echoes an old send time and would make the
+   round trip, and every snapshot's age, look up to a latency longer. */
 GS__PRIVATE void gs__peer_clock(gs__peer *pe, const gs_wire_header *h, double now) {
     if (h->echo_time > 0.0) {
         double rtt = now - h->echo_time - h->echo_hold;
-        if (rtt >= 0.0 && rtt < 60.0) pe->st.rtt = rtt;
+        if (rtt >= 0.0 && rtt < 60.0)
+            pe->st.rtt = pe->st.rtt > 0.0 ? 0.875 * pe->st.rtt + 0.125 * rtt : rtt;
     }
     pe->their_send_time = h->send_time;
     pe->their_recv_now = now;
@@ -5362,7 +5366,7 @@ GS_API gs_result gs_net_deliver(gs_net *net, const void *data, size_t size,
     gs_wire_view *v = &net->view;
     gs_reject r = GS_REJECT_SHORT;
     gs_result res = GS_OK;
-    int p, i;
+    int p, i, order;
     gs__lock(net);
     if (!gs_wire_decode((const unsigned char *)data, size, v, &r)) {
         res = gs__reject(net, -1, r, why);
@@ -5372,13 +5376,13 @@ GS_API gs_result gs_net_deliver(gs_net *net, const void *data, size_t size,
         res = gs__reject(net, -1, GS_REJECT_SENDER, why);
     } else if (!gs__chunks_fit(net, v, now, &r)) {
         res = gs__reject(net, p, r, why);
-    } else if (!gs__peer_sequence(&net->peers[p], v->header.sequence)) {
+    } else if ((order = gs__peer_sequence(&net->peers[p], v->header.sequence)) == 0) {
         net->peers[p].st.duplicates++;
         res = gs__reject(net, p, GS_REJECT_DUPLICATE, why);
     } else {
         gs__peer *pe = &net->peers[p];
-        double age = 0.5 * pe->st.rtt;
-        gs__peer_clock(pe, &v->header, now);
+        double age = 0.5 * pe->st.rtt; /* as known before this datagram */
+        if (order == 2) gs__peer_clock(pe, &v->header, now);
         pe->st.datagrams_received++;
         pe->st.bytes_received += size;
         for (i = 0; i < v->chunk_count; ++i) gs__queue_chunk(net, p, &v->chunks[i], age);
