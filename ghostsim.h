@@ -714,7 +714,9 @@ typedef struct gs_ghost_desc {
                               applied (hosts in step differ by about the
                               error of the latency estimate, and chasing it
                               makes agents skip steps); default the world's
-                              tolerance; negative: none, the formula as is */
+                              tolerance plus one send period (a snapshot
+                              waits up to that long to be sent); negative:
+                              none, the formula as is */
 } gs_ghost_desc;
 
 GS_API gs_ghost_desc gs_ghost_desc_default(void);
@@ -4716,7 +4718,9 @@ GS__PRIVATE int gs__ghost_gather(gs__ghost *g, double t_i, double *num_t,
    would skip steps to stay on its world's clock. A host far behind (one
    that joins late) is pulled to the others at once. */
 GS__PRIVATE double gs__time_correction(const gs__ghost *g, double dt) {
-    double band = g->d.time_deadband == 0.0 ? g->agent->world->tolerance : g->d.time_deadband;
+    double band = g->d.time_deadband;
+    if (band == 0.0) /* the tolerance, plus a snapshot's wait to be sent */
+        band = g->agent->world->tolerance + 1.0 / g->d.send_rate;
     return fabs(dt) > band ? dt : 0.0;
 }
 
