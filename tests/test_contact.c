@@ -118,8 +118,34 @@ static void test_contact_substeps_keep_it_stable(void **state) {
     gs_world_destroy(w);
 }
 
+/* gs_rigid_stable_dt is the same rule for one contact of the body's own
+   material: a sphere's normal forces pass its centre, so only its mass
+   counts (1 kg, 1e5 N/m, 20 N s/m). And the solver's documented defaults. */
+static void test_rigid_stable_dt_and_solver_defaults(void **state) {
+    gs_world *w;
+    gs_agent *s;
+    gs_rigid_desc rd = gs_rigid_desc_default();
+    gs_solver_desc sd = gs_solver_desc_default();
+    (void)state;
+    assert_int_equal(gs_world_create(NULL, &w), GS_OK);
+    rd.shape.type = GS_SHAPE_SPHERE;
+    rd.shape.radius = 0.1;
+    rd.mass = 1.0;
+    rd.material.stiffness = 1e5;
+    rd.material.damping = 20.0;
+    rd.material.friction = 0.0;
+    assert_int_equal(gs_rigid_create(w, &rd, &s), GS_OK);
+    assert_true(fabs(gs_rigid_stable_dt(s) / theory_limit(1e5, 20.0) - 1.0) < 1e-12);
+    gs_world_destroy(w);
+    assert_true(sd.dt == 0.001 && sd.integrator == GS_INTEGRATOR_SYMPLECTIC_EULER);
+    assert_true(sd.stability == GS_STABILITY_SUBSTEP && sd.max_substeps == 64);
+    assert_true(sd.safety == 0.9 && sd.cg_tolerance == 1e-6 && sd.cg_max_iterations == 200);
+    assert_true(sd.max_speed == 1e4);
+}
+
 int main(void) {
     const struct CMUnitTest tests[] = {
+        cmocka_unit_test(test_rigid_stable_dt_and_solver_defaults),
         cmocka_unit_test(test_contact_stability_rule),
         cmocka_unit_test(test_contact_substeps_keep_it_stable),
     };

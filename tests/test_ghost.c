@@ -1161,8 +1161,54 @@ static void test_latency_trap(void **state) {
     assert_true(raw.steps > 2.0 * comp.steps);
 }
 
+/* gs_net_set_lock: every touch of the queues from the world's side (a
+   ghost publishing or blending) and from the network's (deliver, update) is
+   bracketed by the lock; the counts stay balanced. */
+typedef struct count_lock { int depth, max_depth, locks; } count_lock;
+static void cl_lock(void *u) {
+    count_lock *c = (count_lock *)u;
+    c->locks++;
+    if (++c->depth > c->max_depth) c->max_depth = c->depth;
+}
+static void cl_unlock(void *u) { ((count_lock *)u)->depth--; }
+
+static void test_net_lock_is_balanced(void **state) {
+    gs_simnet *sim;
+    gs_world *w[2];
+    gs_agent *c[2];
+    gs_net *net[2];
+    count_lock cl = {0, 0, 0};
+    gs_net_lock lk;
+    int h;
+    (void)state;
+    assert_int_equal(gs_simnet_create(NULL, &sim), GS_OK);
+    for (h = 0; h < 2; ++h) {
+        gs_world_desc wd = gs_world_desc_default();
+        gs_cloth_desc cd = gs_cloth_desc_default();
+        gs_ghost_desc gd = gs_ghost_desc_default();
+        wd.host_id = (uint32_t)h + 1;
+        assert_int_equal(gs_world_create(&wd, &w[h]), GS_OK);
+        cd.nx = cd.ny = 4;
+        assert_int_equal(gs_cloth_create(w[h], &cd, &c[h]), GS_OK);
+        gd.object_id = 1;
+        assert_int_equal(gs_ghost_attach(c[h], &gd), GS_OK);
+        assert_int_equal(gs_simnet_join(sim, w[h], NULL, &net[h]), GS_OK);
+    }
+    lk.lock = cl_lock;
+    lk.unlock = cl_unlock;
+    lk.user = &cl;
+    gs_net_set_lock(net[0], lk);
+    assert_int_equal(gs_simnet_run(sim, 0.5, 1.0 / 60.0), GS_OK);
+    assert_true(cl.locks > 30);        /* 30 frames, each sends and receives */
+    assert_int_equal(cl.depth, 0);     /* every lock released */
+    assert_int_equal(cl.max_depth, 1); /* never taken twice (not recursive) */
+    for (h = 0; h < 2; ++h) gs_world_destroy(w[h]);
+    gs_simnet_destroy(sim);
+}
+
 int main(int argc, char **argv) {
     const struct CMUnitTest tests[] = {
+        cmocka_unit_test(test_net_lock_is_balanced),
         cmocka_unit_test(test_weight_rules),
         cmocka_unit_test(test_blend_one_snapshot),
         cmocka_unit_test(test_blend_with_age),
