@@ -93,8 +93,9 @@
        (receive, validate, queue) and a scatter thread (send what is due);
        they touch only the net's peers, queues, published states and
        statistics, under one mutex that the world thread also takes when a
-       ghost publishes or blends. gs_net_* calls are safe from any thread;
-       everything else belongs to the world's thread.
+       ghost publishes or blends. gs_net_deliver, gs_net_update and the
+       stats calls are safe from any thread; everything else (adding and
+       removing peers included) belongs to the world's thread.
 
    REVISION HISTORY
        0.1.0 (2026-11-23)  world, scheduler, spring-mass agents, integrators,
