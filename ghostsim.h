@@ -321,8 +321,9 @@ typedef struct gs_solver_desc {
     gs_integrator integrator; /* default symplectic Euler */
     gs_stability stability;  /* default substep (ignored by implicit Euler) */
     int max_substeps;        /* default 64 */
-    double safety;           /* fraction of the stability bound used when
-                                substepping, (0, 1]; default 0.9 */
+    double safety;           /* fraction of the stability bound an agent
+                                steps within, whether it substeps or refuses,
+                                (0, 1]; default 0.9 */
     double cg_tolerance;     /* implicit Euler: relative residual; 1e-6 */
     int cg_max_iterations;   /* implicit Euler: default 200 */
     double max_speed;        /* m/s; a faster particle means the step blew
@@ -488,7 +489,10 @@ GS_API gs_result gs_mesh_energy(const gs_agent *a, double *kinetic,
    free particles counted twice) / m_i (Gershgorin) and the damping rate
    likewise; +inf for implicit Euler. */
 GS_API double gs_mesh_stable_dt(const gs_agent *a);
-/* Moves a pinned particle (the application drags a corner). */
+/* Moves a pinned particle (the application drags a corner) to pos, in
+   metres. GS_ERR_INVALID_ARG if the agent is not a spring-mass agent or the
+   particle is not pinned, GS_ERR_OUT_OF_RANGE for a bad index,
+   GS_ERR_NOT_FINITE for a non-finite position; the mesh is unchanged then. */
 GS_API gs_result gs_mesh_move_pin(gs_agent *a, int particle, gs_vec3 pos);
 
 /* ========================================================================
@@ -2329,6 +2333,7 @@ GS__PRIVATE gs_result gs__mesh_step(gs_agent *a, double dt) {
         if (i > 0) {
             memcpy(m->x, m->x0, bytes);
             memcpy(m->v, m->v0, bytes);
+            gs__mesh_update_bounds(m); /* the broad phase must see the undone state */
         }
         return r;
     }
