@@ -26,7 +26,7 @@ DEBS := gcc g++ clang make pkg-config cmake libccd-dev libcmocka-dev valgrind
 TESTS    := $(basename $(notdir $(wildcard tests/test_*.c)))
 EXAMPLES := $(basename $(notdir $(wildcard examples/*.c)))
 
-.PHONY: all deps test test-plain test-asan compile-checks examples valgrind \
+.PHONY: all deps test test-plain test-asan compile-checks examples peer valgrind \
         install uninstall install-check cmake-check clean
 
 all: examples
@@ -58,7 +58,15 @@ $(BUILD)/asan/test_%: tests/test_%.c $(BUILD)/asan/gs_impl.o ghostsim.h
 $(BUILD)/%: examples/%.c ghostsim.h | $(BUILD)
 	$(CC) $(CSTD) $(WARN) $(CFLAGS) $(CCD_CFLAGS) -I. $< -o $@ $(LIBS)
 
-examples: $(addprefix $(BUILD)/,$(EXAMPLES))
+examples: $(addprefix $(BUILD)/,$(EXAMPLES)) peer
+
+# The reference peer: build/ghostpeer, copied to reference_peer/ghostpeer
+# (where the README and outside tests run it from).
+peer: reference_peer/ghostpeer
+$(BUILD)/ghostpeer: reference_peer/ghostpeer.c ghostsim.h | $(BUILD)
+	$(CC) $(CSTD) $(WARN) $(CFLAGS) $(CCD_CFLAGS) -I. $< -o $@ $(LIBS)
+reference_peer/ghostpeer: $(BUILD)/ghostpeer
+	cp $< $@
 
 # The header as C99 and C++11 under gcc and clang, with and without
 # GHOSTSIM_STATIC, implementation included: warning-free or the build fails.

@@ -1,0 +1,451 @@
+/* ghostpeer - one host of the paper's scene over UDP: the reference peer.
+
+     ghostpeer --id N --listen HOST:PORT [--peer ID@HOST:PORT]... [--duration S]
+               [--cloth N] [--spheres K] [--weight cs|exp[:RATE]|owner]
+               [--integrator NAME] [--dt S] [--probe-until S] [--seed N]
+               [--encoding f64|f32] [--stats-every S] [--trace FILE]
+
+   Every host builds the same scene (gs_scene_create: a cloth pinned by its
+   corners, K spheres above it, one probe per host of the session) and runs
+   it at wall-clock pace. Host N drives probe N-1 along its scripted path
+   until --probe-until seconds of simulation time, then parks it above the
+   cloth. Ghosts: the cloth is object 1, sphere i object 100 + i (both under
+   --weight), probe i object 200 + i (owner authority: host i + 1 owns it).
+
+   stdout is for machines: one JSON object per line every --stats-every
+   seconds of wall time, and a last line with "final": true and the totals
+   (also on SIGINT or SIGTERM). Everything for humans goes to stderr. The
+   command line and the JSON are a contract that tests drive: change them
+   only by adding. Exit status: 0 done, 1 a runtime failure (port in use),
+   2 a bad command line. */
+#define GHOSTSIM_IMPLEMENTATION
+#include "ghostsim.h"
+
+#include <errno.h>
+#include <math.h>
+#include <signal.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <time.h>
+
+#define MAX_PEERS 15
+#define FRAME 0.005        /* s of wall time between world advances */
+#define TRACE_EVERY 0.010  /* s of wall time between trace rows */
+#define PARK_HEIGHT 0.4    /* m: a parked probe hangs clear of the cloth */
+
+typedef struct peer_arg {
+    uint32_t id;
+    char addr[128];
+} peer_arg;
+
+typedef struct options {
+    uint32_t id;
+    const char *listen;
+    peer_arg peers[MAX_PEERS];
+    int npeers;
+    double duration;       /* s; 0 = until a signal */
+    int cloth, spheres;
+    gs_weight_fn weight;
+    double exp_rate;       /* 1/s for exp */
+    gs_integrator integrator;
+    double dt;
+    double probe_until;    /* s of simulation time */
+    uint32_t seed;
+    gs_encoding encoding;
+    double stats_every;
+    const char *trace;
+} options;
+
+static volatile sig_atomic_t g_stop = 0; /* the only static: signal handlers need one */
+
+static void on_signal(int sig) {
+    (void)sig;
+    g_stop = 1;
+}
+
+static void usage(const char *why) {
+    if (why) fprintf(stderr, "ghostpeer: %s\n", why);
+    fprintf(stderr,
+            "usage: ghostpeer --id N --listen HOST:PORT [--peer ID@HOST:PORT]... [--duration S]\n"
+            "                 [--cloth N] [--spheres K] [--weight cs|exp[:RATE]|owner]\n"
+            "                 [--integrator explicit|symplectic|verlet|rk4|implicit] [--dt S]\n"
+            "                 [--probe-until S] [--seed N] [--encoding f64|f32]\n"
+            "                 [--stats-every S] [--trace FILE]\n");
+    exit(2);
+}
+
+/* ---- the command line ---- */
+
+static double parse_number(const char *flag, const char *s, double lo, double hi) {
+    char *end = NULL, msg[160];
+    double v;
+    errno = 0;
+    v = strtod(s, &end);
+    if (errno || end == s || *end != '\0' || !(v >= lo && v <= hi)) {
+        snprintf(msg, sizeof msg, "%s: '%s' is not a number in [%g, %g]", flag, s, lo, hi);
+        usage(msg);
+    }
+    return v;
+}
+
+static void parse_weight(options *o, const char *s) {
+    if (strcmp(s, "cs") == 0) {
+        o->weight = gs_weight_cs;
+    } else if (strcmp(s, "owner") == 0) {
+        o->weight = gs_weight_owner;
+    } else if (strncmp(s, "exp", 3) == 0 && (s[3] == '\0' || s[3] == ':')) {
+        o->weight = gs_weight_exp;
+        if (s[3] == ':') o->exp_rate = parse_number("--weight exp:RATE", s + 4, -1e3, 1e3);
+    } else {
+        char msg[160];
+        snprintf(msg, sizeof msg, "--weight: unknown rule '%s' (cs, exp[:RATE], owner)", s);
+        usage(msg);
+    }
+}
+
+static gs_integrator parse_integrator(const char *s) {
+    static const char *const names[] = {"explicit", "symplectic", "verlet", "rk4", "implicit"};
+    static const gs_integrator ids[] = {GS_INTEGRATOR_EXPLICIT_EULER, GS_INTEGRATOR_SYMPLECTIC_EULER,
+                                        GS_INTEGRATOR_VERLET, GS_INTEGRATOR_RK4,
+                                        GS_INTEGRATOR_IMPLICIT_EULER};
+    size_t i;
+    char msg[160];
+    for (i = 0; i < sizeof names / sizeof names[0]; ++i)
+        if (strcmp(s, names[i]) == 0) return ids[i];
+    snprintf(msg, sizeof msg, "--integrator: unknown '%s'", s);
+    usage(msg);
+    return GS_INTEGRATOR_DEFAULT;
+}
+
+/* ID@HOST:PORT */
+static void parse_peer(options *o, const char *s) {
+    const char *at = strchr(s, '@');
+    char msg[200];
+    peer_arg *p;
+    if (o->npeers == MAX_PEERS) usage("too many --peer (at most 15)");
+    if (!at || at == s || strlen(at + 1) == 0 || strlen(at + 1) >= sizeof p->addr) {
+        snprintf(msg, sizeof msg, "--peer: '%s' is not ID@HOST:PORT", s);
+        usage(msg);
+    }
+    p = &o->peers[o->npeers++];
+    {
+        char idbuf[16];
+        size_t n = (size_t)(at - s);
+        if (n >= sizeof idbuf) usage("--peer: the id is too long");
+        memcpy(idbuf, s, n);
+        idbuf[n] = '\0';
+        p->id = (uint32_t)parse_number("--peer ID", idbuf, 1, 65535);
+    }
+    strcpy(p->addr, at + 1);
+}
+
+static void parse_args(int argc, char **argv, options *o) {
+    int i, k;
+    memset(o, 0, sizeof *o);
+    o->cloth = 16;
+    o->spheres = 3;
+    o->weight = gs_weight_exp;
+    o->exp_rate = 1.0;
+    o->integrator = GS_INTEGRATOR_IMPLICIT_EULER;
+    o->dt = 0.002;
+    o->probe_until = 1e300;
+    o->seed = 1;
+    o->encoding = GS_ENCODING_F64;
+    o->stats_every = 0.1;
+    for (i = 1; i < argc; ++i) {
+        const char *f = argv[i], *v = i + 1 < argc ? argv[i + 1] : NULL;
+        if (strcmp(f, "--help") == 0 || strcmp(f, "-h") == 0) usage(NULL);
+        if (!v) {
+            char msg[160];
+            snprintf(msg, sizeof msg, "%s needs a value", f);
+            usage(msg);
+        }
+        ++i;
+        if (strcmp(f, "--id") == 0) o->id = (uint32_t)parse_number(f, v, 1, 65535);
+        else if (strcmp(f, "--listen") == 0) o->listen = v;
+        else if (strcmp(f, "--peer") == 0) parse_peer(o, v);
+        else if (strcmp(f, "--duration") == 0) o->duration = parse_number(f, v, 0, 1e7);
+        else if (strcmp(f, "--cloth") == 0) o->cloth = (int)parse_number(f, v, 2, 256);
+        else if (strcmp(f, "--spheres") == 0) o->spheres = (int)parse_number(f, v, 0, GS_SCENE_MAX_SPHERES);
+        else if (strcmp(f, "--weight") == 0) parse_weight(o, v);
+        else if (strcmp(f, "--integrator") == 0) o->integrator = parse_integrator(v);
+        else if (strcmp(f, "--dt") == 0) o->dt = parse_number(f, v, 1e-5, 0.05);
+        else if (strcmp(f, "--probe-until") == 0) o->probe_until = parse_number(f, v, 0, 1e300);
+        else if (strcmp(f, "--seed") == 0) o->seed = (uint32_t)parse_number(f, v, 0, 4294967295.0);
+        else if (strcmp(f, "--encoding") == 0) {
+            if (strcmp(v, "f64") == 0) o->encoding = GS_ENCODING_F64;
+            else if (strcmp(v, "f32") == 0) o->encoding = GS_ENCODING_F32;
+            else usage("--encoding: f64 or f32");
+        } else if (strcmp(f, "--stats-every") == 0) o->stats_every = parse_number(f, v, 1e-3, 3600);
+        else if (strcmp(f, "--trace") == 0) o->trace = v;
+        else {
+            char msg[160];
+            snprintf(msg, sizeof msg, "unknown flag '%s'", f);
+            usage(msg);
+        }
+    }
+    if (o->id == 0) usage("--id is required");
+    if (!o->listen) usage("--listen is required");
+    for (k = 0; k < o->npeers; ++k)
+        if (o->peers[k].id == o->id) usage("--peer: a peer has this host's own id");
+}
+
+/* ---- the scene ---- */
+
+typedef struct peer_host {
+    options o;
+    gs_world *w;
+    gs_scene sc;
+    gs_udp *udp;
+    double wall0, mono0;   /* clocks at the start */
+    FILE *trace;
+    uint64_t rx_seen[MAX_PEERS];
+    int announced[MAX_PEERS];
+} peer_host;
+
+static double wall_now(void) {
+    struct timespec ts;
+    clock_gettime(CLOCK_REALTIME, &ts);
+    return (double)ts.tv_sec + 1e-9 * (double)ts.tv_nsec;
+}
+
+static int fail(peer_host *h, const char *what) {
+    fprintf(stderr, "ghostpeer %u: %s: %s\n", (unsigned)h->o.id, what,
+            h->w ? gs_world_error(h->w) : "out of memory");
+    return 1;
+}
+
+/* The session's probes: one per host, as many as the largest id. */
+static int probe_count(const options *o) {
+    uint32_t top = o->id;
+    int k;
+    for (k = 0; k < o->npeers; ++k)
+        if (o->peers[k].id > top) top = o->peers[k].id;
+    return top > GS_SCENE_MAX_PROBES ? GS_SCENE_MAX_PROBES : (int)top;
+}
+
+static int build(peer_host *h) {
+    const options *o = &h->o;
+    gs_world_desc wd = gs_world_desc_default();
+    gs_scene_desc sd = gs_scene_desc_default();
+    gs_ghost_desc gd = gs_ghost_desc_default();
+    gs_udp_desc ud;
+    int i;
+    wd.host_id = o->id;
+    if (gs_world_create(&wd, &h->w) != GS_OK) return fail(h, "world");
+    sd.cloth_n = o->cloth;
+    sd.sphere_count = o->spheres;
+    sd.probe_count = probe_count(o);
+    sd.seed = o->seed;
+    sd.cloth_integrator = o->integrator;
+    sd.dt = o->dt;
+    if (gs_scene_create(h->w, &sd, &h->sc) != GS_OK) return fail(h, "scene");
+    gd.weight = o->weight;
+    gd.weight_user = o->weight == gs_weight_exp ? (void *)&h->o.exp_rate : NULL;
+    gd.encoding = o->encoding;
+    gd.object_id = 1;
+    if (gs_ghost_attach(h->sc.cloth, &gd) != GS_OK) return fail(h, "ghost");
+    for (i = 0; i < h->sc.sphere_count; ++i) {
+        gd.object_id = 100 + (uint32_t)i;
+        if (gs_ghost_attach(h->sc.spheres[i], &gd) != GS_OK) return fail(h, "ghost");
+    }
+    gd.weight = gs_weight_owner;
+    gd.weight_user = NULL;
+    for (i = 0; i < h->sc.probe_count; ++i) {
+        gd.object_id = 200 + (uint32_t)i;
+        gd.owner = (uint32_t)i + 1;
+        if (gs_ghost_attach(h->sc.probes[i], &gd) != GS_OK) return fail(h, "ghost");
+    }
+    memset(&ud, 0, sizeof ud);
+    ud.bind = o->listen;
+    ud.threads = 1;
+    if (gs_udp_open(h->w, &ud, &h->udp) != GS_OK) return fail(h, "cannot listen");
+    for (i = 0; i < o->npeers; ++i)
+        if (gs_udp_add_peer(h->udp, o->peers[i].id, o->peers[i].addr) != GS_OK)
+            return fail(h, "bad --peer address");
+    return 0;
+}
+
+/* Host N's probe: its path until probe_until, then parked above where it
+   stopped. */
+static void drive_probe(peer_host *h, double t) {
+    const gs_quat id = {0.0, 0.0, 0.0, 1.0};
+    int i = (int)h->o.id - 1;
+    gs_vec3 p;
+    if (i >= h->sc.probe_count) return;
+    if (t < h->o.probe_until) {
+        p = gs_scene_probe_path(i, t);
+    } else {
+        p = gs_scene_probe_path(i, h->o.probe_until);
+        p.y = PARK_HEIGHT;
+    }
+    gs_probe_set_target(h->sc.probes[i], p, id);
+}
+
+/* ---- output ---- */
+
+/* cloth centroid, cloth centre particle, each sphere's centre (m) */
+static int digest(const peer_host *h, double *d) {
+    const gs_vec3 *x = gs_mesh_positions(h->sc.cloth);
+    int n = gs_mesh_particle_count(h->sc.cloth), side = h->sc.desc.cloth_n, i, k = 0;
+    gs_vec3 c = {0.0, 0.0, 0.0}, m = x[(side / 2) * side + side / 2];
+    for (i = 0; i < n; ++i) {
+        c.x += x[i].x;
+        c.y += x[i].y;
+        c.z += x[i].z;
+    }
+    d[k++] = c.x / n; d[k++] = c.y / n; d[k++] = c.z / n;
+    d[k++] = m.x; d[k++] = m.y; d[k++] = m.z;
+    for (i = 0; i < h->sc.sphere_count; ++i) {
+        gs_vec3 p = gs_rigid_position(h->sc.spheres[i]);
+        d[k++] = p.x; d[k++] = p.y; d[k++] = p.z;
+    }
+    return k;
+}
+
+static double sim_time(const peer_host *h) { return gs_agent_time(h->sc.cloth); }
+
+static void print_line(peer_host *h, int final) {
+    gs_net *net = gs_udp_net(h->udp);
+    double d[6 + 3 * GS_SCENE_MAX_SPHERES];
+    int nd = digest(h, d), i;
+    uint64_t unknown[GS_REJECT_COUNT], unknown_total = 0, rejected = 0, rx = 0, sent = 0;
+    printf("{\"wall\": %.6f, \"host\": %u, \"t\": %.6f, \"digest\": [", wall_now(),
+           (unsigned)h->o.id, sim_time(h));
+    for (i = 0; i < nd; ++i) printf("%s%.9g", i ? ", " : "", d[i]);
+    printf("], \"peers\": {");
+    for (i = 0; i < h->o.npeers; ++i) {
+        gs_peer_stats ps;
+        memset(&ps, 0, sizeof ps);
+        gs_net_peer_stats(net, h->o.peers[i].id, &ps);
+        printf("%s\"%u\": {\"gap\": %.6f, \"div\": %.9g, \"rtt\": %.6f, \"rx\": %llu, "
+               "\"lost\": %llu, \"rejected\": %llu}",
+               i ? ", " : "", (unsigned)h->o.peers[i].id,
+               ps.snapshots_received ? ps.gap : 0.0, ps.divergence, ps.rtt,
+               (unsigned long long)ps.snapshots_received, (unsigned long long)ps.lost,
+               (unsigned long long)ps.rejected_total);
+        rejected += ps.rejected_total;
+        rx += ps.snapshots_received;
+        sent += ps.snapshots_sent;
+    }
+    printf("}");
+    if (final) {
+        gs_net_unknown_stats(net, unknown);
+        for (i = 0; i < GS_REJECT_COUNT; ++i) unknown_total += unknown[i];
+        printf(", \"final\": true, \"totals\": {\"wall_seconds\": %.3f, \"snapshots_sent\": %llu, "
+               "\"snapshots_received\": %llu, \"rejected\": %llu, \"rejected_unknown\": %llu}",
+               gs_udp_now() - h->mono0, (unsigned long long)sent, (unsigned long long)rx,
+               (unsigned long long)rejected, (unsigned long long)unknown_total);
+    }
+    printf("}\n");
+    fflush(stdout);
+}
+
+static void trace_row(peer_host *h) {
+    double d[6 + 3 * GS_SCENE_MAX_SPHERES];
+    int nd = digest(h, d), i;
+    fprintf(h->trace, "%.6f,%.6f", wall_now(), sim_time(h));
+    for (i = 0; i < nd; ++i) fprintf(h->trace, ",%.9g", d[i]);
+    fputc('\n', h->trace);
+}
+
+static void trace_header(peer_host *h) {
+    int i;
+    fprintf(h->trace, "wall,t,centroid_x,centroid_y,centroid_z,centre_x,centre_y,centre_z");
+    for (i = 0; i < h->sc.sphere_count; ++i)
+        fprintf(h->trace, ",sphere%d_x,sphere%d_y,sphere%d_z", i, i, i);
+    fputc('\n', h->trace);
+}
+
+/* Says once on stderr when a peer is first heard, and when one has not been
+   heard 2 s into the run (it may not be up yet: we keep simulating). */
+static void watch_peers(peer_host *h, double elapsed) {
+    int i;
+    for (i = 0; i < h->o.npeers; ++i) {
+        gs_peer_stats ps;
+        if (gs_net_peer_stats(gs_udp_net(h->udp), h->o.peers[i].id, &ps) != GS_OK) continue;
+        if (ps.snapshots_received > 0 && h->announced[i] != 2) {
+            fprintf(stderr, "ghostpeer %u: peer %u at %s is up\n", (unsigned)h->o.id,
+                    (unsigned)h->o.peers[i].id, h->o.peers[i].addr);
+            h->announced[i] = 2;
+        } else if (ps.snapshots_received == 0 && elapsed > 2.0 && h->announced[i] == 0) {
+            fprintf(stderr, "ghostpeer %u: nothing from peer %u at %s yet; simulating alone\n",
+                    (unsigned)h->o.id, (unsigned)h->o.peers[i].id, h->o.peers[i].addr);
+            h->announced[i] = 1;
+        }
+    }
+}
+
+static void nap(double seconds) {
+    struct timespec ts;
+    if (seconds <= 0.0) return;
+    ts.tv_sec = (time_t)seconds;
+    ts.tv_nsec = (long)((seconds - (double)ts.tv_sec) * 1e9);
+    nanosleep(&ts, NULL);
+}
+
+/* At wall-clock pace until the duration or a signal. */
+static int run(peer_host *h) {
+    double last = gs_udp_now(), next_stats = last, next_trace = last;
+    h->mono0 = last;
+    while (!g_stop) {
+        double now = gs_udp_now(), elapsed = now - h->mono0;
+        gs_result r;
+        if (h->o.duration > 0.0 && elapsed >= h->o.duration) break;
+        drive_probe(h, sim_time(h));
+        r = gs_world_advance(h->w, now - last, NULL);
+        if (r != GS_OK && r != GS_ERR_UNSTABLE)
+            fprintf(stderr, "ghostpeer %u: %s\n", (unsigned)h->o.id, gs_world_error(h->w));
+        last = now;
+        gs_udp_poll(h->udp, now); /* wakes the scatter thread */
+        if (now >= next_stats) {
+            print_line(h, 0);
+            watch_peers(h, elapsed);
+            next_stats += h->o.stats_every;
+            if (next_stats < now) next_stats = now + h->o.stats_every;
+        }
+        if (h->trace && now >= next_trace) {
+            trace_row(h);
+            next_trace += TRACE_EVERY;
+            if (next_trace < now) next_trace = now + TRACE_EVERY;
+        }
+        nap(FRAME - (gs_udp_now() - now));
+    }
+    print_line(h, 1);
+    return 0;
+}
+
+int main(int argc, char **argv) {
+    peer_host h;
+    struct sigaction sa;
+    int rc;
+    memset(&h, 0, sizeof h);
+    parse_args(argc, argv, &h.o);
+    memset(&sa, 0, sizeof sa);
+    sa.sa_handler = on_signal;
+    sigemptyset(&sa.sa_mask);
+    sigaction(SIGINT, &sa, NULL);
+    sigaction(SIGTERM, &sa, NULL);
+    signal(SIGPIPE, SIG_IGN);
+    rc = build(&h);
+    if (rc == 0 && h.o.trace) {
+        h.trace = fopen(h.o.trace, "w");
+        if (!h.trace) {
+            fprintf(stderr, "ghostpeer %u: cannot write %s: %s\n", (unsigned)h.o.id, h.o.trace,
+                    strerror(errno));
+            rc = 1;
+        } else {
+            trace_header(&h);
+        }
+    }
+    if (rc == 0) {
+        fprintf(stderr, "ghostpeer %u: listening on %s, %d peer(s), %d sphere(s), %d probe(s)\n",
+                (unsigned)h.o.id, h.o.listen, h.o.npeers, h.sc.sphere_count, h.sc.probe_count);
+        rc = run(&h);
+    }
+    if (h.trace) fclose(h.trace);
+    if (h.udp) gs_udp_close(h.udp);
+    gs_world_destroy(h.w);
+    return rc;
+}
