@@ -4048,10 +4048,10 @@ GS__PRIVATE int gs__mesh_info(const gs_agent *a, const gs_vec3 **x,
    where its velocity puts it at the body's time (see gs__mesh_vs_rigid: both
    sides of a contact must see the same overlap, or energy appears). */
 GS__PRIVATE void gs__rigid_vs_mesh(gs__rigid *r, const gs_agent *m, double t) {
-    const gs_vec3 *x, *v;
-    const gs_material *mat;
+    const gs_vec3 *x = NULL, *v = NULL;
+    const gs_material *mat = NULL;
     gs_vec3 lo, hi;
-    double rp, reach, slope, lag = fmax(-0.1, fmin(0.1, t - gs__agent_time(m)));
+    double rp = 0.0, reach, slope, lag = fmax(-0.1, fmin(0.1, t - gs__agent_time(m)));
     int n = gs__mesh_info(m, &x, &v, &rp, &mat), i;
     gs__mesh_bounds(m, &lo, &hi);
     reach = r->shape.bound + rp + fabs(lag) * r->solver.max_speed;
