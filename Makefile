@@ -1,7 +1,9 @@
 # ghostsim - build, test, install.
 #   make test      install missing Debian packages, build and run every test
 #                  (plain, then under ASan+UBSan), compile checks, examples
-#   make examples  build examples/ into build/
+#   make demo      three ghostpeer processes on loopback, live statistics,
+#                  plots and a picture in demo-results/
+#   make examples  build examples/ and the reference peer into build/
 #   make valgrind  the test suite under valgrind (memcheck, leaks)
 #   make install   PREFIX=/usr/local: the header, ghostsim.pc
 # Every recipe is plain POSIX make + sh; nothing is downloaded except Debian
@@ -21,12 +23,13 @@ CCD_LIBS   = $(shell pkg-config --libs ccd 2>/dev/null)
 LIBS      = $(CCD_LIBS) -lm -lpthread
 
 # Debian packages the build and tests need (command or file that proves each).
-DEBS := gcc g++ clang make pkg-config cmake libccd-dev libcmocka-dev valgrind
+DEBS := gcc g++ clang make pkg-config cmake libccd-dev libcmocka-dev valgrind \
+        libsdl2-dev gnuplot-nox python3
 
 TESTS    := $(basename $(notdir $(wildcard tests/test_*.c)))
 EXAMPLES := $(basename $(notdir $(wildcard examples/*.c)))
 
-.PHONY: all deps test test-plain test-asan compile-checks examples peer valgrind \
+.PHONY: all deps test test-plain test-asan test-peers demo compile-checks examples peer valgrind \
         install uninstall install-check cmake-check clean
 
 all: examples
@@ -54,6 +57,11 @@ $(BUILD)/test_%: tests/test_%.c $(BUILD)/gs_impl.o ghostsim.h
 	$(CC) $(CSTD) $(WARN) $(CFLAGS) -I. $< $(BUILD)/gs_impl.o -o $@ -lcmocka $(LIBS)
 $(BUILD)/asan/test_%: tests/test_%.c $(BUILD)/asan/gs_impl.o ghostsim.h
 	$(CC) $(CSTD) $(WARN) $(SANFLAGS) -I. $< $(BUILD)/asan/gs_impl.o -o $@ -lcmocka $(LIBS)
+
+# The viewer needs SDL2 (Debian libsdl2-dev); its headless mode draws PNGs.
+$(BUILD)/viewer: examples/viewer.c ghostsim.h | $(BUILD)
+	$(CC) $(CSTD) $(WARN) $(CFLAGS) $(CCD_CFLAGS) -I. $< -o $@ \
+	  $$(pkg-config --cflags --libs sdl2) $(LIBS)
 
 $(BUILD)/%: examples/%.c ghostsim.h | $(BUILD)
 	$(CC) $(CSTD) $(WARN) $(CFLAGS) $(CCD_CFLAGS) -I. $< -o $@ $(LIBS)
@@ -93,6 +101,19 @@ test: deps
 	@$(MAKE) --no-print-directory compile-checks examples cmake-check install-check
 	@$(MAKE) --no-print-directory test-plain
 	@$(MAKE) --no-print-directory test-asan
+
+# ghostpeer processes on loopback (tests/peers.py: bounded, kills what it
+# starts). Not yet part of `make test`: the peers do not converge to the
+# 1 mm the tests ask for (see issue 6's note).
+test-peers: $(BUILD)/ghostpeer
+	@python3 tests/peers.py $(BUILD)/ghostpeer
+
+# Three peers on loopback for about 20 s with a live display; results and
+# pictures in demo-results/.
+demo: deps
+	@$(MAKE) --no-print-directory $(BUILD)/ghostpeer $(BUILD)/viewer
+	@python3 reference_peer/demo.py --peer $(BUILD)/ghostpeer --viewer $(BUILD)/viewer \
+	  --out demo-results
 
 valgrind: $(addprefix $(BUILD)/,$(TESTS))
 	@VALGRIND="valgrind -q --error-exitcode=99 --leak-check=full --errors-for-leak-kinds=definite,indirect" \
