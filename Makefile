@@ -79,16 +79,17 @@ reference_peer/ghostpeer: $(BUILD)/ghostpeer
 # The header as C99 and C++11 under gcc and clang, with and without
 # GHOSTSIM_STATIC, implementation included: warning-free or the build fails.
 compile-checks: | $(BUILD)
-	@for cc in gcc clang; do \
-	  for opt in "" "-DGHOSTSIM_STATIC"; do \
-	    echo "compile-check: $$cc -std=c99 $$opt"; \
-	    $$cc $(CSTD) $(WARN) $$opt -I. -c tests/compile_check.c -o $(BUILD)/cc.o || exit 1; \
-	  done; done
-	@for cxx in g++ clang++; do \
-	  for opt in "" "-DGHOSTSIM_STATIC"; do \
-	    echo "compile-check: $$cxx -std=c++11 $$opt"; \
-	    $$cxx -std=c++11 $(WARN) $$opt -I. -x c++ -c tests/compile_check.c -o $(BUILD)/cc.o || exit 1; \
-	  done; done
+	@for f in compile_check compile_one; do \
+	  for cc in gcc clang; do \
+	    for opt in "" "-DGHOSTSIM_STATIC"; do \
+	      echo "compile-check: $$f $$cc -std=c99 $$opt"; \
+	      $$cc -std=c99 $(WARN) $$opt -I. -c tests/$$f.c -o $(BUILD)/cc.o || exit 1; \
+	    done; done; \
+	  for cxx in g++ clang++; do \
+	    for opt in "" "-DGHOSTSIM_STATIC"; do \
+	      echo "compile-check: $$f $$cxx -std=c++11 $$opt"; \
+	      $$cxx -std=c++11 $(WARN) $$opt -I. -x c++ -c tests/$$f.c -o $(BUILD)/cc.o || exit 1; \
+	    done; done; done
 
 test-plain: $(addprefix $(BUILD)/,$(TESTS))
 	@sh tests/run.sh "plain" $(addprefix $(BUILD)/,$(TESTS))

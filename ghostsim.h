@@ -11,8 +11,9 @@
            #define GHOSTSIM_IMPLEMENTATION
            #include "ghostsim.h"
        Every other file includes the header alone. The implementation needs
-       POSIX (clock_gettime, sockets, pthreads): compile that file with
-       -D_POSIX_C_SOURCE=200809L, -std=gnu99 or as C++. Link with
+       POSIX (clock_gettime, sockets, pthreads) and asks for it itself; if
+       that file includes a system header before this one, compile it with
+       -D_POSIX_C_SOURCE=200809L (or -std=gnu99, or as C++). Link with
        $(pkg-config --libs ccd) -lm -lpthread.
 
    QUICK START
@@ -114,6 +115,13 @@
 #define GHOSTSIM_VERSION_MINOR 1
 #define GHOSTSIM_VERSION_PATCH 0
 #define GHOSTSIM_VERSION_STRING "0.1.0"
+
+/* The implementation needs POSIX (clock_gettime, getaddrinfo, threads);
+   strict -std=c99 hides it unless asked for before the first system header. */
+#if defined(GHOSTSIM_IMPLEMENTATION) && defined(__STRICT_ANSI__) && \
+    !defined(_POSIX_C_SOURCE) && !defined(_GNU_SOURCE) && !defined(__cplusplus)
+#define _POSIX_C_SOURCE 200809L
+#endif
 
 #include <stddef.h>
 #include <stdint.h>
