@@ -669,6 +669,9 @@ typedef struct gs_weight_in {
     double age;      /* s of wall time since the snapshot was sent (an
                         estimate: half the round trip plus queueing) */
     uint32_t host;   /* the sending host (this host for the local state) */
+    uint32_t lead;   /* the host whose x_comp is x_max; but hosts within the
+                        ghost's time deadband of it are in step, a tie, and
+                        the lowest id among them leads */
     uint32_t owner;  /* the object's owner, 0 if shared */
     int local;       /* 1 for the local state */
     int local_owns;  /* 1 if this host owns the object */
@@ -678,8 +681,11 @@ typedef struct gs_weight_in {
    counts as 0 (and is counted); if every weight is 0 the local state stands. */
 typedef double (*gs_weight_fn)(const gs_weight_in *in, void *user);
 
-/* Client/server: 1 for whichever of the local state and the snapshots has the
-   largest x_comp, 0 for the rest: the most advanced host imposes its state. */
+/* Client/server: 1 for the lead (the local state or a snapshot), 0 for the
+   rest: the most advanced host imposes its state. Hosts in step are a tie
+   that the lowest host id wins, so that the lead does not change hands with
+   the noise of the latency estimate (two hosts taking turns to copy each
+   other's late snapshot never settle). */
 GS_API double gs_weight_cs(const gs_weight_in *in, void *user);
 /* Exponential: exp(rate * x_comp); user points to the rate in 1/s (NULL =
    1/s). The exponent is clamped to +-700 so that a far-ahead host counts as
@@ -728,8 +734,15 @@ typedef struct gs_ghost_desc {
                               error of the latency estimate, and chasing it
                               makes agents skip steps); default the world's
                               tolerance plus one send period (a snapshot
-                              waits up to that long to be sent); negative:
-                              none, the formula as is */
+                              waits up to that long to be sent). Hosts
+                              this close are in step (a tie for the
+                              client/server rule). Unless it is negative,
+                              a peer's time is read only from its latest
+                              snapshot, as the upper envelope of what they
+                              tell (a late datagram only looks older), and
+                              before the first round trip it may pull the
+                              clock on, never back. Negative: none of this,
+                              the formula as is */
 } gs_ghost_desc;
 
 GS_API gs_ghost_desc gs_ghost_desc_default(void);
@@ -4358,7 +4371,7 @@ GS_API gs_result gs_scene_create(gs_world *w, const gs_scene_desc *desc,
 
 GS_API double gs_weight_cs(const gs_weight_in *in, void *user) {
     (void)user;
-    return in->x_comp >= in->x_max ? 1.0 : 0.0;
+    return in->host == in->lead ? 1.0 : 0.0;
 }
 
 GS_API double gs_weight_exp(const gs_weight_in *in, void *user) {
@@ -4379,6 +4392,8 @@ typedef struct gs__snap {
     uint32_t seq;
     double time;        /* s, remote simulation time */
     double age;         /* s, estimated one-way delay when it came */
+    int age_known;      /* 0 before the first round trip to the peer: the
+                           age is taken as 0, so the time is a lower bound */
     int chunks;         /* chunks received */
     unsigned char *got; /* per chunk index */
     double *data;       /* the state after its time; valid where got */
@@ -4401,6 +4416,12 @@ struct gs__ghost {
     double t_local;       /* s; the agent's time after its last step, for
                              the receiving side (written under the lock) */
     double divergence[GS__MAX_PEERS];
+    double newest[GS__MAX_PEERS];  /* s; the latest remote time that told
+                                      the peer's clock, -HUGE_VAL at first */
+    double lead[GS__MAX_PEERS];    /* s; how far each peer's clock is ahead
+                                      of ours (see gs__peer_lead) */
+    double lead_at[GS__MAX_PEERS]; /* s; local time of its last sample,
+                                      -HUGE_VAL before the first */
     gs_ghost_stats stats;
 };
 typedef struct gs__ghost gs__ghost;
@@ -4529,6 +4550,7 @@ GS_API gs_result gs_ghost_attach(gs_agent *a, const gs_ghost_desc *desc) {
     gs_ghost_desc d;
     gs__ghost *g;
     size_t n = gs_agent_state_size(a), vars = n - 1, bytes;
+    int i;
     gs_result r = gs__world_unlocked(w, "gs_ghost_attach");
     if (r != GS_OK) return r;
     if (!desc) return gs__fail(w, GS_ERR_INVALID_ARG, "gs_ghost_attach: desc is NULL");
@@ -4556,6 +4578,7 @@ GS_API gs_result gs_ghost_attach(gs_agent *a, const gs_ghost_desc *desc) {
     gs_agent_get_state(a, g->B, n);
     g->b_seq = 1;
     g->t_local = g->B[0];
+    for (i = 0; i < GS__MAX_PEERS; ++i) g->newest[i] = g->lead_at[i] = -HUGE_VAL;
     a->ghost = g;
     r = gs__ghost_queues(g);
     if (r != GS_OK) {
@@ -4630,6 +4653,7 @@ GS__PRIVATE gs_weight_in gs__weight_in(const gs__ghost *g, uint32_t host,
     in.x_max = 0.0;
     in.age = age;
     in.host = host;
+    in.lead = host;
     in.owner = g->d.owner;
     in.local = local;
     in.local_owns = g->d.owner != 0 && g->d.owner == w->host_id;
@@ -4683,20 +4707,50 @@ GS__PRIVATE double gs__snap_accumulate(gs__ghost *g, const gs__snap *s,
     return counted ? sqrt(3.0 * d2 / (double)counted) : 0.0;
 }
 
-/* x_comp of every queued snapshot, their largest, and the weights. Returns
-   the local weight; all weights are scaled so that the largest is 1. */
+/* Time differences within this are noise: the hosts are in step. */
+GS__PRIVATE double gs__time_band(const gs__ghost *g) {
+    double band = g->d.time_deadband;
+    if (band == 0.0) /* the tolerance, plus a snapshot's wait to be sent */
+        band = g->agent->world->tolerance + 1.0 / g->d.send_rate;
+    return band > 0.0 ? band : 0.0;
+}
+
+GS__PRIVATE double gs__snap_xcomp(const gs__ghost *g, const gs__snap *s, double t_i) {
+    return g->d.raw_time ? s->time - t_i : s->time + s->age - t_i;
+}
+
+/* The largest x_comp of a blend (the local state's is 0), and the lead:
+   the lowest host id within the time band of it. */
+GS__PRIVATE double gs__ghost_lead(const gs__ghost *g, double t_i, uint32_t *lead) {
+    const gs_world *wd = g->agent->world;
+    double x_max = 0.0, band = gs__time_band(g);
+    int p, k;
+    for (p = 0; p < GS__MAX_PEERS; ++p)
+        for (k = 0; g->q[p] && k < g->d.queue_size; ++k)
+            if (g->q[p][k].used && gs__snap_xcomp(g, &g->q[p][k], t_i) > x_max)
+                x_max = gs__snap_xcomp(g, &g->q[p][k], t_i);
+    *lead = x_max <= band ? wd->host_id : 0;
+    for (p = 0; p < GS__MAX_PEERS; ++p)
+        for (k = 0; g->q[p] && k < g->d.queue_size; ++k) {
+            uint32_t h = wd->net->peers[p].host;
+            if (g->q[p][k].used && gs__snap_xcomp(g, &g->q[p][k], t_i) >= x_max - band &&
+                (*lead == 0 || h < *lead))
+                *lead = h;
+        }
+    return x_max;
+}
+
+/* The weight of the local state and of every queued snapshot. Returns the
+   local weight; all weights are scaled so that the largest is 1. */
 GS__PRIVATE double gs__ghost_weigh(gs__ghost *g, double t_i, double *wq) {
     gs_world *wd = g->agent->world;
     gs_weight_in in0 = gs__weight_in(g, wd->host_id, 0.0, 0.0, 1);
-    double x_max = 0.0, w0, wmax;
+    double x_max, w0, wmax;
+    uint32_t lead;
     int p, k, m = 0;
-    for (p = 0; p < GS__MAX_PEERS; ++p)
-        for (k = 0; g->q[p] && k < g->d.queue_size; ++k) {
-            const gs__snap *s = &g->q[p][k];
-            double xc = g->d.raw_time ? s->time - t_i : s->time + s->age - t_i;
-            if (s->used && xc > x_max) x_max = xc;
-        }
+    x_max = gs__ghost_lead(g, t_i, &lead);
     in0.x_max = x_max;
+    in0.lead = lead;
     wmax = w0 = gs__sane_weight(g, g->d.weight(&in0, g->d.weight_user));
     for (p = 0; p < GS__MAX_PEERS; ++p)
         for (k = 0; g->q[p] && k < g->d.queue_size; ++k) {
@@ -4705,6 +4759,7 @@ GS__PRIVATE double gs__ghost_weigh(gs__ghost *g, double t_i, double *wq) {
             if (!s->used) continue;
             in = gs__weight_in(g, wd->net->peers[p].host, s->time - t_i, s->age, 0);
             in.x_max = x_max;
+            in.lead = lead;
             wq[m] = gs__sane_weight(g, g->d.weight(&in, g->d.weight_user));
             if (wq[m] > wmax) wmax = wq[m];
             m++;
@@ -4740,11 +4795,52 @@ GS__PRIVATE double gs__peer_divergence(const gs_world *w, int p) {
 
 /* Sums every queued snapshot into num/den and the blended time; fills the
    per-peer divergence and gap. Returns the number of snapshots. */
+/* Does s tell the peer's present time? Only its latest snapshot does: one
+   held back on the way (reordering), or sent before one already blended,
+   is older than its age says and would pull the clock back. Before the
+   first round trip the age is unknown (taken as 0), so the time is only a
+   lower bound: it may pull the clock on, never back; otherwise every host
+   would drag the others a latency into the past at the start. A time over
+   a second behind the latest is a peer that started again. */
+/* The formula as written (raw_time, or a negative deadband): every
+   snapshot's x_comp counts in the time blend as it is. */
+GS__PRIVATE int gs__time_literal(const gs__ghost *g) {
+    return g->d.raw_time || g->d.time_deadband < 0.0;
+}
+
+GS__PRIVATE int gs__snap_tells_time(const gs__ghost *g, int p, const gs__snap *s,
+                                    double t_i) {
+    int k;
+    if (gs__time_literal(g)) return 1;
+    if (s->time < g->newest[p] && s->time > g->newest[p] - 1.0) return 0;
+    for (k = 0; k < g->d.queue_size; ++k)
+        if (g->q[p][k].used && g->q[p][k].time > s->time) return 0;
+    return s->age_known || s->time > t_i;
+}
+
+/* A peer's lead (s; how far its clock is ahead of ours) from one more
+   x_comp. A snapshot delayed on the way (jitter, a datagram held back)
+   looks older than it is, never newer: so the lead follows a larger sample
+   at once and a smaller one at GS__LEAD_FALL seconds per second, and a late
+   datagram does not pull the clock back (which jumps the agents that get
+   it apart from the rest, and their contacts with them). */
+#define GS__LEAD_FALL 0.1
+GS__PRIVATE double gs__peer_lead(gs__ghost *g, int p, double x, double t_i) {
+    double fall = g->lead_at[p] == -HUGE_VAL ? HUGE_VAL
+                                             : GS__LEAD_FALL * fabs(t_i - g->lead_at[p]);
+    if (gs__time_literal(g)) return x;
+    if (x > g->lead[p] - fall) g->lead[p] = x;
+    else g->lead[p] -= fall;
+    g->lead_at[p] = t_i;
+    return g->lead[p];
+}
+
 GS__PRIVATE int gs__ghost_gather(gs__ghost *g, double t_i, double *num_t,
                                  double *den_t) {
     gs_net *net = g->agent->world->net;
     int p, k, m = 0, used = 0;
-    for (p = 0; p < GS__MAX_PEERS; ++p)
+    for (p = 0; p < GS__MAX_PEERS; ++p) {
+        double newest = g->newest[p];
         for (k = 0; g->q[p] && k < g->d.queue_size; ++k) {
             const gs__snap *s = &g->q[p][k];
             double w, tq;
@@ -4754,10 +4850,15 @@ GS__PRIVATE int gs__ghost_gather(gs__ghost *g, double t_i, double *num_t,
             g->divergence[p] = gs__snap_accumulate(g, s, gs__snap_view(g, s, t_i), w);
             net->peers[p].st.divergence = gs__peer_divergence(g->agent->world, p);
             net->peers[p].st.gap = s->time - t_i;
-            *num_t += w * (tq - t_i);
-            *den_t += w;
+            if (gs__snap_tells_time(g, p, s, t_i)) {
+                *num_t += w * gs__peer_lead(g, p, tq - t_i, t_i);
+                *den_t += w;
+                newest = s->time;
+            }
             used++;
         }
+        g->newest[p] = newest;
+    }
     return used;
 }
 
@@ -4769,10 +4870,7 @@ GS__PRIVATE int gs__ghost_gather(gs__ghost *g, double t_i, double *num_t,
    would skip steps to stay on its world's clock. A host far behind (one
    that joins late) is pulled to the others at once. */
 GS__PRIVATE double gs__time_correction(const gs__ghost *g, double gap, double dt) {
-    double band = g->d.time_deadband;
-    if (band == 0.0) /* the tolerance, plus a snapshot's wait to be sent */
-        band = g->agent->world->tolerance + 1.0 / g->d.send_rate;
-    return fabs(gap) > band ? dt : 0.0;
+    return fabs(gap) > gs__time_band(g) ? dt : 0.0;
 }
 
 /* The paper's ghost update, after a step: blend every queued snapshot once
@@ -4789,14 +4887,19 @@ GS__PRIVATE void gs__ghost_blend(gs__ghost *g, gs_net *net) {
     memset(g->num, 0, n * sizeof(double));
     memset(g->den, 0, n * sizeof(double));
     used = gs__ghost_gather(g, t_i, &num_t, &den_t);
-    if (used == 0 || w0 + den_t <= 0.0) { gs__ghost_clear(g); gs__unlock(net); return; }
+    if (used == 0) { gs__ghost_clear(g); gs__unlock(net); return; }
     /* the paper's (w0 S + sum w q) / (w0 + sum w), written as S plus the
        weighted mean difference so that agreeing states give exactly S */
     /* the band applies to the gap to the others (their weighted mean time),
        not to the correction, which is only part of it: otherwise two hosts
        would settle up to (1 + w0 / w) bands apart */
-    g->scratch[0] = t_i + gs__time_correction(g, den_t > 0.0 ? num_t / den_t : 0.0,
-                                              num_t / (w0 + den_t));
+    g->scratch[0] = t_i;
+    if (den_t > 0.0) {
+        double dt = gs__time_correction(g, num_t / den_t, num_t / (w0 + den_t));
+        int p;
+        g->scratch[0] += dt;
+        for (p = 0; p < GS__MAX_PEERS; ++p) g->lead[p] -= dt;
+    }
     fade = gs__offset_fade(g, g->scratch[0]);
     for (e = 0; e + 1 < n; ++e) {
         double old = g->local[1 + e], d = w0 + g->den[e];
@@ -5377,7 +5480,8 @@ GS__PRIVATE gs__snap *gs__snap_slot(gs__ghost *g, int p, const gs_wire_chunk *c,
     free_s->used = 1;
     free_s->seq = c->sequence;
     free_s->time = c->time;
-    free_s->age = age;
+    free_s->age = age >= 0.0 ? age : 0.0;
+    free_s->age_known = age >= 0.0;
     free_s->chunks = 0;
     return free_s;
 }
@@ -5440,7 +5544,8 @@ GS_API gs_result gs_net_deliver(gs_net *net, const void *data, size_t size,
         res = gs__reject(net, p, GS_REJECT_DUPLICATE, why);
     } else {
         gs__peer *pe = &net->peers[p];
-        double age = 0.5 * pe->st.rtt; /* as known before this datagram */
+        /* as known before this datagram; -1: no round trip yet */
+        double age = pe->st.rtt > 0.0 ? 0.5 * pe->st.rtt : -1.0;
         if (order == 2) gs__peer_clock(pe, &v->header, now);
         pe->st.datagrams_received++;
         pe->st.bytes_received += size;

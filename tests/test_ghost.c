@@ -287,14 +287,19 @@ static void test_weight_rules(void **state) {
     assert_true(gs_weight_exp(&in, &rate) == exp(-700.0));
     assert_true(gs_weight_exp(&in, &rate) > 0.0);
 
-    /* client/server: 1 only for the largest x_comp (ties included) */
+    /* client/server: 1 only for the lead the ghost names (which host that
+       is, ties included, is test_client_server_tie's business) */
     in = win(0.0, 0.0, 0.0, 1, 0, 1);
+    in.lead = 1;
     assert_true(gs_weight_cs(&in, NULL) == 1.0);
     in = win(0.0, 0.0, 0.2, 1, 0, 1);
+    in.lead = 3;
     assert_true(gs_weight_cs(&in, NULL) == 0.0);
     in = win(0.15, 0.2, 0.2, 3, 0, 0);
+    in.lead = 3;
     assert_true(gs_weight_cs(&in, NULL) == 1.0);
     in = win(0.3, 0.19, 0.2, 3, 0, 0);
+    in.lead = 2;
     assert_true(gs_weight_cs(&in, NULL) == 0.0);
 
     /* owner: only the owner counts; shared objects blend evenly */
@@ -501,6 +506,46 @@ static void test_client_server_three_hosts(void **state) {
     assert_true(fabs(got[0] - S1[0]) <= 4.5e-16); /* steps*dt + offset: ulp(2) */
     assert_true(memcmp(got + 1, S1 + 1, 3 * sizeof(double)) == 0);
     for (i = 0; i < 3; ++i) host_free(h[i]);
+}
+
+/* Client/server between hosts in step: a snapshot within the time band
+   (default 0.01 + 1/60 s) of the local time is a tie, and the lowest host
+   id leads whichever of the two is a little ahead; a host ahead by more
+   than the band leads whatever its id. Each case blends once on host 2. */
+static void cs_tie_case(double t_remote, uint32_t sender, double *got_x) {
+    static const uint32_t peers[] = {1, 3, 0};
+    const double x0[3] = {1.0, 0.0, 0.0}, q[3] = {5.0, 0.0, 0.0};
+    gs_ghost_desc gd = gs_ghost_desc_default();
+    double st[4];
+    host *h;
+    snap s;
+    gd.object_id = 5;
+    gd.weight = gs_weight_cs;
+    h = host_new(2, 0.01, 0, 1.0, x0, &gd, peers);
+    s = snap_of(sender, 1, 5, 1, t_remote);
+    assert_int_equal(deliver(h->net, &s, q, 3, 0.0), GS_OK);
+    assert_int_equal(gs_agent_step(h->a), GS_OK);
+    get_state(h->a, st, 4);
+    *got_x = st[1];
+    host_free(h);
+}
+
+static void test_client_server_tie(void **state) {
+    double x;
+    (void)state;
+    /* host 1, 10 ms behind host 2 (at 1.01 s after its step): in step, and
+       1 < 2 leads: host 2 takes its state exactly */
+    cs_tie_case(1.0, 1, &x);
+    assert_true(x == 5.0);
+    /* host 3, 10 ms ahead: in step, and 2 < 3 leads: host 2 keeps its own */
+    cs_tie_case(1.02, 3, &x);
+    assert_true(x == 1.0);
+    /* host 3, 0.5 s ahead: beyond the band, the most advanced leads */
+    cs_tie_case(1.51, 3, &x);
+    assert_true(x == 5.0);
+    /* host 1, 0.5 s behind (a late joiner): host 2 does not go back to it */
+    cs_tie_case(0.51, 1, &x);
+    assert_true(x == 1.0);
 }
 
 /* A rule returning garbage: -1, NaN and +inf count as 0 and are counted. */
@@ -1215,6 +1260,7 @@ int main(int argc, char **argv) {
         cmocka_unit_test(test_blend_many_snapshots),
         cmocka_unit_test(test_shift_invariance),
         cmocka_unit_test(test_client_server_three_hosts),
+        cmocka_unit_test(test_client_server_tie),
         cmocka_unit_test(test_bad_weights),
         cmocka_unit_test(test_queue_full),
         cmocka_unit_test(test_time_deadband),
