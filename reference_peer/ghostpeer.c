@@ -10,7 +10,11 @@
    it at wall-clock pace. Host N drives probe N-1 along its scripted path
    until --probe-until seconds of simulation time, then parks it above the
    cloth. Ghosts: the cloth is object 1, sphere i object 100 + i (both under
-   --weight), probe i object 200 + i (owner authority: host i + 1 owns it).
+   --weight, default cs: client/server, whose tie between hosts in step goes
+   to the lowest id, so the hosts settle on one scene; under exp every host
+   pulls the others toward their states of a latency ago, and the scene
+   never quite comes to rest), probe i object 200 + i (owner authority:
+   host i + 1 owns it).
 
    stdout is for machines: one JSON object per line every --stats-every
    seconds of wall time, and a last line with "final": true and the totals
@@ -145,7 +149,7 @@ static void parse_args(int argc, char **argv, options *o) {
     memset(o, 0, sizeof *o);
     o->cloth = 16;
     o->spheres = 3;
-    o->weight = gs_weight_exp;
+    o->weight = gs_weight_cs;
     o->exp_rate = 1.0;
     o->integrator = GS_INTEGRATOR_IMPLICIT_EULER;
     o->dt = 0.002;
