@@ -29,7 +29,7 @@ DEBS := gcc g++ clang make pkg-config cmake libccd-dev libcmocka-dev valgrind \
 TESTS    := $(basename $(notdir $(wildcard tests/test_*.c)))
 EXAMPLES := $(basename $(notdir $(wildcard examples/*.c)))
 
-.PHONY: all deps test test-plain test-asan test-peers demo compile-checks examples peer valgrind \
+.PHONY: all deps test test-plain test-asan tsan valgrind-udp test-peers demo compile-checks examples peer valgrind \
         install uninstall install-check cmake-check clean
 
 all: examples
@@ -102,6 +102,23 @@ test: deps
 	@$(MAKE) --no-print-directory compile-checks examples cmake-check install-check
 	@$(MAKE) --no-print-directory test-plain
 	@$(MAKE) --no-print-directory test-asan
+	@$(MAKE) --no-print-directory tsan valgrind-udp
+
+# The UDP tests (gather and scatter threads) under ThreadSanitizer, and under
+# valgrind for leaks: sockets, threads and buffers all released at shutdown.
+TSANFLAGS := -O1 -g -fsanitize=thread -fno-omit-frame-pointer
+$(BUILD)/tsan:
+	mkdir -p $@
+$(BUILD)/tsan/gs_impl.o: tests/gs_impl.c ghostsim.h | $(BUILD)/tsan
+	$(CC) $(CSTD) $(WARN) $(TSANFLAGS) $(CCD_CFLAGS) -I. -c $< -o $@
+$(BUILD)/tsan/test_net: tests/test_net.c $(BUILD)/tsan/gs_impl.o ghostsim.h
+	$(CC) $(CSTD) $(WARN) $(TSANFLAGS) -I. $< $(BUILD)/tsan/gs_impl.o -o $@ -lcmocka $(LIBS)
+tsan: $(BUILD)/tsan/test_net
+	@TSAN_OPTIONS="halt_on_error=1 second_deadlock_stack=1" \
+	  sh tests/run.sh "tsan, udp" "$(BUILD)/tsan/test_net test_udp*"
+valgrind-udp: $(BUILD)/test_net
+	@VALGRIND="valgrind -q --error-exitcode=99 --leak-check=full --errors-for-leak-kinds=definite,indirect" \
+	  sh tests/run.sh "valgrind, udp" "$(BUILD)/test_net test_udp*"
 
 # ghostpeer processes on loopback (tests/peers.py: bounded, kills what it
 # starts). Not yet part of `make test`: the peers do not converge to the

@@ -1,13 +1,17 @@
 #!/bin/sh
 # Runs cmocka test binaries, prints each one's own output, then totals:
 #   tests/run.sh LABEL BINARY...
+# A BINARY may carry arguments in the same word ("build/test_net test_udp*":
+# a cmocka glob); it is split on spaces and never glob-expanded here.
 # $VALGRIND, if set, prefixes each run. Exits 1 if any test failed or any
 # binary exited non-zero.
 label=$1; shift
 passed=0; failed=0; status=0
 for t in "$@"; do
   out=$(mktemp)
-  $VALGRIND "$t" >"$out" 2>&1; rc=$?
+  set -f
+  $VALGRIND $t >"$out" 2>&1; rc=$?
+  set +f
   cat "$out"
   p=$(sed -n 's/^\[  PASSED  \] \([0-9]*\) test.*/\1/p' "$out" | tail -1)
   f=$(sed -n 's/^\[  FAILED  \] \([0-9]*\) test.*/\1/p' "$out" | tail -1)
