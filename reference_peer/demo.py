@@ -122,7 +122,7 @@ def reader(peer, lock):
                 peer.final = obj
 
 
-def start_peers(a, out):
+def start_peers(a, out, viewer):
     peers = [Peer(i + 1, a.base_port + i) for i in range(NPEERS)]
     lock = threading.Lock()
     for p in peers:
@@ -130,6 +130,10 @@ def start_peers(a, out):
         for q in peers:
             if q is not p:
                 cmd += ["--peer", "%d@127.0.0.1:%d" % (q.id, q.port)]
+        if viewer:
+            # the viewer is host NPEERS + 1 from the start, so that the peers
+            # send it the scene once it comes (they report it silent until)
+            cmd += ["--peer", "%d@127.0.0.1:%d" % (NPEERS + 1, a.base_port + NPEERS)]
         cmd += ["--duration", "%g" % a.duration, "--probe-until", "%g" % a.probe_until,
                 "--stats-every", "%g" % STATS_EVERY]
         p.cmd = cmd
@@ -544,7 +548,8 @@ def main(argv):
     sys.stderr.write("demo: %d peers on 127.0.0.1:%d-%d for %g s, probes until %g s; "
                      "logs in %s/\n" % (NPEERS, a.base_port, a.base_port + NPEERS - 1,
                                         a.duration, a.probe_until, a.out))
-    peers, lock = start_peers(a, a.out)
+    peers, lock = start_peers(a, a.out, bool(a.viewer) and os.path.isfile(a.viewer)
+                              and os.access(a.viewer, os.X_OK))
     others = []
     try:
         return run(a, peers, lock, interrupted, others)
@@ -586,7 +591,7 @@ def run(a, peers, lock, interrupted, others):
         if want_viewer and viewer is None and now >= VIEWER_AT and not terminated:
             vport = a.base_port + NPEERS
             vcmd = [a.viewer if os.sep in a.viewer else os.path.join(".", a.viewer),
-                    "--headless", "--out", viewer_png, "--id", "9",
+                    "--headless", "--out", viewer_png, "--id", str(NPEERS + 1),
                     "--listen", "127.0.0.1:%d" % vport]
             for p in peers:
                 vcmd += ["--peer", "%d@127.0.0.1:%d" % (p.id, p.port)]
