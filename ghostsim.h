@@ -767,6 +767,14 @@ GS_API gs_result gs_ghost_get_stats(const gs_agent *a, gs_ghost_stats *out);
 GS_API gs_result gs_ghost_render_state(const gs_agent *a, double *out,
                                        size_t n);
 
+/* Ghosts on every agent of the paper's scene, under the object ids every
+   host of a session shares: the cloth is 1 and sphere i is 100 + i, both
+   under `shared` (NULL: gs_ghost_desc_default(); its object_id and owner
+   are ignored); probe i is 200 + i under owner authority, owned by host
+   i + 1 (its other fields from `shared`, catch-up none: a probe is where
+   its owner puts it). On an error no ghost is left on the scene. */
+GS_API gs_result gs_scene_attach_ghosts(gs_scene *sc, const gs_ghost_desc *shared);
+
 /* ========================================================================
    >>wire
    Wire format v1, little-endian. A datagram (at most GS_WIRE_MAX_DATAGRAM
@@ -4624,6 +4632,44 @@ GS_API gs_result gs_ghost_render_state(const gs_agent *a, double *out,
     f = gs__offset_fade(g, out[0]);
     for (i = 1; i < n; ++i) out[i] += f * g->offset[i];
     return GS_OK;
+}
+
+GS__PRIVATE int gs__scene_has_ghost(const gs_scene *sc) {
+    int i, any = sc->cloth->ghost != NULL;
+    for (i = 0; i < sc->sphere_count; ++i) any |= sc->spheres[i]->ghost != NULL;
+    for (i = 0; i < sc->probe_count; ++i) any |= sc->probes[i]->ghost != NULL;
+    return any;
+}
+
+GS_API gs_result gs_scene_attach_ghosts(gs_scene *sc, const gs_ghost_desc *shared) {
+    gs_ghost_desc gd = shared ? *shared : gs_ghost_desc_default();
+    gs_result r = GS_OK;
+    int i;
+    if (!sc || !sc->cloth) return GS_ERR_INVALID_ARG;
+    if (gs__scene_has_ghost(sc))
+        return gs__fail(sc->cloth->world, GS_ERR_INVALID_ARG,
+                        "gs_scene_attach_ghosts: an agent of the scene has a ghost already");
+    gd.owner = 0;
+    gd.object_id = 1;
+    r = gs_ghost_attach(sc->cloth, &gd);
+    for (i = 0; r == GS_OK && i < sc->sphere_count; ++i) {
+        gd.object_id = 100 + (uint32_t)i;
+        r = gs_ghost_attach(sc->spheres[i], &gd);
+    }
+    gd.weight = gs_weight_owner;
+    gd.weight_user = NULL;
+    gd.catchup = GS_CATCHUP_NONE;
+    for (i = 0; r == GS_OK && i < sc->probe_count; ++i) {
+        gd.object_id = 200 + (uint32_t)i;
+        gd.owner = (uint32_t)i + 1;
+        r = gs_ghost_attach(sc->probes[i], &gd);
+    }
+    if (r != GS_OK) { /* the error message stays with the world */
+        gs_ghost_detach(sc->cloth);
+        for (i = 0; i < sc->sphere_count; ++i) gs_ghost_detach(sc->spheres[i]);
+        for (i = 0; i < sc->probe_count; ++i) gs_ghost_detach(sc->probes[i]);
+    }
+    return r;
 }
 
 /* After a step: the latest state goes to B at the ghost's rate (simulation

@@ -4,9 +4,11 @@
    hosts' states over a link of 50 ms latency and 2% loss; nobody interacts.
    Every half second we print how far apart the two copies are, the round
    trip the ghosts measured and what arrived. Both hosts keep wall-clock pace
-   (their simulation times match the simnet's clock). The copies come within
-   millimetres of each other but do not meet exactly: see "Convergence" in the
-   README for why contacts keep them apart. */
+   (their simulation times match the simnet's clock). The shared objects use
+   the client/server rule: the hosts are in step, a tie that host 1 wins, so
+   host 2 copies host 1 and the copies meet as the scene settles (under the
+   exponential rule both pull each other toward states 50 ms old and stay
+   millimetres apart: see "Convergence" in the README). */
 #define GHOSTSIM_IMPLEMENTATION
 #include "ghostsim.h"
 
@@ -14,26 +16,6 @@
 #include <stdio.h>
 
 #define HOSTS 2
-
-/* Every agent of the scene gets a ghost under the same object id on every
-   host; each probe follows its owner alone. */
-static int attach_ghosts(gs_scene *sc) {
-    gs_ghost_desc gd = gs_ghost_desc_default();
-    int i, ok = 1;
-    gd.object_id = 1;
-    ok &= gs_ghost_attach(sc->cloth, &gd) == GS_OK;
-    for (i = 0; i < sc->sphere_count; ++i) {
-        gd.object_id = 100 + (uint32_t)i;
-        ok &= gs_ghost_attach(sc->spheres[i], &gd) == GS_OK;
-    }
-    for (i = 0; i < sc->probe_count; ++i) {
-        gd.object_id = 200 + (uint32_t)i;
-        gd.weight = gs_weight_owner;
-        gd.owner = (uint32_t)i + 1;
-        ok &= gs_ghost_attach(sc->probes[i], &gd) == GS_OK;
-    }
-    return ok;
-}
 
 /* Largest distance between the two hosts' copies of any cloth particle. */
 static double cloth_gap(const gs_scene *a, const gs_scene *b) {
@@ -55,7 +37,9 @@ int main(void) {
     gs_net *net;
     gs_link_desc wan = {0};
     gs_scene_desc sd = gs_scene_desc_default();
+    gs_ghost_desc gd = gs_ghost_desc_default();
     int h, step;
+    gd.weight = gs_weight_cs;
 
     wan.latency = 0.050; /* s */
     wan.jitter = 0.005;
@@ -66,7 +50,8 @@ int main(void) {
         double st[14];
         wd.host_id = (uint32_t)h + 1;
         if (gs_world_create(&wd, &world[h]) != GS_OK) return 1;
-        if (gs_scene_create(world[h], &sd, &scene[h]) != GS_OK || !attach_ghosts(&scene[h])) {
+        if (gs_scene_create(world[h], &sd, &scene[h]) != GS_OK ||
+            gs_scene_attach_ghosts(&scene[h], &gd) != GS_OK) {
             fprintf(stderr, "two_hosts_simnet: %s\n", gs_world_error(world[h]));
             return 1;
         }
@@ -77,7 +62,7 @@ int main(void) {
     }
     gs_simnet_link(sim, 1, 2, &wan);
     gs_simnet_link(sim, 2, 1, &wan);
-    for (step = 1; step <= 20; ++step) {
+    for (step = 1; step <= 40; ++step) {
         gs_peer_stats ps;
         gs_simnet_run(sim, 0.5, 1.0 / 60.0);
         gs_net_peer_stats(gs_world_net(world[0]), 2, &ps);

@@ -440,26 +440,6 @@ typedef struct vw_peer {
     int warned;          /* an advance error was reported already */
 } vw_peer;
 
-/* Every object gets a ghost under the id every host uses: the cloth 1,
-   sphere i 100 + i, probe i 200 + i following its owner, host i + 1. */
-static int attach_ghosts(gs_scene *sc) {
-    gs_ghost_desc gd = gs_ghost_desc_default();
-    int i, ok = 1;
-    gd.object_id = 1;
-    ok &= gs_ghost_attach(sc->cloth, &gd) == GS_OK;
-    for (i = 0; i < sc->sphere_count; ++i) {
-        gd.object_id = 100 + (uint32_t)i;
-        ok &= gs_ghost_attach(sc->spheres[i], &gd) == GS_OK;
-    }
-    for (i = 0; i < sc->probe_count; ++i) {
-        gd.object_id = 200 + (uint32_t)i;
-        gd.weight = gs_weight_owner;
-        gd.owner = (uint32_t)i + 1;
-        ok &= gs_ghost_attach(sc->probes[i], &gd) == GS_OK;
-    }
-    return ok;
-}
-
 static int peer_buffers(vw_peer *p) {
     size_t most = 0;
     int i, n = gs_mesh_particle_count(p->scene.cloth);
@@ -513,6 +493,7 @@ static int peer_open_udp(vw_peer *p, const vw_options *o) {
 static int peer_open(vw_peer *p, const vw_options *o) {
     gs_world_desc wd = gs_world_desc_default();
     gs_scene_desc sd = gs_scene_desc_default();
+    gs_ghost_desc gd = gs_ghost_desc_default();
     int status;
     memset(p, 0, sizeof *p);
     wd.host_id = o->id;
@@ -527,7 +508,9 @@ static int peer_open(vw_peer *p, const vw_options *o) {
     sd.dt = o->dt;
     sd.seed = o->seed;
     p->local = (int)o->id - 1;
-    if (gs_scene_create(p->world, &sd, &p->scene) != GS_OK || !attach_ghosts(&p->scene)) {
+    gd.weight = gs_weight_cs; /* as ghostpeer: the lowest id in step leads */
+    if (gs_scene_create(p->world, &sd, &p->scene) != GS_OK ||
+        gs_scene_attach_ghosts(&p->scene, &gd) != GS_OK) {
         fprintf(stderr, "viewer: %s\n", gs_world_error(p->world));
         peer_close(p);
         return 1;

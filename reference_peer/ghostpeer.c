@@ -248,19 +248,7 @@ static int build(peer_host *h) {
     gd.weight = o->weight;
     gd.weight_user = o->weight == gs_weight_exp ? (void *)&h->o.exp_rate : NULL;
     gd.encoding = o->encoding;
-    gd.object_id = 1;
-    if (gs_ghost_attach(h->sc.cloth, &gd) != GS_OK) return fail(h, "ghost");
-    for (i = 0; i < h->sc.sphere_count; ++i) {
-        gd.object_id = 100 + (uint32_t)i;
-        if (gs_ghost_attach(h->sc.spheres[i], &gd) != GS_OK) return fail(h, "ghost");
-    }
-    gd.weight = gs_weight_owner;
-    gd.weight_user = NULL;
-    for (i = 0; i < h->sc.probe_count; ++i) {
-        gd.object_id = 200 + (uint32_t)i;
-        gd.owner = (uint32_t)i + 1;
-        if (gs_ghost_attach(h->sc.probes[i], &gd) != GS_OK) return fail(h, "ghost");
-    }
+    if (gs_scene_attach_ghosts(&h->sc, &gd) != GS_OK) return fail(h, "ghost");
     memset(&ud, 0, sizeof ud);
     ud.bind = o->listen;
     ud.threads = 1;

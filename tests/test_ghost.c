@@ -1251,6 +1251,62 @@ static void test_net_lock_is_balanced(void **state) {
     gs_simnet_destroy(sim);
 }
 
+/* gs_scene_attach_ghosts: the shared ids and rules, and all or nothing. */
+static int has_ghost(const gs_agent *a) {
+    gs_ghost_stats st;
+    return gs_ghost_get_stats(a, &st) == GS_OK;
+}
+
+static void test_scene_attach_ghosts(void **state) {
+    gs_world *w = world_new(1);
+    gs_scene_desc sd = gs_scene_desc_default();
+    gs_ghost_desc gd = gs_ghost_desc_default();
+    gs_rigid_desc rd = gs_rigid_desc_default();
+    gs_scene sc;
+    gs_agent *extra;
+    int i;
+    (void)state;
+    sd.cloth_n = 4;
+    sd.sphere_count = 2;
+    sd.probe_count = 2;
+    assert_int_equal(gs_scene_create(w, &sd, &sc), GS_OK);
+    assert_int_equal(gs_scene_attach_ghosts(NULL, NULL), GS_ERR_INVALID_ARG);
+    /* sphere 1 would be object 101: an agent outside the scene has it, so
+       the call fails half way and takes back what it attached */
+    rd.shape.type = GS_SHAPE_SPHERE;
+    rd.shape.radius = 0.1;
+    rd.position.y = 5.0;
+    assert_int_equal(gs_rigid_create(w, &rd, &extra), GS_OK);
+    gd.object_id = 101;
+    assert_int_equal(gs_ghost_attach(extra, &gd), GS_OK);
+    assert_int_equal(gs_scene_attach_ghosts(&sc, NULL), GS_ERR_INVALID_ARG);
+    assert_non_null(strstr(gs_world_error(w), "101"));
+    assert_false(has_ghost(sc.cloth));
+    for (i = 0; i < 2; ++i) assert_false(has_ghost(sc.spheres[i]) || has_ghost(sc.probes[i]));
+    assert_int_equal(gs_ghost_detach(extra), GS_OK);
+    /* a bad shared desc: nothing attached */
+    gd = gs_ghost_desc_default();
+    gd.send_rate = -1.0;
+    assert_int_equal(gs_scene_attach_ghosts(&sc, &gd), GS_ERR_INVALID_ARG);
+    assert_false(has_ghost(sc.cloth));
+    /* now all of them; the ids are the ones every host uses (object 1 and
+       101 are taken, so attaching them again elsewhere fails) */
+    assert_int_equal(gs_scene_attach_ghosts(&sc, NULL), GS_OK);
+    assert_true(has_ghost(sc.cloth));
+    for (i = 0; i < 2; ++i) assert_true(has_ghost(sc.spheres[i]) && has_ghost(sc.probes[i]));
+    for (i = 0; i < 4; ++i) {
+        static const uint32_t ids[4] = {1, 101, 200, 201};
+        gd = gs_ghost_desc_default();
+        gd.object_id = ids[i];
+        assert_int_equal(gs_ghost_attach(extra, &gd), GS_ERR_INVALID_ARG);
+    }
+    /* twice: refused, and the first set stays */
+    assert_int_equal(gs_scene_attach_ghosts(&sc, NULL), GS_ERR_INVALID_ARG);
+    assert_non_null(strstr(gs_world_error(w), "has a ghost already"));
+    assert_true(has_ghost(sc.cloth) && has_ghost(sc.probes[1]));
+    gs_world_destroy(w);
+}
+
 int main(int argc, char **argv) {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_net_lock_is_balanced),
@@ -1270,6 +1326,7 @@ int main(int argc, char **argv) {
         cmocka_unit_test(test_dead_reckoning_rigid),
         cmocka_unit_test(test_f32_ghost),
         cmocka_unit_test(test_attach_errors),
+        cmocka_unit_test(test_scene_attach_ghosts),
         cmocka_unit_test(test_attach_before_and_after_net),
         cmocka_unit_test(test_latency_trap),
     };

@@ -282,7 +282,6 @@ static gs_result scene_open(scene_host *s, gs_simnet *sim, uint32_t id, int sphe
     gs_scene_desc sd = gs_scene_desc_default();
     gs_ghost_desc gd = gs_ghost_desc_default();
     gs_result r;
-    int i;
     wd.host_id = id;
     r = gs_world_create(&wd, &s->w);
     if (r != GS_OK) return r;
@@ -290,24 +289,11 @@ static gs_result scene_open(scene_host *s, gs_simnet *sim, uint32_t id, int sphe
     sd.probe_count = probes;
     r = gs_scene_create(s->w, &sd, &s->sc);
     if (weight) gd.weight = weight;
-    gd.object_id = 1;
-    if (r == GS_OK) r = gs_ghost_attach(s->sc.cloth, &gd);
-    for (i = 0; r == GS_OK && i < s->sc.sphere_count; ++i) {
-        gd.object_id = 100 + (uint32_t)i;
-        r = gs_ghost_attach(s->sc.spheres[i], &gd);
-    }
-    gd.weight = gs_weight_owner;
-    for (i = 0; r == GS_OK && i < s->sc.probe_count; ++i) {
-        gd.object_id = 200 + (uint32_t)i;
-        gd.owner = (uint32_t)i + 1;
-        r = gs_ghost_attach(s->sc.probes[i], &gd);
-    }
+    if (r == GS_OK) r = gs_scene_attach_ghosts(&s->sc, &gd);
     if (r == GS_OK) r = gs_simnet_join(sim, s->w, NULL, &s->net);
     return r;
 }
 
-/* The largest distance between the two hosts' copies of any position in
-   the scene: cloth particles, sphere centres, probes (m). */
 static double scene_gap(const scene_host *a, const scene_host *b) {
     double g = mesh_gap(a->sc.cloth, b->sc.cloth);
     int i;
