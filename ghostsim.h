@@ -4839,8 +4839,12 @@ GS__PRIVATE double gs__peer_divergence(const gs_world *w, int p) {
     return worst;
 }
 
-/* Sums every queued snapshot into num/den and the blended time; fills the
-   per-peer divergence and gap. Returns the number of snapshots. */
+/* The formula as written (raw_time, or a negative deadband): every
+   snapshot's x_comp counts in the time blend as it is. */
+GS__PRIVATE int gs__time_literal(const gs__ghost *g) {
+    return g->d.raw_time || g->d.time_deadband < 0.0;
+}
+
 /* Does s tell the peer's present time? Only its latest snapshot does: one
    held back on the way (reordering), or sent before one already blended,
    is older than its age says and would pull the clock back. Before the
@@ -4848,12 +4852,6 @@ GS__PRIVATE double gs__peer_divergence(const gs_world *w, int p) {
    lower bound: it may pull the clock on, never back; otherwise every host
    would drag the others a latency into the past at the start. A time over
    a second behind the latest is a peer that started again. */
-/* The formula as written (raw_time, or a negative deadband): every
-   snapshot's x_comp counts in the time blend as it is. */
-GS__PRIVATE int gs__time_literal(const gs__ghost *g) {
-    return g->d.raw_time || g->d.time_deadband < 0.0;
-}
-
 GS__PRIVATE int gs__snap_tells_time(const gs__ghost *g, int p, const gs__snap *s,
                                     double t_i) {
     int k;
@@ -4881,6 +4879,8 @@ GS__PRIVATE double gs__peer_lead(gs__ghost *g, int p, double x, double t_i) {
     return g->lead[p];
 }
 
+/* Sums every queued snapshot into num/den and the blended time; fills the
+   per-peer divergence and gap. Returns the number of snapshots. */
 GS__PRIVATE int gs__ghost_gather(gs__ghost *g, double t_i, double *num_t,
                                  double *den_t) {
     gs_net *net = g->agent->world->net;
