@@ -668,6 +668,47 @@ static double deadband_time(double deadband, double t_snap, double *x1) {
     return got[0];
 }
 
+/* The clock is read from a peer's latest snapshot only, and before the
+   first round trip a snapshot may pull it on but never back. Host 2 at
+   1.0 s (dt 10 ms, a still toy), exponential rule at 1/s, default band
+   (0.01 + 1/60 s); no round trip is ever measured here (age 0). */
+static double step_with(host *h, uint32_t dseq, double t_remote) {
+    const double q[3] = {0.0, 0.0, 0.0};
+    double st[4];
+    snap s = snap_of(1, dseq, 5, dseq, t_remote);
+    assert_int_equal(deliver(h->net, &s, q, 3, 0.0), GS_OK);
+    assert_int_equal(gs_agent_step(h->a), GS_OK);
+    get_state(h->a, st, 4);
+    return st[0];
+}
+
+static void test_time_from_latest_snapshot(void **state) {
+    static const uint32_t peers[] = {1, 0};
+    const double x0[3] = {0.0, 0.0, 0.0};
+    gs_ghost_desc gd = gs_ghost_desc_default();
+    double t, w;
+    host *h;
+    (void)state;
+    gd.object_id = 5;
+    h = host_new(2, 0.01, 0, 1.0, x0, &gd, peers);
+    /* 110 ms behind, latency unknown: it may only be older than it looks,
+       so the clock stays (1.01 s after the step), to an ulp */
+    t = step_with(h, 1, 0.9);
+    assert_true(fabs(t - 1.01) <= 4.5e-16);
+    /* 480 ms ahead: pulled on by w / (1 + w) of the gap, w = e^0.48 */
+    t = step_with(h, 2, 1.5);
+    w = exp(1.5 - 1.02);
+    assert_true(fabs(t - (1.02 + w * 1.5) / (1.0 + w)) <= TOL);
+    /* a snapshot from before the one that told 1.5 s (held back on the
+       way): it is blended, but says nothing of the peer's clock now. At
+       1.45 s it is ahead of ours (1.34 s): read as a clock, it would pull
+       us on by half of 0.11 s */
+    w = t + 0.01;
+    t = step_with(h, 3, 1.45);
+    assert_true(fabs(t - w) <= 4.5e-16);
+    host_free(h);
+}
+
 static void test_time_deadband(void **state) {
     double x1, w, t;
     gs_ghost_desc gd = gs_ghost_desc_default();
@@ -1320,6 +1361,7 @@ int main(int argc, char **argv) {
         cmocka_unit_test(test_bad_weights),
         cmocka_unit_test(test_queue_full),
         cmocka_unit_test(test_time_deadband),
+        cmocka_unit_test(test_time_from_latest_snapshot),
         cmocka_unit_test(test_chunking_on_send),
         cmocka_unit_test(test_lost_chunk),
         cmocka_unit_test(test_render_smoothing),
