@@ -220,20 +220,24 @@ typedef struct host_row {
     double host_step, bytes_per_world, simnet_bytes;
 } host_row;
 
-static host_row run_hosts(int H, int quick)
-{
+typedef struct host_set {
     gs_simnet *sim;
-    gs_simnet_desc sd;
     gs_world *w[16];
     counter cw[16], cs;
-    host_row row;
+    int H;
     double v[16];
-    int i, rep, reps = quick ? 3 : 7, frames = quick ? 4 : 8;
+} host_set;
+
+static void host_set_make(host_set *s, int H)
+{
+    gs_simnet_desc sd;
     gs_result r;
+    int i;
+    memset(s, 0, sizeof *s);
+    s->H = H;
     memset(&sd, 0, sizeof sd);
-    memset(&cs, 0, sizeof cs);
-    sd.allocator = counting(&cs);
-    if ((r = gs_simnet_create(&sd, &sim)) != GS_OK) die("gs_simnet_create", NULL, r);
+    sd.allocator = counting(&s->cs);
+    if ((r = gs_simnet_create(&sd, &s->sim)) != GS_OK) die("gs_simnet_create", NULL, r);
     for (i = 0; i < H; ++i) {
         gs_world_desc wd = gs_world_desc_default();
         gs_cloth_desc cd = gs_cloth_desc_default();
@@ -241,34 +245,50 @@ static host_row run_hosts(int H, int quick)
         gs_net_desc nd;
         gs_net *net;
         gs_agent *a;
-        memset(&cw[i], 0, sizeof cw[i]);
         wd.host_id = (uint32_t)i + 1;
-        wd.allocator = counting(&cw[i]);
-        if ((r = gs_world_create(&wd, &w[i])) != GS_OK) die("gs_world_create", NULL, r);
+        wd.allocator = counting(&s->cw[i]);
+        if ((r = gs_world_create(&wd, &s->w[i])) != GS_OK) die("gs_world_create", NULL, r);
         cd.nx = cd.ny = 16;
         cd.pin_corners = GS_CORNER_ALL;
-        if ((r = gs_cloth_create(w[i], &cd, &a)) != GS_OK) die("gs_cloth_create", w[i], r);
+        if ((r = gs_cloth_create(s->w[i], &cd, &a)) != GS_OK) die("gs_cloth_create", s->w[i], r);
         gd.object_id = 1;
-        if ((r = gs_ghost_attach(a, &gd)) != GS_OK) die("gs_ghost_attach", w[i], r);
+        if ((r = gs_ghost_attach(a, &gd)) != GS_OK) die("gs_ghost_attach", s->w[i], r);
         memset(&nd, 0, sizeof nd);
         nd.bandwidth = 1e9;
-        if ((r = gs_simnet_join(sim, w[i], &nd, &net)) != GS_OK) die("gs_simnet_join", w[i], r);
+        if ((r = gs_simnet_join(s->sim, s->w[i], &nd, &net)) != GS_OK) die("gs_simnet_join", s->w[i], r);
     }
-    gs_simnet_run(sim, 2 * FRAME, FRAME);
-    for (rep = 0; rep < reps; ++rep) {
-        double t0 = bu_now();
-        if ((r = gs_simnet_run(sim, frames * FRAME, FRAME)) != GS_OK) die("gs_simnet_run", w[0], r);
-        v[rep] = (bu_now() - t0) / ((double)H * (frames * FRAME / DT));
+    gs_simnet_run(s->sim, 2 * FRAME, FRAME);
+}
+
+/* Every host count is built first, then timed in turns (the order rotates
+   each round), so that a noisy moment on a shared machine is spread over
+   all of them. */
+static void run_hosts(const int *hs, int nhs, int quick, host_row *rows)
+{
+    host_set *sets = (host_set *)calloc((size_t)nhs, sizeof *sets);
+    int i, k, rep, reps = quick ? 3 : 9, frames = quick ? 4 : 12;
+    gs_result r;
+    if (!sets) die("calloc", NULL, GS_ERR_NO_MEMORY);
+    for (k = 0; k < nhs; ++k) host_set_make(&sets[k], hs[k]);
+    for (rep = 0; rep < reps; ++rep)
+        for (i = 0; i < nhs; ++i) {
+            host_set *s = &sets[(i + rep) % nhs];
+            double t0 = bu_now();
+            if ((r = gs_simnet_run(s->sim, frames * FRAME, FRAME)) != GS_OK) die("gs_simnet_run", s->w[0], r);
+            s->v[rep] = (bu_now() - t0) / ((double)s->H * (frames * FRAME / DT));
+        }
+    for (k = 0; k < nhs; ++k) {
+        host_set *s = &sets[k];
+        rows[k].hosts = s->H;
+        rows[k].host_step = bu_median(s->v, reps);
+        rows[k].bytes_per_world = 0.0;
+        for (i = 0; i < s->H; ++i) rows[k].bytes_per_world += s->cw[i].live;
+        rows[k].bytes_per_world /= s->H;
+        rows[k].simnet_bytes = s->cs.live;
+        gs_simnet_destroy(s->sim);
+        for (i = 0; i < s->H; ++i) gs_world_destroy(s->w[i]);
     }
-    row.hosts = H;
-    row.host_step = bu_median(v, reps);
-    row.bytes_per_world = 0.0;
-    for (i = 0; i < H; ++i) row.bytes_per_world += cw[i].live;
-    row.bytes_per_world /= H;
-    row.simnet_bytes = cs.live;
-    gs_simnet_destroy(sim);
-    for (i = 0; i < H; ++i) gs_world_destroy(w[i]);
-    return row;
+    free(sets);
 }
 
 int main(int argc, char **argv)
@@ -330,8 +350,8 @@ int main(int argc, char **argv)
 
     fprintf(stderr, "%10s %16s %16s %14s %14s\n", "hosts", "us/host-step", "us/step (all)", "bytes/world",
             "simnet bytes");
+    run_hosts(hs, nhs, a.quick, hrow);
     for (i = 0; i < nhs; ++i) {
-        hrow[i] = run_hosts(hs[i], a.quick);
         fprintf(stderr, "%10d %16.2f %16.2f %14.0f %14.0f\n", hs[i], hrow[i].host_step * 1e6,
                 hrow[i].host_step * hs[i] * 1e6, hrow[i].bytes_per_world, hrow[i].simnet_bytes);
         x[i] = hs[i];
