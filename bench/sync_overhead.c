@@ -353,6 +353,123 @@ static ab_result run_ab(int n, int H, double sim, int reps)
     return ab;
 }
 
+/* ---- one full datagram through the public wire functions ----
+   What encode and deliver spend per datagram: the values (gs_wire_add,
+   which checks and writes each one), the CRC-32 (gs_wire_end), decoding
+   and checking (gs_wire_decode), against memcpy of the same bytes. */
+typedef struct wire_cost {
+    double add, end, decode, copy, crc8; /* s per datagram */
+    int crc8_agrees;
+    size_t bytes;
+    int values;
+} wire_cost;
+
+typedef struct wire_job {
+    unsigned char buf[GS_WIRE_MAX_DATAGRAM], copy[GS_WIRE_MAX_DATAGRAM];
+    double values[GS_WIRE_MAX_DATAGRAM / 4];
+    gs_wire_chunk ch;
+    gs_wire_header h;
+    gs_wire_view view;
+    size_t size;
+} wire_job;
+
+static void wire_add_fn(void *u)
+{
+    wire_job *w = (wire_job *)u;
+    gs_wire_begin(w->buf, sizeof w->buf, &w->h, &w->size);
+    gs_wire_add(w->buf, sizeof w->buf, &w->size, &w->ch, w->values);
+}
+static void wire_end_fn(void *u)
+{
+    wire_job *w = (wire_job *)u;
+    bu_sink((double)gs_wire_end(w->buf, w->size));
+}
+static void wire_decode_fn(void *u)
+{
+    wire_job *w = (wire_job *)u;
+    gs_reject why;
+    bu_sink((double)gs_wire_decode(w->buf, w->size + 4, &w->view, &why));
+}
+static void wire_copy_fn(void *u)
+{
+    wire_job *w = (wire_job *)u;
+    memcpy(w->copy, w->buf, w->size + 4);
+    bu_sink(w->copy[w->size / 2]);
+}
+
+/* The same CRC-32 (IEEE, reflected) by slicing-by-8: what the fix would
+   cost, checked against the library's own checksum. */
+static uint32_t crc8_table[8][256];
+
+static void crc8_init(void)
+{
+    uint32_t i, k;
+    for (i = 0; i < 256; ++i) {
+        uint32_t c = i;
+        for (k = 0; k < 8; ++k) c = (c & 1) ? 0xedb88320u ^ (c >> 1) : c >> 1;
+        crc8_table[0][i] = c;
+    }
+    for (i = 0; i < 256; ++i)
+        for (k = 1; k < 8; ++k)
+            crc8_table[k][i] = (crc8_table[k - 1][i] >> 8) ^ crc8_table[0][crc8_table[k - 1][i] & 0xff];
+}
+
+static uint32_t crc32_slice8(const unsigned char *p, size_t n)
+{
+    uint32_t c = 0xffffffffu;
+    while (n >= 8) {
+        uint32_t lo = c ^ ((uint32_t)p[0] | (uint32_t)p[1] << 8 | (uint32_t)p[2] << 16 | (uint32_t)p[3] << 24);
+        uint32_t hi = (uint32_t)p[4] | (uint32_t)p[5] << 8 | (uint32_t)p[6] << 16 | (uint32_t)p[7] << 24;
+        c = crc8_table[7][lo & 0xff] ^ crc8_table[6][(lo >> 8) & 0xff] ^ crc8_table[5][(lo >> 16) & 0xff] ^
+            crc8_table[4][lo >> 24] ^ crc8_table[3][hi & 0xff] ^ crc8_table[2][(hi >> 8) & 0xff] ^
+            crc8_table[1][(hi >> 16) & 0xff] ^ crc8_table[0][hi >> 24];
+        p += 8;
+        n -= 8;
+    }
+    while (n--) c = crc8_table[0][(c ^ *p++) & 0xff] ^ (c >> 8);
+    return c ^ 0xffffffffu;
+}
+
+static void wire_crc8_fn(void *u)
+{
+    wire_job *w = (wire_job *)u;
+    bu_sink((double)crc32_slice8(w->buf, w->size));
+}
+
+static wire_cost wire_breakdown(gs_encoding enc, int quick)
+{
+    static wire_job w;
+    wire_cost c;
+    size_t vs = enc == GS_ENCODING_F32 ? 4 : 8;
+    int i, reps = quick ? 9 : 31, inner = 2000;
+    memset(&w, 0, sizeof w);
+    w.ch.object_id = 1;
+    w.ch.sequence = 1;
+    w.ch.time = 1.0;
+    w.ch.count = 1;
+    w.ch.elements = (uint16_t)((GS_WIRE_MAX_DATAGRAM - GS_WIRE_HEADER - GS_WIRE_CHUNK_HEADER - 4) / vs);
+    w.ch.encoding = enc;
+    w.h.session = 1;
+    w.h.sender = 2;
+    for (i = 0; i < w.ch.elements; ++i) w.values[i] = 0.001 * i;
+    wire_add_fn(&w);
+    c.add = bu_time_median(wire_add_fn, &w, reps, inner);
+    c.end = bu_time_median(wire_end_fn, &w, reps, inner);
+    gs_wire_end(w.buf, w.size);
+    c.decode = bu_time_median(wire_decode_fn, &w, reps, inner);
+    c.copy = bu_time_median(wire_copy_fn, &w, reps, inner);
+    crc8_init();
+    c.crc8 = bu_time_median(wire_crc8_fn, &w, reps, inner);
+    {
+        const unsigned char *q = w.buf + w.size;
+        uint32_t lib = (uint32_t)q[0] | (uint32_t)q[1] << 8 | (uint32_t)q[2] << 16 | (uint32_t)q[3] << 24;
+        c.crc8_agrees = lib == crc32_slice8(w.buf, w.size);
+    }
+    c.bytes = w.size + 4;
+    c.values = w.ch.elements;
+    return c;
+}
+
 /* ---- main ---- */
 typedef struct row {
     int n, H;
@@ -371,6 +488,7 @@ int main(int argc, char **argv)
     bu_json *j;
     int pa = bu_parse_args(argc, argv, "sync_overhead", &a);
     double t_start = bu_now();
+    wire_cost wire[2];
     if (pa) return pa > 0 ? 0 : 2;
     sizes = a.quick ? sizes_quick : sizes_full;
     nsizes = a.quick ? 3 : 5;
@@ -390,7 +508,7 @@ int main(int argc, char **argv)
                the same wall time whatever the size */
             double per_step = n <= 16 ? 1.0 : n <= 32 ? 4.0 : n <= 64 ? 30.0 : 300.0;
             double sim = (a.quick ? 0.15 : 0.6) * 30.0 / per_step;
-            int frames, reps = a.quick ? 3 : 5;
+            int frames, reps = a.quick ? 3 : 9;
             if (sim > 2.0) sim = 2.0;
             if (n >= 128) sim = 0.1;
             frames = (int)(sim / FRAME + 0.5);
@@ -411,6 +529,21 @@ int main(int argc, char **argv)
                         rw->ab.bytes_per_s[e], rw->ab.datagrams_per_s[e]);
             }
         }
+
+    {
+        wire_cost wc[2];
+        wc[0] = wire_breakdown(GS_ENCODING_F64, a.quick);
+        wc[1] = wire_breakdown(GS_ENCODING_F32, a.quick);
+        fprintf(stderr, "one full datagram (%zu B): %10s %10s %10s %10s %14s %14s\n", wc[0].bytes, "values us",
+                "CRC us", "decode us", "memcpy us", "encode+dec MB/s", "CRC by 8s us");
+        for (e = 0; e < 2; ++e)
+            fprintf(stderr, "  %-27s %10.3f %10.3f %10.3f %10.3f %14.0f %11.3f%s\n", e ? "f32" : "f64",
+                    wc[e].add * 1e6, wc[e].end * 1e6, wc[e].decode * 1e6, wc[e].copy * 1e6,
+                    wc[e].bytes / (wc[e].add + wc[e].end + wc[e].decode) * 1e-6, wc[e].crc8 * 1e6,
+                    wc[e].crc8_agrees ? "" : " (DISAGREES)");
+        wire[0] = wc[0];
+        wire[1] = wc[1];
+    }
 
     j = bu_json_open(a.out);
     if (!j) return 1;
@@ -475,6 +608,18 @@ int main(int argc, char **argv)
             bu_json_str(j, "target", "ghost work <= 3% of the step (64x64 cloth, 2 hosts, f64)");
             bu_json_bool(j, "target_met", rw->ph[0].ghost_pct <= 3.0);
         }
+    for (e = 0; e < 2; ++e) {
+        bu_json_obj_begin(j, e ? "datagram_f32" : "datagram_f64");
+        bu_json_int(j, "bytes", (long long)wire[e].bytes);
+        bu_json_num(j, "values_us", wire[e].add * 1e6);
+        bu_json_num(j, "crc_us", wire[e].end * 1e6);
+        bu_json_num(j, "decode_us", wire[e].decode * 1e6);
+        bu_json_num(j, "memcpy_us", wire[e].copy * 1e6);
+        bu_json_num(j, "crc_slicing_by_8_us", wire[e].crc8 * 1e6);
+        bu_json_bool(j, "crc_slicing_by_8_agrees", wire[e].crc8_agrees);
+        bu_json_num(j, "encode_decode_mb_s", wire[e].bytes / (wire[e].add + wire[e].end + wire[e].decode) * 1e-6);
+        bu_json_obj_end(j);
+    }
     bu_json_num(j, "wall_s", bu_now() - t_start);
     bu_json_obj_end(j);
 
