@@ -5,6 +5,10 @@
    POSIX itself if the includer did not). What it gives:
 
      CLOCK      double bu_now(void);                 CLOCK_MONOTONIC, seconds
+                double bu_cpu_now(void);             this thread's CPU seconds
+                    (CLOCK_THREAD_CPUTIME_ID: time the thread was not
+                    running does not count; a system call, ~0.1-0.3 us, so
+                    for spans of a millisecond and more)
      TIMING     double bu_median(double *v, int n);  sorts v in place
                 double bu_time_median(fn, user, repeats, inner);
                     seconds per call of fn(user): median over `repeats` runs,
@@ -60,6 +64,15 @@ BU__UNUSED static double bu_now(void)
 {
     struct timespec ts;
     clock_gettime(CLOCK_MONOTONIC, &ts);
+    return (double)ts.tv_sec + (double)ts.tv_nsec * 1e-9;
+}
+
+/* CPU seconds this thread has run: immune to the time a busy machine
+   keeps it waiting. */
+BU__UNUSED static double bu_cpu_now(void)
+{
+    struct timespec ts;
+    clock_gettime(CLOCK_THREAD_CPUTIME_ID, &ts);
     return (double)ts.tv_sec + (double)ts.tv_nsec * 1e-9;
 }
 

@@ -49,7 +49,23 @@ def fmt(v):
 
 
 def is_target_key(k):
-    return k == "target_met" or k.startswith("target_met") or k.endswith("_target_met")
+    """target_met, target_met_X, target_X_met, X_target_met."""
+    return k.endswith("_met") and "target" in k
+
+
+def target_text(summary, k):
+    """The text that names a target: summary["target"] for target_met,
+    summary["target_X"] for target_met_X, else the key in words."""
+    if k == "target_met":
+        t = summary.get("target")
+    elif k.startswith("target_met_"):
+        t = summary.get("target_" + k[len("target_met_"):])
+    else:
+        t = None
+    if isinstance(t, str):
+        return t
+    words = k[:-len("_met")].replace("target", "").strip("_").replace("_", " ")
+    return words or k
 
 
 def table(rows):
@@ -218,8 +234,7 @@ def main():
         if isinstance(s, dict):
             for k, v in s.items():
                 if is_target_key(k) and isinstance(v, bool):
-                    what = s.get("target" + k[len("target_met"):]) if k.startswith("target_met") else None
-                    targets.append((n, what if isinstance(what, str) else k, v))
+                    targets.append((n, target_text(s, k), v))
     if targets:
         md += ["## Targets", "", "| benchmark | target | status |", "|---|---|---|"]
         for n, k, v in targets:

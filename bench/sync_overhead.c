@@ -26,9 +26,10 @@
       events per second); ghost % = that / (step x steps/s).
    2. Cross-check on gs_simnet itself: the same hosts with ghosts, and the
       same hosts without ghosts (joined to a simnet, nothing to send), run
-      by gs_simnet_run in alternating slices; overhead = median wall time per
-      host-step with ghosts / without - 1. This includes everything but is
-      only as precise as the machine is quiet.
+      by gs_simnet_run in alternating slices; overhead = median thread CPU
+      time per host-step with ghosts / without - 1. This includes everything;
+      CPU time keeps it steady on a busy machine (wall time swung by +-25%
+      under a load of 4 on 2 cores, CPU time by under 0.5 points).
    Bytes per second per host are the bytes each host sent on gs_simnet
    (to all its peers), per second of simulated time, with the net's
    bandwidth budget raised to 1 GB/s so that nothing is held back; the
@@ -333,9 +334,9 @@ static ab_result run_ab(int n, int H, double sim, int reps)
         for (rep = 0; rep < reps; ++rep)
             for (k = 0; k < 3; ++k) {
                 int which = (k + rep) % 3; /* rotate the order */
-                double t0 = bu_now();
+                double t0 = bu_cpu_now();
                 gs_result r = gs_simnet_run(set[which].sim, frames * FRAME, FRAME);
-                t[which][rep] = (bu_now() - t0) / ((double)H * (double)steps_per_slice);
+                t[which][rep] = (bu_cpu_now() - t0) / ((double)H * (double)steps_per_slice);
                 if (r != GS_OK) die("gs_simnet_run", set[which].hs[0].w, r);
             }
         for (k = 1; k < 3; ++k) {
@@ -556,7 +557,7 @@ int main(int argc, char **argv)
                 "(what the ghost copies into B); encode = each gs_net_update; deliver = each host's gs_net_deliver "
                 "calls per frame. ghost % = sum(median cost x events per simulated second) / (step x steps per "
                 "second). Cross-check: the same hosts with and without ghosts on gs_simnet, alternating slices of "
-                "gs_simnet_run, overhead = median time per host-step with / without - 1. Bytes: sent per host to "
+                "gs_simnet_run, overhead = median thread CPU time per host-step with / without - 1. Bytes: sent per host to "
                 "all peers per simulated second on gs_simnet, bandwidth budget raised to 1e9 B/s.");
     bu_json_obj_begin(j, "config");
     bu_json_num(j, "dt_s", DT);
