@@ -13,6 +13,8 @@
                 double bu_time_median(fn, user, repeats, inner);
                     seconds per call of fn(user): median over `repeats` runs,
                     each timing `inner` calls in a row
+                double bu_cpu_time_median(fn, user, repeats, inner);
+                    the same in thread CPU time (make each run >= ~1 ms)
      ARGS       bu_args a; bu_parse_args(argc, argv, "name", &a);
                     --quick, --out FILE (default bench/results/NAME.json)
      JSON       bu_json *j = bu_json_open(path)  ...  bu_json_close(j)
@@ -117,6 +119,23 @@ BU__UNUSED static double bu_time_median(bu_fn fn, void *user, int repeats, int i
         double t0 = bu_now();
         for (i = 0; i < inner; ++i) fn(user);
         v[r] = (bu_now() - t0) / inner;
+    }
+    return bu_median(v, repeats);
+}
+
+/* The same in this thread's CPU time (bu_cpu_now): for runs of a
+   millisecond or more on a busy machine. */
+BU__UNUSED static double bu_cpu_time_median(bu_fn fn, void *user, int repeats, int inner)
+{
+    double v[1024];
+    int r, i;
+    if (repeats < 1) repeats = 1;
+    if (repeats > 1024) repeats = 1024;
+    if (inner < 1) inner = 1;
+    for (r = 0; r < repeats; ++r) {
+        double t0 = bu_cpu_now();
+        for (i = 0; i < inner; ++i) fn(user);
+        v[r] = (bu_cpu_now() - t0) / inner;
     }
     return bu_median(v, repeats);
 }
