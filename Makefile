@@ -6,6 +6,9 @@
 #   make examples  build examples/ and the reference peer into build/
 #   make valgrind  the test suite under valgrind (memcheck, leaks)
 #   make install   PREFIX=/usr/local: the header, ghostsim.pc
+#   make bench     every benchmark in bench/ (under 20 min on 2 cores):
+#                  bench/results/*.json, REPORT.md and PNG plots
+#   make bench-quick  the same with --quick (under 2 min; CI smoke test)
 # Every recipe is plain POSIX make + sh; nothing is downloaded except Debian
 # packages through apt-get.
 
@@ -25,24 +28,33 @@ LIBS      = $(CCD_LIBS) -lm -lpthread
 # Debian packages the build and tests need (command or file that proves each).
 DEBS := gcc g++ clang make pkg-config cmake libccd-dev libcmocka-dev valgrind \
         libsdl2-dev gnuplot-nox python3
+# And what the benchmarks need besides (bench/README.md).
+BENCH_DEBS := libenet-dev libbullet-dev libode-dev gnuplot-nox hyperfine
 
 TESTS    := $(basename $(notdir $(wildcard tests/test_*.c)))
 EXAMPLES := $(basename $(notdir $(wildcard examples/*.c)))
 
-.PHONY: all deps test test-plain test-asan tsan valgrind-udp test-peers demo compile-checks examples peer valgrind \
+.PHONY: all deps deps-bench bench bench-quick bench-build test test-plain test-asan tsan valgrind-udp test-peers demo compile-checks examples peer valgrind \
         install uninstall install-check cmake-check clean
 
 all: examples
 
 # Installs only what is missing, and only as root (CI and fresh machines).
+define install_debs
+@missing=""; for p in $(1); do \
+  dpkg -s $$p >/dev/null 2>&1 || missing="$$missing $$p"; done; \
+if [ -n "$$missing" ]; then \
+  echo "deps: installing$$missing"; \
+  if [ "$$(id -u)" != 0 ]; then echo "deps: run as root or install:$$missing" >&2; exit 1; fi; \
+  apt-get update -qq && DEBIAN_FRONTEND=noninteractive apt-get install -y -qq $$missing >/dev/null; \
+fi
+endef
+
 deps:
-	@missing=""; for p in $(DEBS); do \
-	  dpkg -s $$p >/dev/null 2>&1 || missing="$$missing $$p"; done; \
-	if [ -n "$$missing" ]; then \
-	  echo "deps: installing$$missing"; \
-	  if [ "$$(id -u)" != 0 ]; then echo "deps: run as root or install:$$missing" >&2; exit 1; fi; \
-	  apt-get update -qq && DEBIAN_FRONTEND=noninteractive apt-get install -y -qq $$missing >/dev/null; \
-	fi
+	$(call install_debs,$(DEBS))
+
+deps-bench:
+	$(call install_debs,$(BENCH_DEBS))
 
 $(BUILD) $(BUILD)/asan:
 	mkdir -p $@
@@ -136,6 +148,40 @@ demo: deps
 valgrind: $(addprefix $(BUILD)/,$(TESTS))
 	@VALGRIND="valgrind -q --error-exitcode=99 --leak-check=full --errors-for-leak-kinds=definite,indirect" \
 	  sh tests/run.sh "valgrind" $(addprefix $(BUILD)/,$(TESTS))
+
+# ---- benchmarks (bench/README.md) ----
+# Every bench/*.c is C99 and every bench/*.cc C++11, built with the same
+# warnings into build/bench/NAME. Extra flags for one program go in
+# BENCH_LIBS_NAME. Library headers outside ours are -isystem, so their
+# warnings do not fail -Werror.
+BENCH_C      := $(basename $(notdir $(wildcard bench/*.c)))
+BENCH_CC     := $(basename $(notdir $(wildcard bench/*.cc)))
+BENCH_BINS   := $(addprefix $(BUILD)/bench/,$(BENCH_C) $(BENCH_CC))
+BENCH_CFLAGS := -O2 -DNDEBUG
+BENCH_LIBS_transport = -lenet
+BENCH_LIBS_physics = $(patsubst -I%,-isystem %,$(shell pkg-config --cflags bullet ode 2>/dev/null)) \
+                     $(shell pkg-config --libs bullet ode 2>/dev/null)
+BENCH_TIMEOUT_FULL  := 900
+BENCH_TIMEOUT_QUICK := 100
+
+$(BUILD)/bench:
+	mkdir -p $@
+$(BUILD)/bench/%: bench/%.c bench/bench_util.h ghostsim.h | $(BUILD)/bench
+	$(CC) $(CSTD) $(WARN) $(BENCH_CFLAGS) $(CCD_CFLAGS) -I. $< -o $@ $(BENCH_LIBS_$*) $(LIBS)
+$(BUILD)/bench/%: bench/%.cc bench/bench_util.h ghostsim.h | $(BUILD)/bench
+	$(CXX) -std=c++11 $(WARN) $(BENCH_CFLAGS) $(CCD_CFLAGS) -I. $< -o $@ $(BENCH_LIBS_$*) $(LIBS)
+
+bench-build: $(BENCH_BINS)
+
+# Runs every program (a failure does not stop the others, but fails the
+# target), then bench/report.py draws the report and the plots.
+bench: deps deps-bench
+	@$(MAKE) --no-print-directory bench-build
+	@sh bench/run.sh "" $(BENCH_TIMEOUT_FULL) $(BENCH_BINS)
+
+bench-quick: deps deps-bench
+	@$(MAKE) --no-print-directory bench-build
+	@sh bench/run.sh --quick $(BENCH_TIMEOUT_QUICK) $(BENCH_BINS)
 
 ghostsim.pc: ghostsim.pc.in Makefile
 	sed -e 's|@PREFIX@|$(PREFIX)|' -e 's|@VERSION@|0.1.0|' $< > $@
