@@ -4599,7 +4599,8 @@ GS_API gs_result gs_ghost_render_state(const gs_agent *a, double *out,
     if (r != GS_OK) return r;
     if (!g) return GS_OK;
     f = gs__offset_fade(g, out[0]);
-    for (i = 1; i < n; ++i) out[i] += f * g->offset[i];
+    for (i = 1; i < n; ++i) /* huge state and offset: the state alone */
+        if (gs__finite(out[i] + f * g->offset[i])) out[i] += f * g->offset[i];
     return GS_OK;
 }
 
@@ -4797,16 +4798,26 @@ GS__PRIVATE void gs__ghost_blend(gs__ghost *g, gs_net *net) {
        would settle up to (1 + w0 / w) bands apart */
     g->scratch[0] = t_i + gs__time_correction(g, den_t > 0.0 ? num_t / den_t : 0.0,
                                               num_t / (w0 + den_t));
-    fade = gs__offset_fade(g, g->scratch[0]);
     for (e = 0; e + 1 < n; ++e) {
         double old = g->local[1 + e], d = w0 + g->den[e];
-        double nv = d > 0.0 ? old + g->num[e] / d : old;
-        g->scratch[1 + e] = nv;
-        g->offset[1 + e] = fade * g->offset[1 + e] + (old - nv);
+        g->scratch[1 + e] = d > 0.0 ? old + g->num[e] / d : old;
+    }
+    /* finite snapshots can still blend to inf or NaN (a sum that overflows,
+       dead reckoning at an absurd speed): set_state refuses that, and then
+       the local state stands and nothing else moves (found by fuzzing) */
+    if (gs_agent_set_state(g->agent, g->scratch, n) != GS_OK) {
+        gs__ghost_clear(g);
+        gs__unlock(net);
+        return;
+    }
+    fade = gs__offset_fade(g, g->scratch[0]);
+    for (e = 0; e + 1 < n; ++e) {
+        double old = g->local[1 + e], nv = g->scratch[1 + e];
+        double o = fade * g->offset[1 + e] + (old - nv);
+        g->offset[1 + e] = gs__finite(o) ? o : 0.0; /* huge: no fading */
         corr2 += (old - nv) * (old - nv);
     }
     g->offset_t = g->scratch[0];
-    gs_agent_set_state(g->agent, g->scratch, n);
     g->stats.blends++;
     g->stats.snapshots_blended += (uint64_t)used;
     g->stats.last_correction = n > 1 ? sqrt(corr2 / (double)(n - 1)) : 0.0;
