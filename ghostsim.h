@@ -1624,6 +1624,9 @@ GS__PRIVATE void gs__sap_refresh(gs_world *w);
    (blending took them to the time of hosts that are further on, as for a
    host that joins late), it jumps to the slowest of them. Otherwise they
    would stand still until the clock caught up. */
+#ifndef GS__FOLLOW_STEPS
+#define GS__FOLLOW_STEPS 1000.0
+#endif
 GS__PRIVATE void gs__world_follow(gs_world *w) {
     double dt_max = 0.0;
     int i;
@@ -1647,7 +1650,18 @@ GS__PRIVATE void gs__world_follow(gs_world *w) {
                 if (t < lead_min) lead_min = t;
             }
         }
-        if (2 * leading > w->agent_count) w->target = lead_min;
+        if (2 * leading > w->agent_count) {
+            w->target = lead_min;
+            /* an agent left more than GS__FOLLOW_STEPS of its steps behind
+               takes the clock's time instead: a time from the network (a
+               late joiner an hour on, a datagram that says 1e6 s) must not
+               buy a step per dt of catching up */
+            for (i = 0; i < w->agent_count; ++i) {
+                gs_agent *a = w->agents[i];
+                double lag = w->target - gs__agent_time(a);
+                if (lag > GS__FOLLOW_STEPS * a->dt) a->t_offset += lag;
+            }
+        }
     }
 }
 
