@@ -5,6 +5,8 @@
 #                  plots and a picture in demo-results/
 #   make examples  build examples/ and the reference peer into build/
 #   make valgrind  the test suite under valgrind (memcheck, leaks)
+#   make fuzz      libFuzzer over decode, validation and blend for
+#                  FUZZ_SECONDS (300), then a summary; `make test` runs 60 s
 #   make install   PREFIX=/usr/local: the header, ghostsim.pc
 #   make bench     every benchmark in bench/ (under 20 min on 2 cores):
 #                  bench/results/*.json, REPORT.md and PNG plots
@@ -26,16 +28,17 @@ CCD_LIBS   = $(shell pkg-config --libs ccd 2>/dev/null)
 LIBS      = $(CCD_LIBS) -lm -lpthread
 
 # Debian packages the build and tests need (command or file that proves each).
-DEBS := gcc g++ clang make pkg-config cmake libccd-dev libcmocka-dev valgrind \
-        libsdl2-dev gnuplot-nox python3
+DEBS := gcc g++ clang libclang-rt-dev make pkg-config cmake libccd-dev libcmocka-dev \
+        valgrind libsdl2-dev gnuplot-nox python3
 # And what the benchmarks need besides (bench/README.md).
 BENCH_DEBS := libenet-dev libbullet-dev libode-dev gnuplot-nox hyperfine
 
 TESTS    := $(basename $(notdir $(wildcard tests/test_*.c)))
 EXAMPLES := $(basename $(notdir $(wildcard examples/*.c)))
 
-.PHONY: all deps deps-bench bench bench-quick bench-build test test-plain test-asan tsan valgrind-udp test-peers demo compile-checks examples peer valgrind \
-        install uninstall install-check cmake-check clean
+.PHONY: all deps deps-bench bench bench-quick bench-build test test-plain test-asan tsan valgrind-udp \
+        test-peers demo compile-checks examples peer valgrind install uninstall install-check \
+        cmake-check clean fuzz fuzz-ci
 
 all: examples
 
@@ -69,6 +72,8 @@ $(BUILD)/test_%: tests/test_%.c $(BUILD)/gs_impl.o ghostsim.h
 	$(CC) $(CSTD) $(WARN) $(CFLAGS) -I. $< $(BUILD)/gs_impl.o -o $@ -lcmocka $(LIBS)
 $(BUILD)/asan/test_%: tests/test_%.c $(BUILD)/asan/gs_impl.o ghostsim.h
 	$(CC) $(CSTD) $(WARN) $(SANFLAGS) -I. $< $(BUILD)/asan/gs_impl.o -o $@ -lcmocka $(LIBS)
+# The regression test replays the fuzz harness's checks.
+$(BUILD)/test_fuzz_regress $(BUILD)/asan/test_fuzz_regress: tests/fuzz_wire.c tests/fuzz_world.h
 
 # The viewer needs SDL2 (Debian libsdl2-dev); its headless mode draws PNGs.
 $(BUILD)/viewer: examples/viewer.c ghostsim.h | $(BUILD)
@@ -112,6 +117,7 @@ test-asan: $(addprefix $(BUILD)/asan/,$(TESTS))
 
 test: deps
 	@$(MAKE) --no-print-directory compile-checks examples cmake-check install-check
+	@$(MAKE) --no-print-directory fuzz-ci
 	@$(MAKE) --no-print-directory test-plain
 	@$(MAKE) --no-print-directory test-asan
 	@$(MAKE) --no-print-directory tsan valgrind-udp
@@ -132,6 +138,32 @@ tsan: $(BUILD)/tsan/test_net
 valgrind-udp: $(BUILD)/test_net
 	@VALGRIND="valgrind -q --error-exitcode=99 --leak-check=full --errors-for-leak-kinds=definite,indirect" \
 	  sh tests/run.sh "valgrind, udp" "$(BUILD)/test_net test_udp*"
+
+# libFuzzer (clang; its runtime is Debian's libclang-rt-dev): the harness
+# tests/fuzz_wire.c with the library in one binary under ASan+UBSan, seeded
+# with datagrams from the encoder (tests/fuzz_seeds.c). fuzz-ci is the
+# bounded run of `make test`; either fails if the fuzzer finds anything.
+FUZZ_SECONDS ?= 300
+FUZZ_CC      ?= clang
+FUZZ_FLAGS   := -O1 -g -fsanitize=fuzzer,address,undefined -fno-sanitize-recover=all \
+                -fno-omit-frame-pointer -fsanitize-coverage-ignorelist=tests/fuzz_ignore.txt
+$(BUILD)/fuzz_wire: tests/fuzz_wire.c tests/fuzz_world.h tests/gs_impl.c tests/fuzz_ignore.txt \
+                    ghostsim.h | $(BUILD)
+	$(FUZZ_CC) $(CSTD) $(WARN) $(FUZZ_FLAGS) $(CCD_CFLAGS) -I. tests/fuzz_wire.c tests/gs_impl.c \
+	  -o $@ $(LIBS)
+$(BUILD)/fuzz_seeds: tests/fuzz_seeds.c tests/fuzz_world.h $(BUILD)/gs_impl.o ghostsim.h
+	$(CC) $(CSTD) $(WARN) $(CFLAGS) -I. $< $(BUILD)/gs_impl.o -o $@ $(LIBS)
+$(BUILD)/fuzz-seeds.stamp: $(BUILD)/fuzz_seeds
+	rm -rf $(BUILD)/fuzz-corpus && mkdir -p $(BUILD)/fuzz-corpus
+	./$(BUILD)/fuzz_seeds $(BUILD)/fuzz-corpus
+	touch $@
+
+fuzz: deps
+	@$(MAKE) --no-print-directory $(BUILD)/fuzz_wire $(BUILD)/fuzz-seeds.stamp
+	@sh tests/fuzz_run.sh $(BUILD)/fuzz_wire $(FUZZ_SECONDS) fuzz
+
+fuzz-ci: $(BUILD)/fuzz_wire $(BUILD)/fuzz-seeds.stamp
+	@sh tests/fuzz_run.sh $(BUILD)/fuzz_wire 60 ci
 
 # ghostpeer processes on loopback (tests/peers.py: bounded, kills what it
 # starts): two and three peers, a restart, a garbage flood, the command line.

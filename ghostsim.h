@@ -1652,6 +1652,9 @@ GS__PRIVATE void gs__sap_refresh(gs_world *w);
    (blending took them to the time of hosts that are further on, as for a
    host that joins late), it jumps to the slowest of them. Otherwise they
    would stand still until the clock caught up. */
+#ifndef GS__FOLLOW_STEPS
+#define GS__FOLLOW_STEPS 1000.0
+#endif
 GS__PRIVATE void gs__world_follow(gs_world *w) {
     double dt_max = 0.0;
     int i;
@@ -1675,7 +1678,18 @@ GS__PRIVATE void gs__world_follow(gs_world *w) {
                 if (t < lead_min) lead_min = t;
             }
         }
-        if (2 * leading > w->agent_count) w->target = lead_min;
+        if (2 * leading > w->agent_count) {
+            w->target = lead_min;
+            /* an agent left more than GS__FOLLOW_STEPS of its steps behind
+               takes the clock's time instead: a time from the network (a
+               late joiner an hour on, a datagram that says 1e6 s) must not
+               buy a step per dt of catching up */
+            for (i = 0; i < w->agent_count; ++i) {
+                gs_agent *a = w->agents[i];
+                double lag = w->target - gs__agent_time(a);
+                if (lag > GS__FOLLOW_STEPS * a->dt) a->t_offset += lag;
+            }
+        }
     }
 }
 
@@ -4680,7 +4694,8 @@ GS_API gs_result gs_ghost_render_state(const gs_agent *a, double *out,
     if (r != GS_OK) return r;
     if (!g) return GS_OK;
     f = gs__offset_fade(g, out[0]);
-    for (i = 1; i < n; ++i) out[i] += f * g->offset[i];
+    for (i = 1; i < n; ++i) /* huge state and offset: the state alone */
+        if (gs__finite(out[i] + f * g->offset[i])) out[i] += f * g->offset[i];
     return GS_OK;
 }
 
@@ -4990,22 +5005,29 @@ GS__PRIVATE void gs__ghost_blend(gs__ghost *g, gs_net *net) {
        not to the correction, which is only part of it: otherwise two hosts
        would settle up to (1 + w0 / w) bands apart */
     g->scratch[0] = t_i;
-    if (den_t > 0.0) {
-        double dt = gs__time_correction(g, num_t / den_t, num_t / (w0 + den_t));
-        int p;
-        g->scratch[0] += dt;
-        for (p = 0; p < GS__MAX_PEERS; ++p) g->lead[p] -= dt;
-    }
-    fade = gs__offset_fade(g, g->scratch[0]);
+    if (den_t > 0.0)
+        g->scratch[0] += gs__time_correction(g, num_t / den_t, num_t / (w0 + den_t));
     for (e = 0; e + 1 < n; ++e) {
         double old = g->local[1 + e], d = w0 + g->den[e];
-        double nv = d > 0.0 ? old + g->num[e] / d : old;
-        g->scratch[1 + e] = nv;
-        g->offset[1 + e] = fade * g->offset[1 + e] + (old - nv);
+        g->scratch[1 + e] = d > 0.0 ? old + g->num[e] / d : old;
+    }
+    /* finite snapshots can still blend to inf or NaN (a sum that overflows,
+       dead reckoning at an absurd speed): set_state refuses that, and then
+       the local state stands and nothing else moves (found by fuzzing) */
+    if (gs_agent_set_state(g->agent, g->scratch, n) != GS_OK) {
+        gs__ghost_clear(g);
+        gs__unlock(net);
+        return;
+    }
+    for (e = 0; e < GS__MAX_PEERS; ++e) g->lead[e] -= g->scratch[0] - t_i;
+    fade = gs__offset_fade(g, g->scratch[0]);
+    for (e = 0; e + 1 < n; ++e) {
+        double old = g->local[1 + e], nv = g->scratch[1 + e];
+        double o = fade * g->offset[1 + e] + (old - nv);
+        g->offset[1 + e] = gs__finite(o) ? o : 0.0; /* huge: no fading */
         corr2 += (old - nv) * (old - nv);
     }
     g->offset_t = g->scratch[0];
-    gs_agent_set_state(g->agent, g->scratch, n);
     g->stats.blends++;
     g->stats.snapshots_blended += (uint64_t)used;
     g->stats.last_correction = n > 1 ? sqrt(corr2 / (double)(n - 1)) : 0.0;
