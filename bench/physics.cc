@@ -54,6 +54,7 @@
 #endif
 
 #include <algorithm>
+#include <cmath>
 #include <string>
 #include <vector>
 
@@ -583,7 +584,14 @@ struct row {
     double us_per_step, ratio_to_ghostsim;
     double check1, check2, rms, t_check;
     int check3;
+    bool ok; /* the engine's result is sane (it did not blow up) */
 };
+
+/* A cloth that stretched by more than 100% or left the neighbourhood blew up:
+   its time per step means nothing. */
+static bool cloth_sane(double sag, double stretch) {
+    return std::isfinite(sag) && std::isfinite(stretch) && fabs(sag) < 10.0 && stretch < 1.0;
+}
 
 int main(int argc, char **argv) {
     bu_args args;
@@ -602,7 +610,7 @@ int main(int argc, char **argv) {
     const double batch_s = quick ? 0.02 : 0.1;
     std::vector<row> rows;
     /* headline ratios per size, for the plots and the summary */
-    std::vector<double> cx, r_pbd1, r_pbd10, r_spring, r_impl, px, r_ode;
+    std::vector<double> cx, r_pbd1, r_pbd10, r_spring, r_impl, px, r_ode, p_gs, p_ode;
 
     fprintf(stderr, "physics: dt = %g ms for every engine; %d batches per size; "
                     "ratio = other / ghostsim time per step (> 1: ghostsim faster)\n",
@@ -638,15 +646,24 @@ int main(int argc, char **argv) {
             r.rms = cloth_rms(c, ref);
             r.t_check = gs_agent_time(ref->cloth);
             r.check3 = 0;
+            r.ok = cloth_sane(r.check1, r.check2);
+            if (!r.ok) {
+                r.ratio_to_ghostsim = NAN;
+                r.note = "BLEW UP (stretch over 100% or far off): its time per step is not "
+                         "comparable; " + r.note;
+            }
             rows.push_back(r);
-            fprintf(stderr, "%5d  %-40s %11.1f %9.3f %9.4f %8.1f%% %9.1fmm\n", n,
+            fprintf(stderr, "%5d  %-40s %11.1f %9.3f %9.4g %8.1f%% %9.1fmm%s\n", n,
                     r.engine.c_str(), r.us_per_step, r.ratio_to_ghostsim, r.check1,
-                    100 * r.check2, 1e3 * r.rms);
+                    100 * r.check2, 1e3 * r.rms, r.ok ? "" : "  BLEW UP");
         }
-        r_impl.push_back(ratio(es[1], ref));
-        r_pbd1.push_back(ratio(es[2], ref));
-        r_pbd10.push_back(ratio(es[3], ref));
-        r_spring.push_back(ratio(es[4], ref));
+        {
+            size_t base = rows.size() - es.size();
+            r_impl.push_back(rows[base + 1].ratio_to_ghostsim);
+            r_pbd1.push_back(rows[base + 2].ratio_to_ghostsim);
+            r_pbd10.push_back(rows[base + 3].ratio_to_ghostsim);
+            r_spring.push_back(rows[base + 4].ratio_to_ghostsim);
+        }
         for (size_t k = 0; k < es.size(); ++k) fprintf(stderr, "       %s: %s\n",
                                                        es[k]->name.c_str(),
                                                        ((cloth_engine *)es[k])->note().c_str());
@@ -685,11 +702,14 @@ int main(int argc, char **argv) {
             r.check3 = p->escaped();
             r.rms = 0.0;
             r.t_check = gs_world_time(ref->w);
+            r.ok = std::isfinite(r.check1) && fabs(r.check1) < 10.0;
             rows.push_back(r);
             fprintf(stderr, "%5d  %-40s %11.1f %9.3f %9.4f %8.1fmm %4d\n", n, r.engine.c_str(),
                     r.us_per_step, r.ratio_to_ghostsim, r.check1, 1e3 * r.check2, r.check3);
         }
         r_ode.push_back(ratio(es[1], ref));
+        p_gs.push_back(rows[rows.size() - es.size()].us_per_step);
+        p_ode.push_back(rows[rows.size() - es.size() + 1].us_per_step);
         for (size_t k = 0; k < es.size(); ++k) fprintf(stderr, "       %s: %s\n",
                                                        es[k]->name.c_str(),
                                                        ((pile_engine *)es[k])->note().c_str());
@@ -742,6 +762,7 @@ int main(int argc, char **argv) {
         bu_json_str(j, "engine", r.engine.c_str());
         bu_json_int(j, r.scene == "cloth" ? "n_per_side" : "spheres", r.size);
         bu_json_num(j, "us_per_step", r.us_per_step);
+        bu_json_bool(j, "sane", r.ok);
         bu_json_num(j, "ratio_to_ghostsim", r.ratio_to_ghostsim);
         bu_json_num(j, "checked_at_sim_s", r.t_check);
         if (r.scene == "cloth") {
@@ -774,6 +795,14 @@ int main(int argc, char **argv) {
             snprintf(key, sizeof key, "pile%d_ode_quickstep_over_ghostsim", pile_sizes[i]);
             bu_json_num(j, key, r_ode[i]);
         }
+        /* cost ~ n^e between the smallest and the largest pile */
+        size_t last = px.size() - 1;
+        double span = log(px[last] / px[0]);
+        bu_json_num(j, "pile_cost_exponent_ghostsim", log(p_gs[last] / p_gs[0]) / span);
+        bu_json_num(j, "pile_cost_exponent_ode_quickstep", log(p_ode[last] / p_ode[0]) / span);
+        fprintf(stderr, "\npile cost ~ n^e from %g to %g spheres: ghostsim e = %.2f, ODE QuickStep "
+                        "e = %.2f\n", px[0], px[last], log(p_gs[last] / p_gs[0]) / span,
+                log(p_ode[last] / p_ode[0]) / span);
     }
     bu_json_str(j, "cloth_note", what_cloth);
     bu_json_str(j, "spheres_note", what_pile);
