@@ -538,6 +538,7 @@ typedef struct session_cfg {
     const catchup_mode *catchup;
     gs_encoding encoding;
     timeline tl;
+    int no_spheres;  /* 1: the scene without its spheres (no chaos) */
 } session_cfg;
 
 typedef struct session_result {
@@ -598,7 +599,7 @@ static double dist3(gs_vec3 a, gs_vec3 b) {
 static double divergence(const host *a, const host *b) {
     int n = gs_mesh_particle_count(a->sc.cloth), i;
     double worst = rms_dist(gs_mesh_positions(a->sc.cloth), gs_mesh_positions(b->sc.cloth), n);
-    for (i = 0; i < a->sc.sphere_count; ++i) {
+    for (i = 0; i < a->sc.sphere_count && i < b->sc.sphere_count; ++i) {
         double d = dist3(gs_rigid_position(a->sc.spheres[i]), gs_rigid_position(b->sc.spheres[i]));
         if (d > worst) worst = d;
     }
@@ -645,13 +646,13 @@ static double quantile_of(const double *v, int n, double q) {
     return r;
 }
 
-/* From some moment to the end every sample is under `thr`: that moment
-   (s since the first sample), or NAN. */
+/* From some moment to the end every sample is under `thr`, for at least
+   the last second: that moment (s since the first sample), or NAN. */
 static double settles_under(const double *t, const double *v, int n, double thr) {
     int i, last_bad = -1;
     for (i = 0; i < n; ++i)
         if (!(v[i] < thr)) last_bad = i;
-    if (n == 0 || last_bad == n - 1) return NAN;
+    if (n == 0 || last_bad == n - 1 || t[n - 1] - t[last_bad + 1] < 1.0) return NAN;
     return last_bad < 0 ? 0.0 : t[last_bad + 1];
 }
 
@@ -681,6 +682,7 @@ static void run_session(const session_cfg *c, session_result *r) {
         gs_scene_desc sd = gs_scene_desc_default();
         wd.host_id = (uint32_t)k + 1;
         sd.probe_count = HOSTS;
+        if (c->no_spheres) sd.sphere_count = 0;
         if (gs_world_create(&wd, &h[k].w) != GS_OK ||
             gs_scene_create(h[k].w, &sd, &h[k].sc) != GS_OK || !attach(&h[k], c)) {
             fprintf(stderr, "tradeoff: session setup: %s\n", h[k].w ? gs_world_error(h[k].w) : "");
@@ -780,7 +782,7 @@ done:
 /* ---- part 2: encoding ---- */
 
 typedef struct enc_row {
-    int profile;
+    int profile, no_spheres;
     gs_encoding enc;
     session_result r;
 } enc_row;
@@ -804,6 +806,7 @@ static void run_row(rule_row *rr, const net_profile *prof, int pi, int ri, int c
     c.encoding = GS_ENCODING_F64;
     c.tl = tl;
     c.tl.offset = offset;
+    c.no_spheres = 0;
     rr->profile = pi;
     rr->rule = ri;
     rr->catchup = ci;
@@ -850,7 +853,7 @@ static const char *enc_name(gs_encoding e) { return e == GS_ENCODING_F32 ? "f32"
 int main(int argc, char **argv) {
     bu_args args;
     static part1 p1;
-    enc_row enc[8];
+    enc_row enc[16];
     rule_row rows[NPROFILES * NRULES * NCATCHUP + NPROFILES];
     int nenc = 0, nrows = 0, pa = bu_parse_args(argc, argv, "tradeoff", &args);
     int pi, ri, ci, ki, ii, a, e;
@@ -877,23 +880,27 @@ int main(int argc, char **argv) {
     fprintf(stderr, "\n== 2. wire encoding on gs_simnet: the paper's scene, %d hosts, rule exp rate "
                     "1 (the default), host 1's probe pushes %.0f..%.0f s\n",
             HOSTS, tl_enc.push0, tl_enc.push1);
-    fprintf(stderr, "%-5s %-4s %12s %14s %14s %14s\n", "net", "enc", "bytes/s/host",
+    fprintf(stderr, "(spheres: their contacts are chaotic, so the same run with the cloth and "
+                    "probes alone isolates what the encoding itself costs)\n");
+    fprintf(stderr, "%-5s %-8s %-4s %12s %14s %14s %14s\n", "net", "spheres", "enc", "bytes/s/host",
             "div push med", "div push p99", "div after med");
     for (pi = 0; pi < (args.quick ? 1 : 2); ++pi)
-        for (e = 0; e < 2; ++e) {
+        for (e = 0; e < 4; ++e) {
             session_cfg c;
             enc_row *er = &enc[nenc++];
+            c.no_spheres = e >= 2;
+            er->no_spheres = c.no_spheres;
             c.prof = profs[pi];
             c.rule = &RULES[1];
             c.catchup = &CATCHUPS[0];
-            c.encoding = e ? GS_ENCODING_F32 : GS_ENCODING_F64;
+            c.encoding = e & 1 ? GS_ENCODING_F32 : GS_ENCODING_F64;
             c.tl = tl_enc;
             er->profile = pi;
             er->enc = c.encoding;
             run_session(&c, &er->r);
-            fprintf(stderr, "%-5s %-4s %12.0f %13.2em %13.2em %13.2em\n", profs[pi].name,
-                    enc_name(c.encoding), er->r.bytes_per_s, er->r.div_push_med,
-                    er->r.div_push_p99, er->r.div_after_med);
+            fprintf(stderr, "%-5s %-8s %-4s %12.0f %13.2em %13.2em %13.2em\n", profs[pi].name,
+                    c.no_spheres ? "none" : "3", enc_name(c.encoding), er->r.bytes_per_s,
+                    er->r.div_push_med, er->r.div_push_p99, er->r.div_after_med);
         }
 
     /* ---- part 3 ---- */
@@ -972,7 +979,8 @@ int main(int argc, char **argv) {
                 "Divergence = largest over the shared objects of "
                 "the RMS distance between the two hosts' copies (cloth particles, sphere "
                 "centres), measured directly. Converge = seconds after the outage from which the "
-                "divergence stays under 1 cm to the end (null if never); back to level = the "
+                "divergence stays under 1 cm to the end, for at least the last second (null if "
+                "never); back to level = the "
                 "same under max(1 mm, 2 x its median in the last second before the outage). "
                 "Pace = agent time advanced / simulated wall time from the start of the push to "
                 "the end, min and max over every agent of both hosts; kept = within 1% and no "
@@ -1055,6 +1063,7 @@ int main(int argc, char **argv) {
         bu_json_str(j, "part", "encoding");
         bu_json_str(j, "profile", profs[enc[a].profile].name);
         bu_json_str(j, "encoding", enc_name(enc[a].enc));
+        bu_json_bool(j, "spheres", !enc[a].no_spheres);
         json_session(j, &enc[a].r);
         bu_json_obj_end(j);
     }
@@ -1098,12 +1107,16 @@ int main(int argc, char **argv) {
                     p1.spring_omega * p1.spring_stab[0].dt_max);
         bu_json_num(j, "one_spring_verlet_omega_dt_max", p1.spring_omega * p1.spring_stab[1].dt_max);
         bu_json_num(j, "one_spring_rk4_omega_dt_max", p1.spring_omega * p1.spring_stab[2].dt_max);
-        for (a = 0; a + 1 < nenc; a += 2) {
-            snprintf(key, sizeof key, "%s_f32_over_f64_bytes", profs[enc[a].profile].name);
+        for (a = 0; a + 1 < nenc; a += 2) { /* rows come in pairs: f64, f32 */
+            const char *what = enc[a].no_spheres ? "cloth_only" : "scene";
+            snprintf(key, sizeof key, "%s_%s_f32_over_f64_bytes", profs[enc[a].profile].name, what);
             bu_json_num(j, key, enc[a + 1].r.bytes_per_s / enc[a].r.bytes_per_s);
-            snprintf(key, sizeof key, "%s_f32_minus_f64_divergence_pushing_m",
-                     profs[enc[a].profile].name);
-            bu_json_num(j, key, enc[a + 1].r.div_push_med - enc[a].r.div_push_med);
+            snprintf(key, sizeof key, "%s_%s_divergence_pushing_f64_m", profs[enc[a].profile].name,
+                     what);
+            bu_json_num(j, key, enc[a].r.div_push_med);
+            snprintf(key, sizeof key, "%s_%s_divergence_pushing_f32_m", profs[enc[a].profile].name,
+                     what);
+            bu_json_num(j, key, enc[a + 1].r.div_push_med);
         }
         for (pi = 0; pi < NPROFILES; ++pi) {
             int i, all_pace = 1, any = 0, best = -1;
@@ -1224,18 +1237,18 @@ int main(int argc, char **argv) {
                      "network profile", "divergence (m)", 1, nser, names, xs, ds, ns);
     }
     {
-        const char *names[2] = {"f64", "f32"};
-        double xv[2][2], yv[2][2];
-        const double *xs[2], *ys[2];
-        int ns[2] = {0, 0};
+        const char *names[4] = {"f64, scene", "f32, scene", "f64, no spheres", "f32, no spheres"};
+        double xv[4][4], yv[4][4];
+        const double *xs[4], *ys[4];
+        int ns[4] = {0, 0, 0, 0};
         for (a = 0; a < nenc; ++a) {
-            int s = enc[a].enc == GS_ENCODING_F32;
+            int s = (enc[a].enc == GS_ENCODING_F32) + 2 * enc[a].no_spheres;
             xv[s][ns[s]] = enc[a].r.bytes_per_s;
             yv[s][ns[s]++] = enc[a].r.div_push_med;
         }
-        xs[0] = xv[0]; ys[0] = yv[0]; xs[1] = xv[1]; ys[1] = yv[1];
+        for (a = 0; a < 4; ++a) { xs[a] = xv[a]; ys[a] = yv[a]; }
         bu_json_plot(j, "Wire encoding: bytes against divergence (LAN, WAN)", "bytes/s per host",
-                     "divergence while pushing, median (m)", 1, 2, names, xs, ys, ns);
+                     "divergence while pushing, median (m)", 1, 4, names, xs, ys, ns);
     }
     bu_json_arr_end(j);
     bu_json_obj_end(j);
