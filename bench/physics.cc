@@ -26,8 +26,12 @@
 #include "ghostsim.h"
 #include "bench/bench_util.h"
 
+/* Bullet's and ODE's headers are not warning-free under -Wextra -Wpedantic. */
 #if defined(__GNUC__)
 #pragma GCC diagnostic push
+#if defined(__clang__)
+#pragma GCC diagnostic ignored "-Wunknown-warning-option"
+#endif
 #pragma GCC diagnostic ignored "-Wpedantic"
 #pragma GCC diagnostic ignored "-Wunused-parameter"
 #pragma GCC diagnostic ignored "-Wunused-variable"
