@@ -5,10 +5,16 @@
    POSIX itself if the includer did not). What it gives:
 
      CLOCK      double bu_now(void);                 CLOCK_MONOTONIC, seconds
+                double bu_cpu_now(void);             this thread's CPU seconds
+                    (CLOCK_THREAD_CPUTIME_ID: time the thread was not
+                    running does not count; a system call, ~0.1-0.3 us, so
+                    for spans of a millisecond and more)
      TIMING     double bu_median(double *v, int n);  sorts v in place
                 double bu_time_median(fn, user, repeats, inner);
                     seconds per call of fn(user): median over `repeats` runs,
                     each timing `inner` calls in a row
+                double bu_cpu_time_median(fn, user, repeats, inner);
+                    the same in thread CPU time (make each run >= ~1 ms)
      ARGS       bu_args a; bu_parse_args(argc, argv, "name", &a);
                     --quick, --out FILE (default bench/results/NAME.json)
      JSON       bu_json *j = bu_json_open(path)  ...  bu_json_close(j)
@@ -63,6 +69,15 @@ BU__UNUSED static double bu_now(void)
     return (double)ts.tv_sec + (double)ts.tv_nsec * 1e-9;
 }
 
+/* CPU seconds this thread has run: immune to the time a busy machine
+   keeps it waiting. */
+BU__UNUSED static double bu_cpu_now(void)
+{
+    struct timespec ts;
+    clock_gettime(CLOCK_THREAD_CPUTIME_ID, &ts);
+    return (double)ts.tv_sec + (double)ts.tv_nsec * 1e-9;
+}
+
 BU__UNUSED static int bu__cmp_double(const void *a, const void *b)
 {
     double x = *(const double *)a, y = *(const double *)b;
@@ -104,6 +119,23 @@ BU__UNUSED static double bu_time_median(bu_fn fn, void *user, int repeats, int i
         double t0 = bu_now();
         for (i = 0; i < inner; ++i) fn(user);
         v[r] = (bu_now() - t0) / inner;
+    }
+    return bu_median(v, repeats);
+}
+
+/* The same in this thread's CPU time (bu_cpu_now): for runs of a
+   millisecond or more on a busy machine. */
+BU__UNUSED static double bu_cpu_time_median(bu_fn fn, void *user, int repeats, int inner)
+{
+    double v[1024];
+    int r, i;
+    if (repeats < 1) repeats = 1;
+    if (repeats > 1024) repeats = 1024;
+    if (inner < 1) inner = 1;
+    for (r = 0; r < repeats; ++r) {
+        double t0 = bu_cpu_now();
+        for (i = 0; i < inner; ++i) fn(user);
+        v[r] = (bu_cpu_now() - t0) / inner;
     }
     return bu_median(v, repeats);
 }
