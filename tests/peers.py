@@ -3,7 +3,7 @@
 
     python3 tests/peers.py build/ghostpeer [TEST...]
 
-Runs ghostpeer processes on 127.0.0.1, ports 47600-47699 only, and reads the
+Runs ghostpeer processes on 127.0.0.1, on ports the kernel says are free, and reads the
 JSON lines they print (one object per line; the last has "final": true).
 Standard library only. Prints one line per test and a summary
 "tests (peers): N passed, M failed"; exits 1 on any failure, 2 on a bad
@@ -363,12 +363,27 @@ def peer_gaps(p, window=1.0):
 
 # ---- the tests ----
 
+def free_ports(n):
+    """n UDP ports of 127.0.0.1 free now (the kernel's choice): fixed ones
+    collided with other runs on a shared machine."""
+    socks = []
+    try:
+        for _ in range(n):
+            s = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
+            s.bind((HOST, 0))
+            socks.append(s)
+        return [s.getsockname()[1] for s in socks]
+    finally:
+        for s in socks:
+            s.close()
+
+
 def mesh(ids, ports):
     return {i: [(k, ports[n]) for n, k in enumerate(ids) if k != i] for i in ids}
 
 
-def run_converge(exe, ids, base, duration=15.0, probe_until=3.0):
-    ports = [base + n for n in range(len(ids))]
+def run_converge(exe, ids, duration=15.0, probe_until=3.0):
+    ports = free_ports(len(ids))
     links = mesh(ids, ports)
     peers = [Peer(exe, i, ports[n], links[i], duration, ["--probe-until", "%g" % probe_until])
              for n, i in enumerate(ids)]
@@ -378,16 +393,17 @@ def run_converge(exe, ids, base, duration=15.0, probe_until=3.0):
 
 
 def test_two(exe):
-    return run_converge(exe, [1, 2], 47600)
+    return run_converge(exe, [1, 2])
 
 
 def test_three(exe):
-    return run_converge(exe, [1, 2, 3], 47610)
+    return run_converge(exe, [1, 2, 3])
 
 
 def test_restart(exe):
-    ports = {1: 47620, 2: 47621}
-    links = mesh([1, 2], [47620, 47621])
+    pl = free_ports(2)
+    ports = {1: pl[0], 2: pl[1]}
+    links = mesh([1, 2], pl)
     dur, kill_at, down = 16.0, 3.0, 1.0
     probe = ["--probe-until", "3"]
     p1 = Peer(exe, 1, ports[1], links[1], dur, probe)
@@ -502,8 +518,9 @@ def find_rejected(obj, path=""):
 
 
 def test_flood(exe):
-    ports = {1: 47630, 2: 47631}
-    links = mesh([1, 2], [47630, 47631])
+    pl = free_ports(2)
+    ports = {1: pl[0], 2: pl[1]}
+    links = mesh([1, 2], pl)
     dur, start, seconds, rate = 15.0, 2.0, 3.0, 2000.0
     probe = ["--probe-until", "3"]
     p1 = Peer(exe, 1, ports[1], links[1], dur, probe)
@@ -584,7 +601,8 @@ def test_bad_flag(exe):
 
 def test_sigterm(exe):
     res = []
-    peers = [Peer(exe, 1, 47650, [(2, 47651)], None), Peer(exe, 2, 47651, [(1, 47650)], None)]
+    pl = free_ports(2)
+    peers = [Peer(exe, 1, pl[0], [(2, pl[1])], None), Peer(exe, 2, pl[1], [(1, pl[0])], None)]
     try:
         time.sleep(1.5)
     finally:

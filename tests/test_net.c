@@ -1,7 +1,8 @@
 /* test_net.c - the network side (>>net, >>simnet, >>udp).
 
    Worlds on the simulated network, on real UDP over loopback (127.0.0.1
-   and ::1 only, ports 47100-47199) and on a transport of the test's own.
+   and ::1 only, on ports the kernel says are free) and on a transport of
+   the test's own.
    What is checked: determinism of the simnet, that ghosts bring diverged
    hosts together (and how close, measured: the numbers are printed), that
    every host keeps pace with the clock through an outage, that a late
@@ -1212,6 +1213,35 @@ static void sleep_until(double until) {
     }
 }
 
+/* A port of the loopback that is free now (the kernel's choice: port 0),
+   written as "127.0.0.1:PORT" or "[::1]:PORT" into buf. Fixed ports
+   collided with other test runs on a shared machine; 0 if there is no
+   such loopback. */
+static int loopback_addr(int v6, char *buf, size_t size) {
+    struct sockaddr_storage a;
+    socklen_t len = sizeof a;
+    int fd = socket(v6 ? AF_INET6 : AF_INET, SOCK_DGRAM, 0), port = 0;
+    if (fd < 0) return 0;
+    memset(&a, 0, sizeof a);
+    if (v6) {
+        struct sockaddr_in6 *a6 = (struct sockaddr_in6 *)&a;
+        a6->sin6_family = AF_INET6;
+        a6->sin6_addr = in6addr_loopback;
+    } else {
+        struct sockaddr_in *a4 = (struct sockaddr_in *)&a;
+        a4->sin_family = AF_INET;
+        a4->sin_addr.s_addr = htonl(INADDR_LOOPBACK);
+    }
+    if (bind(fd, (struct sockaddr *)&a, v6 ? sizeof(struct sockaddr_in6)
+                                           : sizeof(struct sockaddr_in)) == 0 &&
+        getsockname(fd, (struct sockaddr *)&a, &len) == 0)
+        port = ntohs(v6 ? ((struct sockaddr_in6 *)&a)->sin6_port
+                        : ((struct sockaddr_in *)&a)->sin_port);
+    close(fd);
+    if (port) snprintf(buf, size, v6 ? "[::1]:%d" : "127.0.0.1:%d", port);
+    return port;
+}
+
 typedef struct udp_pair {
     gs_world *w[2];
     gs_agent *c[2];
@@ -1300,36 +1330,27 @@ static void udp_converge(const char *a1, const char *a2, int threads, const char
 }
 
 static void test_udp_threads(void **state) {
+    char a[2][64];
     (void)state;
-    udp_converge("127.0.0.1:47101", "127.0.0.1:47102", 1, "threads");
+    assert_true(loopback_addr(0, a[0], sizeof a[0]) && loopback_addr(0, a[1], sizeof a[1]));
+    udp_converge(a[0], a[1], 1, "threads");
 }
 
 static void test_udp_poll(void **state) {
+    char a[2][64];
     (void)state;
-    udp_converge("127.0.0.1:47103", "127.0.0.1:47104", 0, "poll");
-}
-
-/* Is there an IPv6 loopback to bind? */
-static int have_ipv6_loopback(int port) {
-    struct sockaddr_in6 a;
-    int fd = socket(AF_INET6, SOCK_DGRAM, 0), ok;
-    if (fd < 0) return !(errno == EAFNOSUPPORT || errno == EPROTONOSUPPORT);
-    memset(&a, 0, sizeof a);
-    a.sin6_family = AF_INET6;
-    a.sin6_port = htons((uint16_t)port);
-    a.sin6_addr = in6addr_loopback;
-    ok = bind(fd, (const struct sockaddr *)&a, sizeof a) == 0 || errno != EADDRNOTAVAIL;
-    close(fd);
-    return ok;
+    assert_true(loopback_addr(0, a[0], sizeof a[0]) && loopback_addr(0, a[1], sizeof a[1]));
+    udp_converge(a[0], a[1], 0, "poll");
 }
 
 static void test_udp_ipv6(void **state) {
+    char a[2][64];
     (void)state;
-    if (!have_ipv6_loopback(47105)) {
+    if (!loopback_addr(1, a[0], sizeof a[0]) || !loopback_addr(1, a[1], sizeof a[1])) {
         print_message("udp ipv6: no IPv6 loopback here, skipped\n");
         skip();
     }
-    udp_converge("[::1]:47105", "[::1]:47106", 1, "ipv6 threads");
+    udp_converge(a[0], a[1], 1, "ipv6 threads");
 }
 
 /* Peers come and go while the threads run. */
@@ -1339,15 +1360,17 @@ static void test_udp_peers_at_run_time(void **state) {
     uint64_t unk[GS_REJECT_COUNT], rx;
     int frames, i;
     double g;
+    char a[2][64];
     (void)state;
-    udp_pair_open(&p, "127.0.0.1:47107", "127.0.0.1:47108", 1, 1);
+    assert_true(loopback_addr(0, a[0], sizeof a[0]) && loopback_addr(0, a[1], sizeof a[1]));
+    udp_pair_open(&p, a[0], a[1], 1, 1);
     /* nobody knows anybody: the cloths stay 5 cm apart */
     g = udp_pair_run(&p, 15, 0.0, &frames);
     assert_true(g > 0.04);
     /* host 2 learns host 1 first: host 1 refuses it as an unknown sender
        (within 4 s: under valgrind on a busy machine the first datagram can
        take more than the quarter second it takes here alone) */
-    assert_int_equal(gs_udp_add_peer(p.u[1], 1, "127.0.0.1:47107"), GS_OK);
+    assert_int_equal(gs_udp_add_peer(p.u[1], 1, a[0]), GS_OK);
     memset(unk, 0, sizeof unk);
     for (i = 0; i < 16 && unk[GS_REJECT_SENDER] == 0; ++i) {
         udp_pair_run(&p, 15, 0.0, &frames);
@@ -1355,13 +1378,13 @@ static void test_udp_peers_at_run_time(void **state) {
     }
     assert_true(unk[GS_REJECT_SENDER] > 0);
     /* then both: they converge */
-    assert_int_equal(gs_udp_add_peer(p.u[0], 2, "127.0.0.1:47108"), GS_OK);
+    assert_int_equal(gs_udp_add_peer(p.u[0], 2, a[1]), GS_OK);
     g = udp_pair_run(&p, 240, 1e-4, &frames);
     print_message("udp peers at run time: gap %.2e m %.2f s after both knew each other\n", g,
                   frames * FRAME);
     assert_true(g < 1e-4);
     /* replacing a peer's address is allowed */
-    assert_int_equal(gs_udp_add_peer(p.u[0], 2, "127.0.0.1:47108"), GS_OK);
+    assert_int_equal(gs_udp_add_peer(p.u[0], 2, a[1]), GS_OK);
     /* host 1 drops host 2: host 2 hears nothing more from host 1 */
     assert_int_equal(gs_udp_remove_peer(p.u[0], 2), GS_OK);
     assert_int_equal(gs_net_peer_stats(gs_udp_net(p.u[0]), 2, &ps), GS_ERR_INVALID_ARG);
@@ -1383,7 +1406,10 @@ static void test_udp_errors(void **state) {
     gs_udp *u = NULL, *u2 = NULL;
     gs_udp_desc ud;
     size_t i;
+    char a[64], port[16];
     (void)state;
+    assert_true(loopback_addr(0, a, sizeof a));
+    strcpy(port, strchr(a, ':') + 1);
     memset(&ud, 0, sizeof ud);
     assert_int_equal(gs_udp_open(w, &ud, &u), GS_ERR_INVALID_ARG); /* bind NULL */
     assert_null(u);
@@ -1398,13 +1424,13 @@ static void test_udp_errors(void **state) {
     }
     assert_null(gs_world_net(w)); /* nothing was left behind */
     /* a port in use */
-    ud.bind = "127.0.0.1:47110";
+    ud.bind = a;
     ud.threads = 1;
     assert_int_equal(gs_udp_open(w, &ud, &u), GS_OK);
     assert_int_equal(gs_udp_open(w2, &ud, &u2), GS_ERR_SYSTEM);
     assert_null(u2);
     print_message("port in use: \"%s\"\n", gs_world_error(w2));
-    assert_non_null(strstr(gs_world_error(w2), "47110"));
+    assert_non_null(strstr(gs_world_error(w2), port));
     assert_null(gs_world_net(w2));
     /* a bad peer address */
     assert_int_equal(gs_udp_add_peer(u, 2, "nowhere"), GS_ERR_INVALID_ARG);
