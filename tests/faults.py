@@ -981,7 +981,7 @@ def run_soak(exe, seconds):
                 if sa is None or sb is None:
                     continue
                 for w, d in series(pa, pb, start=max(sa, sb) + 3.0):
-                    k = int((w - run.w0) / 30.0)
+                    k = min(int((w - run.w0) / 30.0), max(0, int(seconds / 30.0) - 1))
                     by_time.setdefault(k, []).append(d)
         win = []
         for k in sorted(by_time):
