@@ -11,6 +11,7 @@
 #   make bench     every benchmark in bench/ (under 20 min on 2 cores):
 #                  bench/results/*.json, REPORT.md and PNG plots
 #   make bench-quick  the same with --quick (under 2 min; CI smoke test)
+#   make faults    the fault suite (faults-short: its short form); make soak
 # Every recipe is plain POSIX make + sh; nothing is downloaded except Debian
 # packages through apt-get.
 
@@ -169,6 +170,20 @@ fuzz-ci: $(BUILD)/fuzz_wire $(BUILD)/fuzz-seeds.stamp
 # starts): two and three peers, a restart, a garbage flood, the command line.
 test-peers: $(BUILD)/ghostpeer
 	@python3 tests/peers.py $(BUILD)/ghostpeer
+
+# The fault suite (tests/faults.py, README "Faults and soak"): ghostpeer
+# processes behind a UDP proxy that drops, duplicates, reorders, delays,
+# corrupts and cuts; a peer SIGKILLed and restarted, a clock step, a wild
+# probe. faults: every scenario (about 4 min); faults-short: five of them
+# (about 55 s); soak: four peers under rolling faults for SOAK_SECONDS.
+SOAK_SECONDS ?= 600
+.PHONY: faults faults-short soak
+faults: $(BUILD)/ghostpeer
+	@python3 tests/faults.py $(BUILD)/ghostpeer
+faults-short: $(BUILD)/ghostpeer
+	@python3 tests/faults.py $(BUILD)/ghostpeer --short
+soak: $(BUILD)/ghostpeer
+	@python3 tests/faults.py $(BUILD)/ghostpeer --soak $(SOAK_SECONDS)
 
 # Three peers on loopback for about 20 s with a live display; results and
 # pictures in demo-results/.

@@ -4,6 +4,7 @@
                [--cloth N] [--spheres K] [--weight cs|exp[:RATE]|owner]
                [--integrator NAME] [--dt S] [--probe-until S] [--seed N]
                [--encoding f64|f32] [--stats-every S] [--trace FILE]
+               [--clock-step AT:SECONDS] [--probe-wild AT:SECONDS:SPEED]
 
    Every host builds the same scene (gs_scene_create: a cloth pinned by its
    corners, K spheres above it, one probe per host of the session) and runs
@@ -15,6 +16,14 @@
    pulls the others toward their states of a latency ago, and the scene
    never quite comes to rest), probe i object 200 + i (owner authority:
    host i + 1 owns it).
+
+   For the fault suite (tests/faults.py): --clock-step AT:SECONDS makes the
+   clock this host paces its world with jump by SECONDS (negative: back)
+   once, AT seconds into the run; the JSON "wall", --stats-every, --trace
+   and --duration keep the real clocks. --probe-wild AT:SECONDS:SPEED has
+   host N place probe N-1 itself (gs_agent_set_state, past the probe's own
+   speed limit) along its scripted circle at SPEED m/s, with that velocity,
+   from simulation time AT for SECONDS; then it follows its path again.
 
    stdout is for machines: one JSON object per line every --stats-every
    seconds of wall time, and a last line with "final": true and the totals
@@ -59,6 +68,8 @@ typedef struct options {
     gs_encoding encoding;
     double stats_every;
     const char *trace;
+    double step_at, step;  /* --clock-step: s into the run, s of jump */
+    double wild_at, wild_for, wild_speed; /* --probe-wild: s, s, m/s */
 } options;
 
 static volatile sig_atomic_t g_stop = 0; /* the only static: signal handlers need one */
@@ -75,7 +86,8 @@ static void usage(const char *why) {
             "                 [--cloth N] [--spheres K] [--weight cs|exp[:RATE]|owner]\n"
             "                 [--integrator explicit|symplectic|verlet|rk4|implicit] [--dt S]\n"
             "                 [--probe-until S] [--seed N] [--encoding f64|f32]\n"
-            "                 [--stats-every S] [--trace FILE]\n");
+            "                 [--stats-every S] [--trace FILE]\n"
+            "                 [--clock-step AT:SECONDS] [--probe-wild AT:SECONDS:SPEED]\n");
     exit(2);
 }
 
@@ -144,6 +156,26 @@ static void parse_peer(options *o, const char *s) {
     strcpy(p->addr, at + 1);
 }
 
+/* A:B or A:B:C into v[0..n-1], each checked against [lo, hi]. */
+static void parse_tuple(const char *flag, const char *s, int n, double *v, const double *lo,
+                        const double *hi) {
+    char buf[128], msg[200], *part = buf, *colon;
+    int k;
+    if (strlen(s) >= sizeof buf) usage("a flag value is too long");
+    strcpy(buf, s);
+    for (k = 0; k < n; ++k) {
+        colon = strchr(part, ':');
+        if ((k < n - 1) != (colon != NULL)) {
+            snprintf(msg, sizeof msg, "%s: '%s' is not %s", flag, s,
+                     n == 2 ? "AT:SECONDS" : "AT:SECONDS:SPEED");
+            usage(msg);
+        }
+        if (colon) *colon = '\0';
+        v[k] = parse_number(flag, part, lo[k], hi[k]);
+        part = colon + 1;
+    }
+}
+
 static void parse_args(int argc, char **argv, options *o) {
     int i, k;
     memset(o, 0, sizeof *o);
@@ -183,6 +215,20 @@ static void parse_args(int argc, char **argv, options *o) {
             else usage("--encoding: f64 or f32");
         } else if (strcmp(f, "--stats-every") == 0) o->stats_every = parse_number(f, v, 1e-3, 3600);
         else if (strcmp(f, "--trace") == 0) o->trace = v;
+        else if (strcmp(f, "--clock-step") == 0) {
+            static const double lo[] = {0, -1e6}, hi[] = {1e7, 1e6};
+            double t[2];
+            parse_tuple(f, v, 2, t, lo, hi);
+            o->step_at = t[0];
+            o->step = t[1];
+        } else if (strcmp(f, "--probe-wild") == 0) {
+            static const double lo[] = {0, 0, 0}, hi[] = {1e7, 1e7, 1e6};
+            double t[3];
+            parse_tuple(f, v, 3, t, lo, hi);
+            o->wild_at = t[0];
+            o->wild_for = t[1];
+            o->wild_speed = t[2];
+        }
         else {
             char msg[160];
             snprintf(msg, sizeof msg, "unknown flag '%s'", f);
@@ -266,7 +312,20 @@ static void drive_probe(peer_host *h, double t) {
     int i = (int)h->o.id - 1;
     gs_vec3 p;
     if (i >= h->sc.probe_count) return;
-    if (t < h->o.probe_until) {
+    if (h->o.wild_speed > 0.0 && t >= h->o.wild_at && t < h->o.wild_at + h->o.wild_for) {
+        /* its circle (0.38 m round in 4 s) sped up to wild_speed m/s */
+        double k = h->o.wild_speed / (2.0 * 3.14159265358979323846 * 0.38 / 4.0), s[14];
+        double tau = h->o.wild_at + (t - h->o.wild_at) * k;
+        gs_vec3 q = gs_scene_probe_path(i, tau + 1e-4 * k);
+        p = gs_scene_probe_path(i, tau);
+        if (gs_agent_get_state(h->sc.probes[i], s, 14) == GS_OK) {
+            s[1] = p.x; s[2] = p.y; s[3] = p.z;
+            s[4] = 0.0; s[5] = 0.0; s[6] = 0.0; s[7] = 1.0;
+            s[8] = (q.x - p.x) / 1e-4; s[9] = (q.y - p.y) / 1e-4; s[10] = (q.z - p.z) / 1e-4;
+            s[11] = 0.0; s[12] = 0.0; s[13] = 0.0;
+            gs_agent_set_state(h->sc.probes[i], s, 14);
+        }
+    } else if (t < h->o.probe_until) {
         p = gs_scene_probe_path(i, t);
     } else {
         p = gs_scene_probe_path(i, h->o.probe_until);
@@ -379,18 +438,26 @@ static void nap(double seconds) {
 
 /* At wall-clock pace until the duration or a signal. */
 static int run(peer_host *h) {
-    double last = gs_udp_now(), next_stats = last, next_trace = last;
+    double last = gs_udp_now(), next_stats = last, next_trace = last, skew = 0.0;
+    int stepped = h->o.step == 0.0;
     h->mono0 = last;
     while (!g_stop) {
-        double now = gs_udp_now(), elapsed = now - h->mono0;
+        double now = gs_udp_now(), elapsed = now - h->mono0, pnow;
         gs_result r;
         if (h->o.duration > 0.0 && elapsed >= h->o.duration) break;
+        if (!stepped && elapsed >= h->o.step_at) { /* --clock-step */
+            skew = h->o.step;
+            stepped = 1;
+            fprintf(stderr, "ghostpeer %u: pacing clock stepped by %+g s at %.3f s\n",
+                    (unsigned)h->o.id, skew, elapsed);
+        }
+        pnow = now + skew; /* the clock the world is paced with */
         drive_probe(h, sim_time(h));
-        r = gs_world_advance(h->w, now - last, NULL);
+        r = gs_world_advance(h->w, pnow - last, NULL);
         if (r != GS_OK && r != GS_ERR_UNSTABLE)
             fprintf(stderr, "ghostpeer %u: %s\n", (unsigned)h->o.id, gs_world_error(h->w));
-        last = now;
-        gs_udp_poll(h->udp, now); /* wakes the scatter thread */
+        last = pnow;
+        gs_udp_poll(h->udp, pnow); /* wakes the scatter thread */
         if (now >= next_stats) {
             print_line(h, 0);
             watch_peers(h, elapsed);
