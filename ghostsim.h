@@ -873,7 +873,7 @@ typedef struct gs_wire_view {
     X(GS_REJECT_DUPLICATE, "a datagram already received")                      \
     X(GS_REJECT_ADDRESS,                                                       \
       "from an address other than the one registered for its sender")          \
-    X(GS_REJECT_KEY, "sealed where no key is set, or in clear where one is")   \
+    X(GS_REJECT_KEY, "in clear, but this net has a key: only sealed ones go")  \
     X(GS_REJECT_AUTH,                                                          \
       "authentication failed: forged, tampered or under another key")          \
     X(GS_REJECT_REPLAY,                                                        \
@@ -902,9 +902,10 @@ GS_API gs_result gs_wire_add(unsigned char *buf, size_t cap, size_t *size,
 GS_API size_t gs_wire_end(unsigned char *buf, size_t size);
 /* Checks everything that needs no knowledge of the objects: size, magic,
    version, flags, checksum, chunk layout, encodings, finite numbers and
-   times. Returns 1 and fills *out, or 0 and *why. A sealed datagram fails
-   the checksum here (its trailer is no CRC): only a net with the key
-   opens it. */
+   times. Returns 1 and fills *out, or 0 and *why. Datagrams in clear
+   only: a sealed one fails the checksum here (its trailer is no CRC), or
+   if the CRC matched by chance its flag is a GS_REJECT_LAYOUT; only a net
+   with the key opens it. */
 GS_API int gs_wire_decode(const unsigned char *buf, size_t size,
                           gs_wire_view *out, gs_reject *why);
 /* Value i of a decoded chunk. */
@@ -975,16 +976,20 @@ GS_API gs_result gs_net_update(gs_net *net, double now);
 /* Hands a received datagram to ghostsim. Returns GS_OK when it was queued,
    GS_ERR_REJECTED (reason in *why, may be NULL) when refused; refused
    datagrams are counted and never blended, and nothing is ever sent back.
-   The checks, cheapest first: size, magic, version, flags; without a key
-   the CRC and the decode; the session and the sender (a peer: until here
-   a refusal counts among the unknown ones, from here on the peer's); with
-   a key, sealed or not, the replay window, then one authentication and
-   decryption, then the decode; then the objects and ranges, the sequence
-   (duplicates) and the peer's rate cap (max_rate: only datagrams that
-   passed everything count against it, so forgeries cannot starve a peer).
-   Memory: nothing is allocated here; a net holds a fixed struct (about
-   20 KB) and each ghost queue_size snapshots per peer (allocated when the
-   ghost or the peer is added), whatever arrives. */
+   The checks, cheapest first: size, magic, version; without a key the CRC
+   and the decode (as gs_wire_decode: a sealed datagram fails the CRC);
+   the session and the sender (a peer: until here a refusal counts among
+   the unknown ones, from here on the peer's); with a key, the seal flag
+   (GS_REJECT_KEY if in clear), the replay window, then one authentication
+   and decryption, then the decode; then the objects and ranges, the
+   sequence (duplicates) and the peer's rate cap (max_rate: only datagrams
+   that passed everything count against it, so forgeries cannot starve a
+   peer).
+   Memory: nothing is allocated here. A net is one fixed struct (12 KB; a
+   gs_udp adds 4 KB and its socket's rcvbuf in the kernel), and each ghost
+   keeps queue_size snapshots per peer (queue_size * (48 + 8 * state
+   values + chunks) bytes, allocated when the ghost or the peer is added;
+   a full queue drops its oldest), whatever arrives. */
 GS_API gs_result gs_net_deliver(gs_net *net, const void *data, size_t size,
                                 double now, gs_reject *why);
 GS_API gs_result gs_net_peer_stats(const gs_net *net, uint32_t host,
@@ -5426,8 +5431,7 @@ GS_API int gs_wire_decode(const unsigned char *buf, size_t size,
     if (!gs__wire_front(buf, size, why)) return 0;
     end = size - 4;
     if (gs__crc32(buf, end) != gs__get32(buf + end)) { *why = GS_REJECT_CHECKSUM; return 0; }
-    if (buf[5] & ~GS_WIRE_FLAG_SEALED) { *why = GS_REJECT_LAYOUT; return 0; }
-    if (buf[5] & GS_WIRE_FLAG_SEALED) { *why = GS_REJECT_KEY; return 0; }
+    if (buf[5] != 0) { *why = GS_REJECT_LAYOUT; return 0; } /* sealed or unknown */
     return gs__wire_parse(buf, end, out, why);
 }
 
@@ -5937,9 +5941,8 @@ GS__PRIVATE int gs__receive_sender(gs_net *net, uint32_t session, uint32_t sende
     return 1;
 }
 
-/* A sealed datagram, or any datagram to a keyed net: the cheap checks, the
-   replay window, then one authentication and decryption, then the decode
-   into net->view. */
+/* Any datagram to a keyed net: the cheap checks, the replay window, then
+   one authentication and decryption, then the decode into net->view. */
 GS__PRIVATE int gs__receive_sealed(gs_net *net, const unsigned char *buf, size_t size, int *p,
                                    gs_reject *why) {
     const unsigned char *nonce = buf + size - GS_WIRE_SEAL_TRAILER;
@@ -5951,7 +5954,7 @@ GS__PRIVATE int gs__receive_sealed(gs_net *net, const unsigned char *buf, size_t
         return 0;
     }
     if (!gs__receive_sender(net, gs__get32(buf + 8), gs__get32(buf + 12), p, why)) return 0;
-    if (!net->guard.keyed || !(buf[5] & GS_WIRE_FLAG_SEALED)) { *why = GS_REJECT_KEY; return 0; }
+    if (!(buf[5] & GS_WIRE_FLAG_SEALED)) { *why = GS_REJECT_KEY; return 0; }
     epoch = gs__get64(nonce);
     salt = gs__get64(nonce + 8);
     counter = gs__get64(nonce + 16);
@@ -5980,8 +5983,7 @@ GS__PRIVATE int gs__receive_sealed(gs_net *net, const unsigned char *buf, size_t
 GS__PRIVATE int gs__receive(gs_net *net, const unsigned char *buf, size_t size, int *p,
                             gs_reject *why) {
     if (!gs__wire_front(buf, size, why)) return 0;
-    if (net->guard.keyed || (buf[5] & GS_WIRE_FLAG_SEALED))
-        return gs__receive_sealed(net, buf, size, p, why);
+    if (net->guard.keyed) return gs__receive_sealed(net, buf, size, p, why);
     if (!gs_wire_decode(buf, size, &net->view, why)) return 0;
     return gs__receive_sender(net, net->view.header.session, net->view.header.sender, p, why);
 }
