@@ -5988,13 +5988,13 @@ GS__PRIVATE int gs__receive(gs_net *net, const unsigned char *buf, size_t size, 
     return gs__receive_sender(net, net->view.header.session, net->view.header.sender, p, why);
 }
 
-GS_API gs_result gs_net_deliver(gs_net *net, const void *data, size_t size,
-                                double now, gs_reject *why) {
+/* gs_net_deliver under the net lock. */
+GS__PRIVATE gs_result gs__deliver_locked(gs_net *net, const void *data, size_t size, double now,
+                                         gs_reject *why) {
     gs_wire_view *v = &net->view;
     gs_reject r = GS_REJECT_SHORT;
     gs_result res = GS_OK;
     int p = -1, i, order;
-    gs__lock(net);
     if (!gs__receive(net, (const unsigned char *)data, size, &p, &r)) {
         res = gs__reject(net, p, r, why);
     } else if (!gs__chunks_fit(net, v, now, &r)) {
@@ -6013,8 +6013,16 @@ GS_API gs_result gs_net_deliver(gs_net *net, const void *data, size_t size,
         pe->st.bytes_received += size;
         for (i = 0; i < v->chunk_count; ++i) gs__queue_chunk(net, p, &v->chunks[i], age);
     }
-    gs__unlock(net);
     return res;
+}
+
+GS_API gs_result gs_net_deliver(gs_net *net, const void *data, size_t size,
+                                double now, gs_reject *why) {
+    gs_result r;
+    gs__lock(net);
+    r = gs__deliver_locked(net, data, size, now, why);
+    gs__unlock(net);
+    return r;
 }
 
 /* A refusal decided by the transport (the UDP allow-list): counted on the
@@ -6410,13 +6418,13 @@ GS__PRIVATE int gs__udp_same_addr(const struct sockaddr_storage *a,
 /* The allow-list: a ghostsim datagram that names a peer of the net as its
    sender but does not come from the address registered for it (or has
    none registered) is refused here and counted on that peer. Everything
-   else goes on to gs_net_deliver, which refuses unknown senders. */
+   else goes on to the net, which refuses unknown senders. Under u->mu
+   (the net lock). */
 GS__PRIVATE int gs__udp_from_ok(gs_udp *u, size_t n, const struct sockaddr_storage *from) {
     uint32_t host;
     int p, ok = 1, found = 0;
     if (n < GS_WIRE_HEADER || memcmp(u->rbuf, "GSIM", 4) != 0) return 1;
     host = gs__get32(u->rbuf + 12);
-    pthread_mutex_lock(&u->mu);
     for (p = 0; p < GS__MAX_PEERS && !found; ++p)
         if (u->peers[p].used && u->peers[p].host == host) {
             found = 1;
@@ -6424,7 +6432,6 @@ GS__PRIVATE int gs__udp_from_ok(gs_udp *u, size_t n, const struct sockaddr_stora
         }
     if (!found) ok = gs__peer_slot(u->net, host) < 0;
     if (!ok) gs__net_refuse(u->net, host, GS_REJECT_ADDRESS);
-    pthread_mutex_unlock(&u->mu);
     return ok;
 }
 
@@ -6438,8 +6445,10 @@ GS__PRIVATE void gs__udp_drain(gs_udp *u, int max) {
         memset(&from, 0, sizeof from);
         n = recvfrom(u->fd, u->rbuf, sizeof u->rbuf, MSG_DONTWAIT, (struct sockaddr *)&from, &flen);
         if (n < 0) break;
+        pthread_mutex_lock(&u->mu); /* the net lock: one for both */
         if (gs__udp_from_ok(u, (size_t)n, &from))
-            gs_net_deliver(u->net, u->rbuf, (size_t)n, gs_udp_now(), NULL);
+            gs__deliver_locked(u->net, u->rbuf, (size_t)n, gs_udp_now(), NULL);
+        pthread_mutex_unlock(&u->mu);
     }
 }
 
