@@ -636,11 +636,12 @@ def test_key(exe):
             f.write(bytes(b ^ 1 for b in key))
         with open(paths["bad"], "w") as f:
             f.write("not a key\n")
-        bad = subprocess.run([exe, "--id", "1", "--listen", "%s:47670" % HOST, "--key", paths["bad"]],
+        ports = free_ports(3)
+        bad = subprocess.run([exe, "--id", "1", "--listen", "%s:%d" % (HOST, ports[0]),
+                              "--key", paths["bad"]],
                              stdin=subprocess.DEVNULL, capture_output=True, timeout=10)
         if bad.returncode != 2:
             raise TestFailure("a bad key file: exit status %d, want 2" % bad.returncode)
-        ports = [47671, 47672, 47673]
         links = mesh([1, 2, 3], ports)
         files = [paths["raw"], paths["hex"], paths["other"]]
         peers = [Peer(exe, i, ports[i - 1], links[i], 4.0, ["--key", files[i - 1]]) for i in (1, 2, 3)]
