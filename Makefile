@@ -27,14 +27,21 @@ SANFLAGS := -O1 -g -fsanitize=address,undefined -fno-omit-frame-pointer \
 CCD_CFLAGS = $(shell pkg-config --cflags ccd 2>/dev/null)
 CCD_LIBS   = $(shell pkg-config --libs ccd 2>/dev/null)
 LIBS      = $(CCD_LIBS) -lm -lpthread
+# Sealed datagrams (libsodium): the tests and the peer are built with them;
+# build/test_security_nosodium checks the build without.
+SODIUM_CFLAGS := -DGHOSTSIM_SODIUM
+SODIUM_LIBS   := -lsodium
 
 # Debian packages the build and tests need (command or file that proves each).
 DEBS := gcc g++ clang libclang-rt-dev make pkg-config cmake libccd-dev libcmocka-dev \
-        valgrind libsdl2-dev gnuplot-nox python3
+        valgrind libsdl2-dev gnuplot-nox python3 libsodium-dev
 # And what the benchmarks need besides (bench/README.md).
 BENCH_DEBS := libenet-dev libbullet-dev libode-dev gnuplot-nox hyperfine
 
 TESTS    := $(basename $(notdir $(wildcard tests/test_*.c)))
+# The same test files against an implementation built without
+# GHOSTSIM_SODIUM (a key is GS_ERR_UNSUPPORTED there).
+TESTS_NOSODIUM := test_security_nosodium
 EXAMPLES := $(basename $(notdir $(wildcard examples/*.c)))
 
 .PHONY: all deps deps-bench bench bench-quick bench-build test test-plain test-asan tsan valgrind-udp \
@@ -65,14 +72,22 @@ $(BUILD) $(BUILD)/asan:
 
 # One object holds the implementation; every test links it.
 $(BUILD)/gs_impl.o: tests/gs_impl.c ghostsim.h | $(BUILD)
-	$(CC) $(CSTD) $(WARN) $(CFLAGS) $(CCD_CFLAGS) -I. -c $< -o $@
+	$(CC) $(CSTD) $(WARN) $(CFLAGS) $(SODIUM_CFLAGS) $(CCD_CFLAGS) -I. -c $< -o $@
 $(BUILD)/asan/gs_impl.o: tests/gs_impl.c ghostsim.h | $(BUILD)/asan
+	$(CC) $(CSTD) $(WARN) $(SANFLAGS) $(SODIUM_CFLAGS) $(CCD_CFLAGS) -I. -c $< -o $@
+$(BUILD)/gs_impl_nosodium.o: tests/gs_impl.c ghostsim.h | $(BUILD)
+	$(CC) $(CSTD) $(WARN) $(CFLAGS) $(CCD_CFLAGS) -I. -c $< -o $@
+$(BUILD)/asan/gs_impl_nosodium.o: tests/gs_impl.c ghostsim.h | $(BUILD)/asan
 	$(CC) $(CSTD) $(WARN) $(SANFLAGS) $(CCD_CFLAGS) -I. -c $< -o $@
 
+$(BUILD)/test_security_nosodium: tests/test_security.c $(BUILD)/gs_impl_nosodium.o ghostsim.h
+	$(CC) $(CSTD) $(WARN) $(CFLAGS) -I. $< $(BUILD)/gs_impl_nosodium.o -o $@ -lcmocka $(LIBS)
+$(BUILD)/asan/test_security_nosodium: tests/test_security.c $(BUILD)/asan/gs_impl_nosodium.o ghostsim.h
+	$(CC) $(CSTD) $(WARN) $(SANFLAGS) -I. $< $(BUILD)/asan/gs_impl_nosodium.o -o $@ -lcmocka $(LIBS)
 $(BUILD)/test_%: tests/test_%.c $(BUILD)/gs_impl.o ghostsim.h
-	$(CC) $(CSTD) $(WARN) $(CFLAGS) -I. $< $(BUILD)/gs_impl.o -o $@ -lcmocka $(LIBS)
+	$(CC) $(CSTD) $(WARN) $(CFLAGS) $(SODIUM_CFLAGS) -I. $< $(BUILD)/gs_impl.o -o $@ -lcmocka $(LIBS) $(SODIUM_LIBS)
 $(BUILD)/asan/test_%: tests/test_%.c $(BUILD)/asan/gs_impl.o ghostsim.h
-	$(CC) $(CSTD) $(WARN) $(SANFLAGS) -I. $< $(BUILD)/asan/gs_impl.o -o $@ -lcmocka $(LIBS)
+	$(CC) $(CSTD) $(WARN) $(SANFLAGS) $(SODIUM_CFLAGS) -I. $< $(BUILD)/asan/gs_impl.o -o $@ -lcmocka $(LIBS) $(SODIUM_LIBS)
 # The regression test replays the fuzz harness's checks.
 $(BUILD)/test_fuzz_regress $(BUILD)/asan/test_fuzz_regress: tests/fuzz_wire.c tests/fuzz_world.h
 
@@ -90,31 +105,32 @@ examples: $(addprefix $(BUILD)/,$(EXAMPLES)) peer
 # (where the README and outside tests run it from).
 peer: reference_peer/ghostpeer
 $(BUILD)/ghostpeer: reference_peer/ghostpeer.c ghostsim.h | $(BUILD)
-	$(CC) $(CSTD) $(WARN) $(CFLAGS) $(CCD_CFLAGS) -I. $< -o $@ $(LIBS)
+	$(CC) $(CSTD) $(WARN) $(CFLAGS) $(SODIUM_CFLAGS) $(CCD_CFLAGS) -I. $< -o $@ $(LIBS) $(SODIUM_LIBS)
 reference_peer/ghostpeer: $(BUILD)/ghostpeer
 	cp $< $@
 
 # The header as C99 and C++11 under gcc and clang, with and without
-# GHOSTSIM_STATIC, implementation included: warning-free or the build fails.
+# GHOSTSIM_STATIC and GHOSTSIM_SODIUM, implementation included: warning-free
+# or the build fails.
 compile-checks: | $(BUILD)
 	@for f in compile_check compile_one; do \
 	  for cc in gcc clang; do \
-	    for opt in "" "-DGHOSTSIM_STATIC"; do \
+	    for opt in "" "-DGHOSTSIM_STATIC" "-DGHOSTSIM_SODIUM" "-DGHOSTSIM_SODIUM -DGHOSTSIM_STATIC"; do \
 	      echo "compile-check: $$f $$cc -std=c99 $$opt"; \
 	      $$cc -std=c99 $(WARN) $$opt -I. -c tests/$$f.c -o $(BUILD)/cc.o || exit 1; \
 	    done; done; \
 	  for cxx in g++ clang++; do \
-	    for opt in "" "-DGHOSTSIM_STATIC"; do \
+	    for opt in "" "-DGHOSTSIM_STATIC" "-DGHOSTSIM_SODIUM"; do \
 	      echo "compile-check: $$f $$cxx -std=c++11 $$opt"; \
 	      $$cxx -std=c++11 $(WARN) $$opt -I. -x c++ -c tests/$$f.c -o $(BUILD)/cc.o || exit 1; \
 	    done; done; done
 
-test-plain: $(addprefix $(BUILD)/,$(TESTS))
-	@sh tests/run.sh "plain" $(addprefix $(BUILD)/,$(TESTS))
+test-plain: $(addprefix $(BUILD)/,$(TESTS) $(TESTS_NOSODIUM))
+	@sh tests/run.sh "plain" $(addprefix $(BUILD)/,$(TESTS) $(TESTS_NOSODIUM))
 
-test-asan: $(addprefix $(BUILD)/asan/,$(TESTS))
+test-asan: $(addprefix $(BUILD)/asan/,$(TESTS) $(TESTS_NOSODIUM))
 	@ASAN_OPTIONS=detect_leaks=1:abort_on_error=1 UBSAN_OPTIONS=print_stacktrace=1 \
-	  sh tests/run.sh "asan+ubsan" $(addprefix $(BUILD)/asan/,$(TESTS))
+	  sh tests/run.sh "asan+ubsan" $(addprefix $(BUILD)/asan/,$(TESTS) $(TESTS_NOSODIUM))
 
 test: deps
 	@$(MAKE) --no-print-directory compile-checks examples cmake-check install-check
@@ -131,9 +147,9 @@ TSANFLAGS := -O1 -g -fsanitize=thread -fno-omit-frame-pointer
 $(BUILD)/tsan:
 	mkdir -p $@
 $(BUILD)/tsan/gs_impl.o: tests/gs_impl.c ghostsim.h | $(BUILD)/tsan
-	$(CC) $(CSTD) $(WARN) $(TSANFLAGS) $(CCD_CFLAGS) -I. -c $< -o $@
+	$(CC) $(CSTD) $(WARN) $(TSANFLAGS) $(SODIUM_CFLAGS) $(CCD_CFLAGS) -I. -c $< -o $@
 $(BUILD)/tsan/test_net: tests/test_net.c $(BUILD)/tsan/gs_impl.o ghostsim.h
-	$(CC) $(CSTD) $(WARN) $(TSANFLAGS) -I. $< $(BUILD)/tsan/gs_impl.o -o $@ -lcmocka $(LIBS)
+	$(CC) $(CSTD) $(WARN) $(TSANFLAGS) $(SODIUM_CFLAGS) -I. $< $(BUILD)/tsan/gs_impl.o -o $@ -lcmocka $(LIBS) $(SODIUM_LIBS)
 tsan: $(BUILD)/tsan/test_net
 	@TSAN_OPTIONS="halt_on_error=1 second_deadlock_stack=1" \
 	  sh tests/run.sh "tsan, udp" "$(BUILD)/tsan/test_net test_udp*"
@@ -154,7 +170,7 @@ $(BUILD)/fuzz_wire: tests/fuzz_wire.c tests/fuzz_world.h tests/gs_impl.c tests/f
 	$(FUZZ_CC) $(CSTD) $(WARN) $(FUZZ_FLAGS) $(CCD_CFLAGS) -I. tests/fuzz_wire.c tests/gs_impl.c \
 	  -o $@ $(LIBS)
 $(BUILD)/fuzz_seeds: tests/fuzz_seeds.c tests/fuzz_world.h $(BUILD)/gs_impl.o ghostsim.h
-	$(CC) $(CSTD) $(WARN) $(CFLAGS) -I. $< $(BUILD)/gs_impl.o -o $@ $(LIBS)
+	$(CC) $(CSTD) $(WARN) $(CFLAGS) -I. $< $(BUILD)/gs_impl.o -o $@ $(LIBS) $(SODIUM_LIBS)
 $(BUILD)/fuzz-seeds.stamp: $(BUILD)/fuzz_seeds
 	rm -rf $(BUILD)/fuzz-corpus && mkdir -p $(BUILD)/fuzz-corpus
 	./$(BUILD)/fuzz_seeds $(BUILD)/fuzz-corpus
@@ -207,6 +223,7 @@ BENCH_CC     := $(basename $(notdir $(wildcard bench/*.cc)))
 BENCH_BINS   := $(addprefix $(BUILD)/bench/,$(BENCH_C) $(BENCH_CC))
 BENCH_CFLAGS := -O2 -DNDEBUG
 BENCH_LIBS_transport = -lenet
+BENCH_LIBS_seal = -lsodium
 BENCH_LIBS_physics = $(patsubst -I%,-isystem %,$(shell pkg-config --cflags bullet ode 2>/dev/null)) \
                      $(shell pkg-config --libs bullet ode 2>/dev/null)
 BENCH_TIMEOUT_FULL  := 900

@@ -69,6 +69,10 @@
        GS_MAX_QUEUES            implementation   64: most priority queues
        GHOSTSIM_NO_UDP          before include   off: the POSIX UDP transport
                                                  is in (link -lpthread)
+       GHOSTSIM_SODIUM          implementation   off: no encryption; on, a key
+                                                 in gs_net_desc seals every
+                                                 datagram (libsodium AEAD;
+                                                 link -lsodium)
        A runtime allocator {alloc, free, user} in gs_world_desc overrides
        GS_MALLOC/GS_FREE for that world.
 
@@ -173,7 +177,9 @@ typedef struct gs_quat { double x, y, z, w; } gs_quat; /* w is the scalar */
     X(GS_ERR_BUSY, -7, "the world is advancing; not allowed from inside it")   \
     X(GS_ERR_CAPACITY, -8, "a fixed capacity is exhausted")                    \
     X(GS_ERR_REJECTED, -9, "a datagram was refused (see gs_reject)")           \
-    X(GS_ERR_SYSTEM, -10, "the operating system refused (socket, thread)")
+    X(GS_ERR_SYSTEM, -10, "the operating system refused (socket, thread)")     \
+    X(GS_ERR_UNSUPPORTED, -11,                                                 \
+      "not built in: its option macro was not defined (see OPTIONS)")
 
 typedef enum gs_result {
 #define GS__RESULT_ENUM(name, value, text) name = value,
@@ -796,12 +802,39 @@ GS_API gs_result gs_scene_attach_ghosts(gs_scene *sc, const gs_ghost_desc *share
        reserved u8; then count values as f64 or f32.
    A snapshot too big for one datagram is cut into chunks that each stand
    alone: a lost chunk leaves its range unblended, the rest still counts.
+   A chunk carries at most GS_WIRE_CHUNK_ROOM bytes of values, so that a
+   datagram holding one chunk can always be sealed.
+
+   Flags: bit 0 (GS_WIRE_FLAG_SEALED) says the datagram is sealed; every
+   other bit is 0. A sealed datagram (sent when the net has a key, see
+   GHOSTSIM_SODIUM) keeps the header in clear and replaces the CRC by a
+   40-byte trailer:
+     header (48 B, flag set; authenticated as additional data)
+     chunks, encrypted (the same length as in clear)
+     nonce (24 B): run epoch u64 (the sender's wall clock at its start, in
+       microseconds since 1970), run salt u64 (random at each start),
+       datagram counter u64 (counts every sealed datagram of the run, to
+       every peer; never repeats)
+     tag (16 B): the Poly1305 tag of XChaCha20-Poly1305-IETF over the
+       header (additional data) and the encrypted chunks, under the 32-byte
+       pre-shared key with the 24-byte nonce above.
+   A restarted peer has a new salt (and a later epoch), so it never reuses
+   a nonce under the same key; the epoch orders a peer's runs so that a
+   recorded earlier run cannot be replayed once a later one was heard.
    ======================================================================== */
 #define GS_WIRE_VERSION 1
 #define GS_WIRE_MAX_DATAGRAM 1200
 #define GS_WIRE_HEADER 48
 #define GS_WIRE_CHUNK_HEADER 32
 #define GS_WIRE_MAX_CHUNKS 64 /* chunks one datagram may carry */
+#define GS_WIRE_FLAG_SEALED 0x01
+#define GS_WIRE_KEY_BYTES 32
+#define GS_WIRE_NONCE_BYTES 24
+#define GS_WIRE_TAG_BYTES 16
+#define GS_WIRE_SEAL_TRAILER (GS_WIRE_NONCE_BYTES + GS_WIRE_TAG_BYTES) /* 40 */
+/* bytes of values in one chunk at most (1080: 135 f64 or 270 f32) */
+#define GS_WIRE_CHUNK_ROOM (GS_WIRE_MAX_DATAGRAM - GS_WIRE_HEADER - \
+                            GS_WIRE_CHUNK_HEADER - GS_WIRE_SEAL_TRAILER)
 
 typedef struct gs_wire_header {
     uint32_t session, sender, sequence;
@@ -837,7 +870,16 @@ typedef struct gs_wire_view {
     X(GS_REJECT_RANGE, "elements or chunk index outside the object's state")   \
     X(GS_REJECT_NOT_FINITE, "a NaN or infinite value")                         \
     X(GS_REJECT_TIME, "simulation time negative, non-finite or off window")    \
-    X(GS_REJECT_DUPLICATE, "a datagram already received")
+    X(GS_REJECT_DUPLICATE, "a datagram already received")                      \
+    X(GS_REJECT_ADDRESS,                                                       \
+      "from an address other than the one registered for its sender")          \
+    X(GS_REJECT_KEY, "in clear, but this net has a key: only sealed ones go")  \
+    X(GS_REJECT_AUTH,                                                          \
+      "authentication failed: forged, tampered or under another key")          \
+    X(GS_REJECT_REPLAY,                                                        \
+      "replayed: seen already, older than the replay window, or from an "      \
+      "earlier run of its sender")                                             \
+    X(GS_REJECT_RATE, "over the sender's cap of datagrams per second")
 
 typedef enum gs_reject {
 #define GS__REJECT_ENUM(name, text) name,
@@ -859,8 +901,11 @@ GS_API gs_result gs_wire_add(unsigned char *buf, size_t cap, size_t *size,
 /* Writes the chunk count and the checksum; returns the datagram size. */
 GS_API size_t gs_wire_end(unsigned char *buf, size_t size);
 /* Checks everything that needs no knowledge of the objects: size, magic,
-   version, checksum, chunk layout, encodings, finite numbers and times.
-   Returns 1 and fills *out, or 0 and *why. */
+   version, flags, checksum, chunk layout, encodings, finite numbers and
+   times. Returns 1 and fills *out, or 0 and *why. Datagrams in clear
+   only: a sealed one fails the checksum here (its trailer is no CRC), or
+   if the CRC matched by chance its flag is a GS_REJECT_LAYOUT; only a net
+   with the key opens it. */
 GS_API int gs_wire_decode(const unsigned char *buf, size_t size,
                           gs_wire_view *out, gs_reject *why);
 /* Value i of a decoded chunk. */
@@ -887,6 +932,18 @@ typedef struct gs_net_desc {
                            local time; 0 = none (a late joiner must be able
                            to take the others' state) */
     int max_peers;      /* default 16 */
+    const unsigned char *key; /* NULL (default): datagrams in clear, CRC
+                           only. Else GS_WIRE_KEY_BYTES (32) bytes shared by
+                           every host of the session, copied at create:
+                           every datagram is sealed (see >>wire) and only
+                           sealed ones under this key are taken. Needs
+                           GHOSTSIM_SODIUM (else GS_ERR_UNSUPPORTED) */
+    double max_rate;    /* datagrams/s taken from each peer at most, with a
+                           burst of a quarter second; the rest is refused
+                           (GS_REJECT_RATE). Default the larger of 20000 and
+                           2 * bandwidth / GS_WIRE_MAX_DATAGRAM (a peer with
+                           this desc sends at most bandwidth / 1200 full
+                           datagrams a second) */
 } gs_net_desc;
 
 /* Per peer statistics. */
@@ -918,7 +975,21 @@ GS_API gs_result gs_net_remove_peer(gs_net *net, uint32_t host);
 GS_API gs_result gs_net_update(gs_net *net, double now);
 /* Hands a received datagram to ghostsim. Returns GS_OK when it was queued,
    GS_ERR_REJECTED (reason in *why, may be NULL) when refused; refused
-   datagrams are counted and never blended. */
+   datagrams are counted and never blended, and nothing is ever sent back.
+   The checks, cheapest first: size, magic, version; without a key the CRC
+   and the decode (as gs_wire_decode: a sealed datagram fails the CRC);
+   the session and the sender (a peer: until here a refusal counts among
+   the unknown ones, from here on the peer's); with a key, the seal flag
+   (GS_REJECT_KEY if in clear), the replay window, then one authentication
+   and decryption, then the decode; then the objects and ranges, the
+   sequence (duplicates) and the peer's rate cap (max_rate: only datagrams
+   that passed everything count against it, so forgeries cannot starve a
+   peer).
+   Memory: nothing is allocated here. A net is one fixed struct (12 KB; a
+   gs_udp adds 4 KB and its socket's rcvbuf in the kernel), and each ghost
+   keeps queue_size snapshots per peer (queue_size * (48 + 8 * state
+   values + chunks) bytes, allocated when the ghost or the peer is added;
+   a full queue drops its oldest), whatever arrives. */
 GS_API gs_result gs_net_deliver(gs_net *net, const void *data, size_t size,
                                 double now, gs_reject *why);
 GS_API gs_result gs_net_peer_stats(const gs_net *net, uint32_t host,
@@ -989,6 +1060,13 @@ GS_API void gs_simnet_counts(const gs_simnet *sim, uint64_t *dropped,
    POSIX UDP (left out by GHOSTSIM_NO_UDP): the paper's gather thread
    (receive, validate, queue) and scatter thread (send what is due), or
    no threads at all: call gs_udp_poll from your loop.
+   Peers are an allow-list of (host id, address) pairs: a datagram whose
+   source address is not the one registered for the sender id in its
+   header is refused (GS_REJECT_ADDRESS, counted on that peer) before
+   gs_net_deliver sees it; one from an unregistered id is refused there
+   (GS_REJECT_SENDER). Datagrams go to registered addresses only: nobody
+   else ever gets a reply. An address names the host and the port (IPv4,
+   or IPv6; an IPv4-mapped IPv6 source matches its IPv4 address).
    ======================================================================== */
 #ifndef GHOSTSIM_NO_UDP
 typedef struct gs_udp gs_udp;
@@ -1005,7 +1083,9 @@ GS_API gs_result gs_udp_open(gs_world *w, const gs_udp_desc *desc,
 /* Joins the threads, closes the socket, frees everything. */
 GS_API void gs_udp_close(gs_udp *u);
 GS_API gs_net *gs_udp_net(gs_udp *u);
-/* Adds or replaces a peer's address ("HOST:PORT", IPv4 or IPv6). */
+/* Adds or replaces a peer's address ("HOST:PORT", IPv4 or IPv6): from
+   then on, datagrams that name this host as their sender are taken from
+   this address only. */
 GS_API gs_result gs_udp_add_peer(gs_udp *u, uint32_t host, const char *addr);
 GS_API gs_result gs_udp_remove_peer(gs_udp *u, uint32_t host);
 /* Poll mode: receives every waiting datagram and sends what is due at wall
@@ -1055,6 +1135,9 @@ GS_API double gs_udp_now(void);
 #ifndef GS_MAX_QUEUES
 #define GS_MAX_QUEUES 64
 #endif
+#ifdef GHOSTSIM_SODIUM
+#include <sodium.h>
+#endif
 
 #if defined(__GNUC__) || defined(__clang__)
 #define GS__PRIVATE static __attribute__((unused))
@@ -1067,6 +1150,31 @@ GS_API double gs_udp_now(void);
 #ifdef __cplusplus
 extern "C" {
 #endif
+
+/* What the net keeps for its security (>>net and >>wire use it; here so
+   that the net's and the peers' structs can hold it). */
+#define GS__REPLAY_WORDS 4 /* a replay window of (4 - 1) * 64 datagrams */
+typedef struct gs__replay {
+    int known;                  /* a run of this peer was heard */
+    uint64_t epoch, salt;       /* the run's, from its nonces */
+    uint64_t top;               /* its highest datagram counter so far */
+    uint64_t bits[GS__REPLAY_WORDS]; /* counter c seen: bit c % 256 */
+} gs__replay;
+
+typedef struct gs__peer_guard {
+    gs__replay replay;          /* sealed datagrams only */
+    int rate_init;
+    double rate_tokens;         /* datagrams the receive cap allows now */
+    double rate_at;             /* s, wall time of the last refill */
+} gs__peer_guard;
+
+typedef struct gs__net_guard {
+    int keyed;                  /* 1: every datagram sealed */
+    unsigned char key[GS_WIRE_KEY_BYTES];
+    uint64_t epoch, salt;       /* this run's: wall clock us, random */
+    uint64_t counter;           /* sealed datagrams sent in this run */
+    unsigned char plain[GS_WIRE_MAX_DATAGRAM]; /* an opened datagram */
+} gs__net_guard;
 
 GS__PRIVATE void *gs__default_alloc(size_t size, void *user) {
     return GS_MALLOC(size, user);
@@ -4511,6 +4619,7 @@ typedef struct gs__peer {
     double their_recv_now;    /* our clock when it came */
     double tokens;            /* bytes the budget allows now */
     double tokens_at;         /* s, wall time of the last refill */
+    gs__peer_guard guard;     /* replay window, receive cap (>>net) */
 } gs__peer;
 
 struct gs_net {
@@ -4522,6 +4631,7 @@ struct gs_net {
     double now;               /* s, wall time of the last update/deliver */
     unsigned char buf[GS_WIRE_MAX_DATAGRAM];
     gs_wire_view view;        /* decode scratch (too big for the stack) */
+    gs__net_guard guard;      /* key, nonces, opened datagram (>>net) */
 };
 
 GS__PRIVATE void gs__lock(gs_net *net) {
@@ -4638,8 +4748,7 @@ GS_API gs_result gs_ghost_attach(gs_agent *a, const gs_ghost_desc *desc) {
     g->agent = a;
     g->d = d;
     g->n = n;
-    g->per_chunk = (int)((GS_WIRE_MAX_DATAGRAM - GS_WIRE_HEADER - GS_WIRE_CHUNK_HEADER - 4) /
-                         gs__value_size(d.encoding));
+    g->per_chunk = (int)(GS_WIRE_CHUNK_ROOM / gs__value_size(d.encoding));
     g->nchunks = vars ? (int)((vars + (size_t)g->per_chunk - 1) / (size_t)g->per_chunk) : 1;
     g->B = (double *)(g + 1);
     g->num = g->B + n;
@@ -5281,19 +5390,22 @@ GS__PRIVATE int gs__wire_chunk(const unsigned char *buf, size_t end, size_t *off
     return 1;
 }
 
-GS_API int gs_wire_decode(const unsigned char *buf, size_t size,
-                          gs_wire_view *out, gs_reject *why) {
-    gs_reject dummy;
-    size_t off = GS_WIRE_HEADER, end;
-    int i, n;
-    if (!why) why = &dummy;
-    if (!buf || !out || size < GS_WIRE_HEADER + 4) { *why = GS_REJECT_SHORT; return 0; }
+/* The checks that need neither the checksum, the key nor the payload:
+   size, magic, version. */
+GS__PRIVATE int gs__wire_front(const unsigned char *buf, size_t size, gs_reject *why) {
+    if (!buf || size < GS_WIRE_HEADER + 4) { *why = GS_REJECT_SHORT; return 0; }
     if (size > GS_WIRE_MAX_DATAGRAM) { *why = GS_REJECT_LAYOUT; return 0; }
     if (memcmp(buf, "GSIM", 4) != 0) { *why = GS_REJECT_MAGIC; return 0; }
     if (buf[4] != GS_WIRE_VERSION) { *why = GS_REJECT_VERSION; return 0; }
-    end = size - 4;
-    if (gs__crc32(buf, end) != gs__get32(buf + end)) { *why = GS_REJECT_CHECKSUM; return 0; }
-    n = gs__get16(buf + 6);
+    return 1;
+}
+
+/* The header's fields and the chunks in [GS_WIRE_HEADER, end) of a
+   datagram in clear (checked or opened). */
+GS__PRIVATE int gs__wire_parse(const unsigned char *buf, size_t end, gs_wire_view *out,
+                               gs_reject *why) {
+    size_t off = GS_WIRE_HEADER;
+    int i, n = gs__get16(buf + 6);
     if (n < 1 || n > GS_WIRE_MAX_CHUNKS) { *why = GS_REJECT_LAYOUT; return 0; }
     out->header.session = gs__get32(buf + 8);
     out->header.sender = gs__get32(buf + 12);
@@ -5310,9 +5422,85 @@ GS_API int gs_wire_decode(const unsigned char *buf, size_t size,
     return 1;
 }
 
+GS_API int gs_wire_decode(const unsigned char *buf, size_t size,
+                          gs_wire_view *out, gs_reject *why) {
+    gs_reject dummy;
+    size_t end;
+    if (!why) why = &dummy;
+    if (!out) { *why = GS_REJECT_SHORT; return 0; }
+    if (!gs__wire_front(buf, size, why)) return 0;
+    end = size - 4;
+    if (gs__crc32(buf, end) != gs__get32(buf + end)) { *why = GS_REJECT_CHECKSUM; return 0; }
+    if (buf[5] != 0) { *why = GS_REJECT_LAYOUT; return 0; } /* sealed or unknown */
+    return gs__wire_parse(buf, end, out, why);
+}
+
+/* The nonce of a sealed datagram: run epoch, run salt, counter. */
+GS__PRIVATE void gs__wire_nonce(unsigned char *p, uint64_t epoch, uint64_t salt,
+                                uint64_t counter) {
+    gs__put64(p, epoch);
+    gs__put64(p + 8, salt);
+    gs__put64(p + 16, counter);
+}
+
+#ifdef GHOSTSIM_SODIUM
+/* Seals a datagram of `size` bytes (header and chunks, no CRC; cap leaves
+   room for the trailer): the flag, the chunks encrypted in place, the
+   nonce and the tag. Returns the sealed size. */
+GS__PRIVATE size_t gs__wire_seal(unsigned char *buf, size_t size, const unsigned char *key,
+                                 uint64_t epoch, uint64_t salt, uint64_t counter) {
+    unsigned long long taglen = 0;
+    buf[5] |= GS_WIRE_FLAG_SEALED; /* before: the header is authenticated */
+    gs__wire_nonce(buf + size, epoch, salt, counter);
+    crypto_aead_xchacha20poly1305_ietf_encrypt_detached(
+        buf + GS_WIRE_HEADER, buf + size + GS_WIRE_NONCE_BYTES, &taglen, buf + GS_WIRE_HEADER,
+        (unsigned long long)(size - GS_WIRE_HEADER), buf, GS_WIRE_HEADER, NULL, buf + size, key);
+    return size + GS_WIRE_SEAL_TRAILER;
+}
+
+/* Authenticates a sealed datagram and decrypts it into out (the header
+   copied, then the chunks in clear). 0 if forged, tampered or sealed under
+   another key: then out holds nothing of it. */
+GS__PRIVATE int gs__wire_open(const unsigned char *buf, size_t size, const unsigned char *key,
+                              unsigned char *out) {
+    size_t end = size - GS_WIRE_SEAL_TRAILER;
+    memcpy(out, buf, GS_WIRE_HEADER);
+    return crypto_aead_xchacha20poly1305_ietf_decrypt_detached(
+               out + GS_WIRE_HEADER, NULL, buf + GS_WIRE_HEADER,
+               (unsigned long long)(end - GS_WIRE_HEADER), buf + end + GS_WIRE_NONCE_BYTES, buf,
+               GS_WIRE_HEADER, buf + end, key) == 0;
+}
+#endif
+
 /* ========================================================================
    >>net
    ======================================================================== */
+/* The key and this run's nonce prefix: the wall clock in microseconds
+   orders a peer's runs, the random salt keeps nonces apart should the clock
+   step back. */
+GS__PRIVATE void gs__net_keep_key(gs_net *net, const unsigned char *key) {
+#ifdef GHOSTSIM_SODIUM
+    struct timespec ts;
+    clock_gettime(CLOCK_REALTIME, &ts);
+    net->guard.keyed = 1;
+    memcpy(net->guard.key, key, GS_WIRE_KEY_BYTES);
+    net->guard.epoch = (uint64_t)ts.tv_sec * 1000000u + (uint64_t)ts.tv_nsec / 1000u;
+    randombytes_buf(&net->guard.salt, sizeof net->guard.salt);
+#else
+    (void)net;
+    (void)key;
+#endif
+}
+
+GS__PRIVATE void gs__net_forget_key(gs_net *net) {
+#ifdef GHOSTSIM_SODIUM
+    sodium_memzero(net->guard.key, sizeof net->guard.key);
+    sodium_memzero(net->guard.plain, sizeof net->guard.plain);
+#else
+    (void)net;
+#endif
+}
+
 GS__PRIVATE gs_result gs__ghost_queues(gs__ghost *g) {
     gs_net *net = g->agent->world->net;
     int p;
@@ -5341,16 +5529,28 @@ GS_API gs_result gs_net_create(gs_world *w, const gs_net_desc *desc,
     if (d.session == 0) d.session = 1;
     if (d.bandwidth == 0.0) d.bandwidth = 1e7;
     if (d.max_peers == 0) d.max_peers = GS__MAX_PEERS;
+    if (d.max_rate == 0.0 && gs__finite(d.bandwidth))
+        d.max_rate = fmax(20000.0, 2.0 * d.bandwidth / GS_WIRE_MAX_DATAGRAM);
     if (!d.send) gs__check_fail(&c, GS_ERR_INVALID_ARG, "send is NULL");
     gs__check_positive(&c, "bandwidth", d.bandwidth);
     gs__check_nonneg(&c, "time_window", d.time_window);
     gs__check_int(&c, "max_peers", d.max_peers, 1, GS__MAX_PEERS);
+    gs__check_positive(&c, "max_rate", d.max_rate);
+#ifndef GHOSTSIM_SODIUM
+    if (d.key) gs__check_fail(&c, GS_ERR_UNSUPPORTED, "a key is set, but ghostsim was built "
+                              "without GHOSTSIM_SODIUM: no encryption");
+#else
+    if (d.key && sodium_init() < 0)
+        gs__check_fail(&c, GS_ERR_SYSTEM, "key: libsodium failed to initialize");
+#endif
     if (c.r != GS_OK) return c.r;
     net = (gs_net *)gs__alloc(w, sizeof *net);
     if (!net) return gs__fail(w, GS_ERR_NO_MEMORY, "gs_net_create: out of memory");
     memset(net, 0, sizeof *net);
     net->world = w;
     net->d = d;
+    net->d.key = NULL; /* the copy below is the net's; the caller's may go */
+    if (d.key) gs__net_keep_key(net, d.key);
     w->net = net;
     *out = net;
     return GS_OK;
@@ -5369,6 +5569,7 @@ GS_API void gs_net_destroy(gs_net *net) {
         }
     }
     w->net = NULL;
+    gs__net_forget_key(net);
     gs__free(w, net);
 }
 
@@ -5469,12 +5670,29 @@ GS__PRIVATE void gs__datagram_begin(gs_net *net, gs__peer *pe, double now, size_
     gs_wire_begin(net->buf, sizeof net->buf, &h, size);
 }
 
+/* Room for chunks in net->buf: a sealed datagram's trailer must fit. */
+GS__PRIVATE size_t gs__net_cap(const gs_net *net) {
+    return net->guard.keyed ? GS_WIRE_MAX_DATAGRAM - (GS_WIRE_SEAL_TRAILER - 4)
+                            : GS_WIRE_MAX_DATAGRAM;
+}
+
+/* Ends the datagram in net->buf: the CRC, or sealed. */
+GS__PRIVATE size_t gs__datagram_end(gs_net *net, size_t size) {
+#ifdef GHOSTSIM_SODIUM
+    if (net->guard.keyed)
+        return gs__wire_seal(net->buf, size, net->guard.key, net->guard.epoch, net->guard.salt,
+                             net->guard.counter++);
+#endif
+    return gs_wire_end(net->buf, size);
+}
+
 /* Sends the datagram being built if it holds a chunk and the budget allows. */
 GS__PRIVATE void gs__datagram_flush(gs_net *net, gs__peer *pe, double now, size_t *size) {
     size_t n;
     if (gs__get16(net->buf + 6) == 0) return;
-    n = gs_wire_end(net->buf, *size);
+    n = *size + (net->guard.keyed ? GS_WIRE_SEAL_TRAILER : 4);
     if (gs__peer_budget(net, pe, n, now)) {
+        n = gs__datagram_end(net, *size);
         pe->send_seq++;
         pe->st.datagrams_sent++;
         pe->st.bytes_sent += n;
@@ -5501,9 +5719,10 @@ GS__PRIVATE void gs__send_ghost(gs_net *net, gs__peer *pe, const gs__ghost *g,
         ch.elements = (uint16_t)cnt;
         ch.encoding = g->d.encoding;
         ch.payload = NULL;
-        if (gs_wire_add(net->buf, sizeof net->buf, size, &ch, g->B + 1 + first) == GS_ERR_CAPACITY) {
+        if (gs_wire_add(net->buf, gs__net_cap(net), size, &ch, g->B + 1 + first) ==
+            GS_ERR_CAPACITY) {
             gs__datagram_flush(net, pe, now, size);
-            gs_wire_add(net->buf, sizeof net->buf, size, &ch, g->B + 1 + first);
+            gs_wire_add(net->buf, gs__net_cap(net), size, &ch, g->B + 1 + first);
         }
     }
     pe->st.snapshots_sent++;
@@ -5663,24 +5882,128 @@ GS__PRIVATE void gs__peer_clock(gs__peer *pe, const gs_wire_header *h, double no
     pe->their_recv_now = now;
 }
 
-GS_API gs_result gs_net_deliver(gs_net *net, const void *data, size_t size,
-                                double now, gs_reject *why) {
+/* The receive cap: a bucket of max_rate datagrams/s holding a quarter
+   second (at least 16). A clock that goes back refills nothing. */
+GS__PRIVATE int gs__peer_rate(gs_net *net, gs__peer *pe, double now) {
+    gs__peer_guard *g = &pe->guard;
+    double cap = 0.25 * net->d.max_rate;
+    if (cap < 16.0) cap = 16.0;
+    if (!gs__finite(now)) now = g->rate_at;
+    if (!g->rate_init) {
+        g->rate_init = 1;
+        g->rate_tokens = cap;
+        g->rate_at = now;
+    }
+    if (now > g->rate_at) g->rate_tokens += (now - g->rate_at) * net->d.max_rate;
+    g->rate_at = now;
+    if (g->rate_tokens > cap) g->rate_tokens = cap;
+    if (g->rate_tokens < 1.0) return 0;
+    g->rate_tokens -= 1.0;
+    return 1;
+}
+
+/* The replay window of sealed datagrams (RFC 6479's bitmap): is the
+   datagram with this nonce new? 2: from a later run of the peer (or the
+   first heard), 1: new in the current run, 0: seen already (a duplicate
+   or a replay), -1: from an earlier run or older than the window. */
+GS__PRIVATE int gs__replay_check(const gs__replay *rp, uint64_t epoch, uint64_t salt,
+                                 uint64_t c) {
+    if (!rp->known || epoch > rp->epoch) return 2;
+    if (epoch < rp->epoch || salt != rp->salt) return -1;
+    if (c > rp->top) return 1;
+    if (rp->top - c >= (GS__REPLAY_WORDS - 1) * 64) return -1;
+    return (rp->bits[(c >> 6) % GS__REPLAY_WORDS] >> (c & 63)) & 1 ? 0 : 1;
+}
+
+/* Records an authenticated datagram in the window (order from the check). */
+GS__PRIVATE void gs__replay_mark(gs__replay *rp, uint64_t epoch, uint64_t salt, uint64_t c,
+                                 int order) {
+    if (order == 2) {
+        memset(rp, 0, sizeof *rp);
+        rp->known = 1;
+        rp->epoch = epoch;
+        rp->salt = salt;
+        rp->top = c;
+    } else if (c > rp->top) { /* clear the words the window moves over */
+        uint64_t from = rp->top >> 6, to = c >> 6, i;
+        if (to - from > GS__REPLAY_WORDS) to = from + GS__REPLAY_WORDS;
+        for (i = from + 1; i <= to; ++i) rp->bits[i % GS__REPLAY_WORDS] = 0;
+        rp->top = c;
+    }
+    rp->bits[(c >> 6) % GS__REPLAY_WORDS] |= (uint64_t)1 << (c & 63);
+}
+
+/* The session, then the sender: from here on a refusal is the peer's. */
+GS__PRIVATE int gs__receive_sender(gs_net *net, uint32_t session, uint32_t sender, int *p,
+                                   gs_reject *why) {
+    if (session != net->d.session) { *why = GS_REJECT_SESSION; return 0; }
+    if ((*p = gs__peer_slot(net, sender)) < 0) { *why = GS_REJECT_SENDER; return 0; }
+    return 1;
+}
+
+/* Any datagram to a keyed net: the cheap checks, the replay window, then
+   one authentication and decryption, then the decode into net->view. */
+GS__PRIVATE int gs__receive_sealed(gs_net *net, const unsigned char *buf, size_t size, int *p,
+                                   gs_reject *why) {
+    const unsigned char *nonce = buf + size - GS_WIRE_SEAL_TRAILER;
+    uint64_t epoch, salt, counter;
+    int order;
+    if (buf[5] & ~GS_WIRE_FLAG_SEALED) { *why = GS_REJECT_LAYOUT; return 0; }
+    if ((buf[5] & GS_WIRE_FLAG_SEALED) && size < GS_WIRE_HEADER + GS_WIRE_SEAL_TRAILER) {
+        *why = GS_REJECT_SHORT;
+        return 0;
+    }
+    if (!gs__receive_sender(net, gs__get32(buf + 8), gs__get32(buf + 12), p, why)) return 0;
+    if (!(buf[5] & GS_WIRE_FLAG_SEALED)) { *why = GS_REJECT_KEY; return 0; }
+    epoch = gs__get64(nonce);
+    salt = gs__get64(nonce + 8);
+    counter = gs__get64(nonce + 16);
+    order = gs__replay_check(&net->peers[*p].guard.replay, epoch, salt, counter);
+    if (order <= 0) {
+        if (order == 0) net->peers[*p].st.duplicates++;
+        *why = GS_REJECT_REPLAY;
+        return 0;
+    }
+#ifdef GHOSTSIM_SODIUM
+    if (!gs__wire_open(buf, size, net->guard.key, net->guard.plain)) {
+        *why = GS_REJECT_AUTH;
+        return 0;
+    }
+#else
+    *why = GS_REJECT_KEY; /* not reached: no net is keyed without libsodium */
+    return 0;
+#endif
+    gs__replay_mark(&net->peers[*p].guard.replay, epoch, salt, counter, order);
+    if (order == 2) net->peers[*p].recv_any = 0; /* a new run: its sequence starts anew */
+    return gs__wire_parse(net->guard.plain, size - GS_WIRE_SEAL_TRAILER, &net->view, why);
+}
+
+/* Everything up to a decoded datagram from a known peer (*p, -1 while the
+   sender is not known). */
+GS__PRIVATE int gs__receive(gs_net *net, const unsigned char *buf, size_t size, int *p,
+                            gs_reject *why) {
+    if (!gs__wire_front(buf, size, why)) return 0;
+    if (net->guard.keyed) return gs__receive_sealed(net, buf, size, p, why);
+    if (!gs_wire_decode(buf, size, &net->view, why)) return 0;
+    return gs__receive_sender(net, net->view.header.session, net->view.header.sender, p, why);
+}
+
+/* gs_net_deliver under the net lock. */
+GS__PRIVATE gs_result gs__deliver_locked(gs_net *net, const void *data, size_t size, double now,
+                                         gs_reject *why) {
     gs_wire_view *v = &net->view;
     gs_reject r = GS_REJECT_SHORT;
     gs_result res = GS_OK;
-    int p, i, order;
-    gs__lock(net);
-    if (!gs_wire_decode((const unsigned char *)data, size, v, &r)) {
-        res = gs__reject(net, -1, r, why);
-    } else if (v->header.session != net->d.session) {
-        res = gs__reject(net, -1, GS_REJECT_SESSION, why);
-    } else if ((p = gs__peer_slot(net, v->header.sender)) < 0) {
-        res = gs__reject(net, -1, GS_REJECT_SENDER, why);
+    int p = -1, i, order;
+    if (!gs__receive(net, (const unsigned char *)data, size, &p, &r)) {
+        res = gs__reject(net, p, r, why);
     } else if (!gs__chunks_fit(net, v, now, &r)) {
         res = gs__reject(net, p, r, why);
     } else if ((order = gs__peer_sequence(&net->peers[p], v->header.sequence)) == 0) {
         net->peers[p].st.duplicates++;
         res = gs__reject(net, p, GS_REJECT_DUPLICATE, why);
+    } else if (!gs__peer_rate(net, &net->peers[p], now)) {
+        res = gs__reject(net, p, GS_REJECT_RATE, why);
     } else {
         gs__peer *pe = &net->peers[p];
         /* as known before this datagram; -1: no round trip yet */
@@ -5690,8 +6013,22 @@ GS_API gs_result gs_net_deliver(gs_net *net, const void *data, size_t size,
         pe->st.bytes_received += size;
         for (i = 0; i < v->chunk_count; ++i) gs__queue_chunk(net, p, &v->chunks[i], age);
     }
-    gs__unlock(net);
     return res;
+}
+
+GS_API gs_result gs_net_deliver(gs_net *net, const void *data, size_t size,
+                                double now, gs_reject *why) {
+    gs_result r;
+    gs__lock(net);
+    r = gs__deliver_locked(net, data, size, now, why);
+    gs__unlock(net);
+    return r;
+}
+
+/* A refusal decided by the transport (the UDP allow-list): counted on the
+   peer named `host`, or among the unknown ones. Call under the net lock. */
+GS__PRIVATE void gs__net_refuse(gs_net *net, uint32_t host, gs_reject r) {
+    gs__reject(net, gs__peer_slot(net, host), r, NULL);
 }
 
 /* ========================================================================
@@ -6043,13 +6380,75 @@ GS__PRIVATE gs_result gs__udp_send(void *user, uint32_t host, const void *data,
     return GS_ERR_INVALID_ARG;
 }
 
+/* An address as (family, address bytes, port), an IPv4-mapped IPv6
+   address as its IPv4 address. */
+GS__PRIVATE size_t gs__udp_addr_key(const struct sockaddr_storage *a, unsigned char *key) {
+    if (a->ss_family == AF_INET) {
+        const struct sockaddr_in *v4 = (const struct sockaddr_in *)(const void *)a;
+        key[0] = 4;
+        memcpy(key + 1, &v4->sin_addr, 4);
+        memcpy(key + 5, &v4->sin_port, 2);
+        return 7;
+    }
+    if (a->ss_family == AF_INET6) {
+        const struct sockaddr_in6 *v6 = (const struct sockaddr_in6 *)(const void *)a;
+        if (IN6_IS_ADDR_V4MAPPED(&v6->sin6_addr)) {
+            key[0] = 4;
+            memcpy(key + 1, (const unsigned char *)&v6->sin6_addr + 12, 4);
+            memcpy(key + 5, &v6->sin6_port, 2);
+            return 7;
+        }
+        key[0] = 6;
+        memcpy(key + 1, &v6->sin6_addr, 16);
+        memcpy(key + 17, &v6->sin6_port, 2);
+        memcpy(key + 19, &v6->sin6_scope_id, sizeof v6->sin6_scope_id);
+        return 19 + sizeof v6->sin6_scope_id;
+    }
+    key[0] = 0;
+    return 1;
+}
+
+GS__PRIVATE int gs__udp_same_addr(const struct sockaddr_storage *a,
+                                  const struct sockaddr_storage *b) {
+    unsigned char ka[32], kb[32];
+    size_t na = gs__udp_addr_key(a, ka), nb = gs__udp_addr_key(b, kb);
+    return ka[0] != 0 && na == nb && memcmp(ka, kb, na) == 0;
+}
+
+/* The allow-list: a ghostsim datagram that names a peer of the net as its
+   sender but does not come from the address registered for it (or has
+   none registered) is refused here and counted on that peer. Everything
+   else goes on to the net, which refuses unknown senders. Under u->mu
+   (the net lock). */
+GS__PRIVATE int gs__udp_from_ok(gs_udp *u, size_t n, const struct sockaddr_storage *from) {
+    uint32_t host;
+    int p, ok = 1, found = 0;
+    if (n < GS_WIRE_HEADER || memcmp(u->rbuf, "GSIM", 4) != 0) return 1;
+    host = gs__get32(u->rbuf + 12);
+    for (p = 0; p < GS__MAX_PEERS && !found; ++p)
+        if (u->peers[p].used && u->peers[p].host == host) {
+            found = 1;
+            ok = gs__udp_same_addr(&u->peers[p].addr, from);
+        }
+    if (!found) ok = gs__peer_slot(u->net, host) < 0;
+    if (!ok) gs__net_refuse(u->net, host, GS_REJECT_ADDRESS);
+    return ok;
+}
+
 /* Receives what is waiting (at most `max`, without blocking). */
 GS__PRIVATE void gs__udp_drain(gs_udp *u, int max) {
     int i;
     for (i = 0; i < max; ++i) {
-        ssize_t n = recv(u->fd, u->rbuf, sizeof u->rbuf, MSG_DONTWAIT);
+        struct sockaddr_storage from;
+        socklen_t flen = sizeof from;
+        ssize_t n;
+        memset(&from, 0, sizeof from);
+        n = recvfrom(u->fd, u->rbuf, sizeof u->rbuf, MSG_DONTWAIT, (struct sockaddr *)&from, &flen);
         if (n < 0) break;
-        gs_net_deliver(u->net, u->rbuf, (size_t)n, gs_udp_now(), NULL);
+        pthread_mutex_lock(&u->mu); /* the net lock: one for both */
+        if (gs__udp_from_ok(u, (size_t)n, &from))
+            gs__deliver_locked(u->net, u->rbuf, (size_t)n, gs_udp_now(), NULL);
+        pthread_mutex_unlock(&u->mu);
     }
 }
 
@@ -6181,35 +6580,49 @@ GS_API gs_net *gs_udp_net(gs_udp *u) { return u->net; }
 GS_API gs_result gs_udp_add_peer(gs_udp *u, uint32_t host, const char *addr) {
     struct sockaddr_storage a;
     socklen_t len;
-    int p, slot = -1;
+    int p, slot = -1, was_new = 0;
     gs_result r;
     if (!gs__udp_resolve(addr, &a, &len))
         return gs__fail(u->world, GS_ERR_INVALID_ARG, "gs_udp_add_peer: address \"%s\" is not "
                         "HOST:PORT or [IPV6]:PORT", addr ? addr : "(null)");
-    r = gs_net_add_peer(u->net, host);
-    if (r != GS_OK) return r;
+    /* the address first, then the net: a datagram in between is refused
+       as from an unknown sender, never taken from the wrong address */
     pthread_mutex_lock(&u->mu);
     for (p = 0; p < GS__MAX_PEERS; ++p) {
         if (u->peers[p].used && u->peers[p].host == host) { slot = p; break; }
         if (!u->peers[p].used && slot < 0) slot = p;
     }
-    if (slot >= 0) {
-        u->peers[slot].used = 1;
+    if (slot >= 0 && !u->peers[slot].used) {
         u->peers[slot].host = host;
+        u->peers[slot].addr = a;
+        u->peers[slot].len = len;
+        u->peers[slot].used = 1;
+        was_new = 1;
+    } else if (slot >= 0) {
         u->peers[slot].addr = a;
         u->peers[slot].len = len;
     }
     pthread_mutex_unlock(&u->mu);
-    return GS_OK;
+    if (slot < 0)
+        return gs__fail(u->world, GS_ERR_CAPACITY, "gs_udp_add_peer: no room for host %lu",
+                        (unsigned long)host);
+    r = gs_net_add_peer(u->net, host);
+    if (r != GS_OK && was_new) {
+        pthread_mutex_lock(&u->mu);
+        u->peers[slot].used = 0;
+        pthread_mutex_unlock(&u->mu);
+    }
+    return r;
 }
 
 GS_API gs_result gs_udp_remove_peer(gs_udp *u, uint32_t host) {
+    gs_result r = gs_net_remove_peer(u->net, host); /* the net first: see add */
     int p;
     pthread_mutex_lock(&u->mu);
     for (p = 0; p < GS__MAX_PEERS; ++p)
         if (u->peers[p].used && u->peers[p].host == host) u->peers[p].used = 0;
     pthread_mutex_unlock(&u->mu);
-    return gs_net_remove_peer(u->net, host);
+    return r;
 }
 
 GS_API gs_result gs_udp_poll(gs_udp *u, double now) {

@@ -3,7 +3,7 @@
      ghostpeer --id N --listen HOST:PORT [--peer ID@HOST:PORT]... [--duration S]
                [--cloth N] [--spheres K] [--weight cs|exp[:RATE]|owner]
                [--integrator NAME] [--dt S] [--probe-until S] [--seed N]
-               [--encoding f64|f32] [--stats-every S] [--trace FILE]
+               [--encoding f64|f32] [--stats-every S] [--trace FILE] [--key FILE]
                [--clock-step AT:SECONDS] [--probe-wild AT:SECONDS:SPEED]
 
    Every host builds the same scene (gs_scene_create: a cloth pinned by its
@@ -16,6 +16,12 @@
    pulls the others toward their states of a latency ago, and the scene
    never quite comes to rest), probe i object 200 + i (owner authority:
    host i + 1 owns it).
+
+   --key FILE seals every datagram under a pre-shared key (32 raw bytes, or
+   64 hex digits and an optional newline) that every host of the session
+   uses: datagrams not sealed under it are refused and counted. It needs a
+   build with GHOSTSIM_SODIUM (the Makefile's); without, the peer says so
+   and exits with 1.
 
    For the fault suite (tests/faults.py): --clock-step AT:SECONDS makes the
    clock this host paces its world with jump by SECONDS (negative: back)
@@ -43,6 +49,7 @@
 #include <time.h>
 
 #define MAX_PEERS 15
+#define KEY_BYTES GS_WIRE_KEY_BYTES
 #define FRAME 0.005        /* s of wall time between world advances */
 #define TRACE_EVERY 0.010  /* s of wall time between trace rows */
 #define PARK_HEIGHT 0.4    /* m: a parked probe hangs clear of the cloth */
@@ -70,6 +77,8 @@ typedef struct options {
     const char *trace;
     double step_at, step;  /* --clock-step: s into the run, s of jump */
     double wild_at, wild_for, wild_speed; /* --probe-wild: s, s, m/s */
+    int has_key;
+    unsigned char key[KEY_BYTES];
 } options;
 
 static volatile sig_atomic_t g_stop = 0; /* the only static: signal handlers need one */
@@ -86,7 +95,7 @@ static void usage(const char *why) {
             "                 [--cloth N] [--spheres K] [--weight cs|exp[:RATE]|owner]\n"
             "                 [--integrator explicit|symplectic|verlet|rk4|implicit] [--dt S]\n"
             "                 [--probe-until S] [--seed N] [--encoding f64|f32]\n"
-            "                 [--stats-every S] [--trace FILE]\n"
+            "                 [--stats-every S] [--trace FILE] [--key FILE]\n"
             "                 [--clock-step AT:SECONDS] [--probe-wild AT:SECONDS:SPEED]\n");
     exit(2);
 }
@@ -132,6 +141,46 @@ static gs_integrator parse_integrator(const char *s) {
     snprintf(msg, sizeof msg, "--integrator: unknown '%s'", s);
     usage(msg);
     return GS_INTEGRATOR_DEFAULT;
+}
+
+static int hex_digit(int c) {
+    if (c >= '0' && c <= '9') return c - '0';
+    if (c >= 'a' && c <= 'f') return c - 'a' + 10;
+    if (c >= 'A' && c <= 'F') return c - 'A' + 10;
+    return -1;
+}
+
+/* --key FILE: 32 raw bytes, or 64 hex digits (trailing whitespace allowed). */
+static void parse_key(options *o, const char *path) {
+    unsigned char buf[130];
+    char msg[300];
+    size_t n, i;
+    FILE *f = fopen(path, "rb");
+    if (!f) {
+        snprintf(msg, sizeof msg, "--key: cannot read '%s': %s", path, strerror(errno));
+        usage(msg);
+    }
+    n = fread(buf, 1, sizeof buf, f);
+    fclose(f);
+    if (n == KEY_BYTES) {
+        memcpy(o->key, buf, KEY_BYTES);
+        o->has_key = 1;
+        return;
+    }
+    while (n > 2 * KEY_BYTES && (buf[n - 1] == '\n' || buf[n - 1] == '\r' ||
+                                 buf[n - 1] == ' ' || buf[n - 1] == '\t'))
+        --n;
+    for (i = 0; n == 2 * KEY_BYTES && i < KEY_BYTES; ++i) {
+        int hi = hex_digit(buf[2 * i]), lo = hex_digit(buf[2 * i + 1]);
+        if (hi < 0 || lo < 0) break;
+        o->key[i] = (unsigned char)(hi << 4 | lo);
+    }
+    if (n != 2 * KEY_BYTES || i != KEY_BYTES) {
+        snprintf(msg, sizeof msg, "--key: '%s' holds neither 32 raw bytes nor 64 hex digits",
+                 path);
+        usage(msg);
+    }
+    o->has_key = 1;
 }
 
 /* ID@HOST:PORT */
@@ -229,6 +278,7 @@ static void parse_args(int argc, char **argv, options *o) {
             o->wild_for = t[1];
             o->wild_speed = t[2];
         }
+        else if (strcmp(f, "--key") == 0) parse_key(o, v);
         else {
             char msg[160];
             snprintf(msg, sizeof msg, "unknown flag '%s'", f);
@@ -298,7 +348,9 @@ static int build(peer_host *h) {
     memset(&ud, 0, sizeof ud);
     ud.bind = o->listen;
     ud.threads = 1;
-    if (gs_udp_open(h->w, &ud, &h->udp) != GS_OK) return fail(h, "cannot listen");
+    ud.net.key = o->has_key ? o->key : NULL;
+    if (gs_udp_open(h->w, &ud, &h->udp) != GS_OK)
+        return fail(h, o->has_key ? "cannot listen with --key" : "cannot listen");
     for (i = 0; i < o->npeers; ++i)
         if (gs_udp_add_peer(h->udp, o->peers[i].id, o->peers[i].addr) != GS_OK)
             return fail(h, "bad --peer address");
@@ -499,12 +551,14 @@ int main(int argc, char **argv) {
         }
     }
     if (rc == 0) {
-        fprintf(stderr, "ghostpeer %u: listening on %s, %d peer(s), %d sphere(s), %d probe(s)\n",
-                (unsigned)h.o.id, h.o.listen, h.o.npeers, h.sc.sphere_count, h.sc.probe_count);
+        fprintf(stderr, "ghostpeer %u: listening on %s, %d peer(s), %d sphere(s), %d probe(s)%s\n",
+                (unsigned)h.o.id, h.o.listen, h.o.npeers, h.sc.sphere_count, h.sc.probe_count,
+                h.o.has_key ? ", datagrams sealed (--key)" : "");
         rc = run(&h);
     }
     if (h.trace) fclose(h.trace);
     if (h.udp) gs_udp_close(h.udp);
     gs_world_destroy(h.w);
+    memset(h.o.key, 0, sizeof h.o.key);
     return rc;
 }

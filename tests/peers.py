@@ -38,6 +38,9 @@ Tests (name: what it checks):
                 state, and converges
   flood         a peer flooded with garbage datagrams keeps pace, counts
                 them as rejected, and converges
+  key           --key: two peers sharing a key (one file raw, one hex) hear
+                each other; a third with another key is refused by both and
+                hears nothing; a bad key file is exit status 2
 """
 import atexit
 import json
@@ -619,6 +622,50 @@ def test_sigterm(exe):
     return "; ".join(res)
 
 
+def test_key(exe):
+    import tempfile
+    d = tempfile.mkdtemp(prefix="ghostsim-key-")
+    try:
+        key = bytes(random.Random(7).getrandbits(8) for _ in range(32))
+        paths = {n: os.path.join(d, n) for n in ("raw", "hex", "other", "bad")}
+        with open(paths["raw"], "wb") as f:
+            f.write(key)
+        with open(paths["hex"], "w") as f:
+            f.write(key.hex() + "\n")
+        with open(paths["other"], "wb") as f:
+            f.write(bytes(b ^ 1 for b in key))
+        with open(paths["bad"], "w") as f:
+            f.write("not a key\n")
+        ports = free_ports(3)
+        bad = subprocess.run([exe, "--id", "1", "--listen", "%s:%d" % (HOST, ports[0]),
+                              "--key", paths["bad"]],
+                             stdin=subprocess.DEVNULL, capture_output=True, timeout=10)
+        if bad.returncode != 2:
+            raise TestFailure("a bad key file: exit status %d, want 2" % bad.returncode)
+        links = mesh([1, 2, 3], ports)
+        files = [paths["raw"], paths["hex"], paths["other"]]
+        peers = [Peer(exe, i, ports[i - 1], links[i], 4.0, ["--key", files[i - 1]]) for i in (1, 2, 3)]
+        finish(peers, 12)
+    finally:
+        for n in os.listdir(d):
+            os.unlink(os.path.join(d, n))
+        os.rmdir(d)
+    fin = {p.id: p.final() for p in peers}
+    last = {p.id: [o for o in p.lines if not o.get("final")][-1] for p in peers}
+    for a, b in ((1, 2), (2, 1)):
+        st = last[a]["peers"][str(b)]
+        if st["rx"] == 0 or st["rejected"] != 0:
+            raise TestFailure("peer %d from peer %d (same key): %s" % (a, b, st))
+        st = last[a]["peers"]["3"]
+        if st["rx"] != 0 or st["rejected"] == 0:
+            raise TestFailure("peer %d from peer 3 (another key): %s" % (a, st))
+    if fin[3]["totals"]["snapshots_received"] != 0:
+        raise TestFailure("peer 3 (another key) received %d snapshots" % fin[3]["totals"]["snapshots_received"])
+    return "peers 1-2 rx %d/%d, peer 3 refused %d/%d times, bad key file: status 2" % (
+        last[1]["peers"]["2"]["rx"], last[2]["peers"]["1"]["rx"],
+        last[1]["peers"]["3"]["rejected"], last[2]["peers"]["3"]["rejected"])
+
+
 TESTS = [
     ("bad_flag", test_bad_flag),
     ("sigterm", test_sigterm),
@@ -626,6 +673,7 @@ TESTS = [
     ("three", test_three),
     ("restart", test_restart),
     ("flood", test_flood),
+    ("key", test_key),
 ]
 
 

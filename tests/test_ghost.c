@@ -743,7 +743,7 @@ static void test_time_deadband(void **state) {
 
 /* Chunk geometry from the documented wire constants: a chunk carries as
    many values as fit one datagram with the header and checksum. */
-#define F64_PER_CHUNK ((GS_WIRE_MAX_DATAGRAM - GS_WIRE_HEADER - GS_WIRE_CHUNK_HEADER - 4) / 8)
+#define F64_PER_CHUNK (GS_WIRE_CHUNK_ROOM / 8)
 
 static gs_agent *cloth_20(gs_world *w) {
     gs_cloth_desc cd = gs_cloth_desc_default();
@@ -756,7 +756,7 @@ static gs_agent *cloth_20(gs_world *w) {
     return a;
 }
 
-/* What a ghost on a 20x20 cloth sends: 2400 values in ceil(2400/139) = 18
+/* What a ghost on a 20x20 cloth sends: 2400 values in ceil(2400/135) = 18
    chunks that cover the state once, each with the snapshot's time. */
 static void test_chunking_on_send(void **state) {
     static const uint32_t peers[] = {2, 0};

@@ -950,7 +950,7 @@ static void test_stats_on_simnet(void **state) {
     assert_true(a2.snapshots_received - a1.snapshots_received >= 45);
     assert_true(a2.snapshots_received - a1.snapshots_received <= 61);
     assert_true(a2.bytes_received > a1.bytes_received);
-    /* a 12x12 cloth is 864 values: ceil(864 / 139) = 7 chunks each */
+    /* a 12x12 cloth is 864 values: ceil(864 / 135) = 7 chunks each */
     assert_int_equal(a2.chunks_received, 7 * a2.snapshots_received);
     /* a perfect link loses nothing, and host 1's view of host 2's time is
        one latency (plus the publish period) behind */
