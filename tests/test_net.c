@@ -1325,7 +1325,7 @@ static void udp_converge(const char *a1, const char *a2, int threads, const char
        to a frame); up to 4 s are allowed for a loaded machine. Under
        valgrind (50x slower, one thread at a time) the run is for leaks and
        races: the two hosts' frames drift tens of ms apart on the wall
-       clock, and 1e-3 m (5x the 2e-4 measured) is what it can say. */
+       clock, and 1e-3 m (10x the 1e-4 measured) is what it can say. */
     assert_true(g < (UNDER_VALGRIND() ? 1e-3 : 1e-4));
     assert_true(ps.snapshots_received > 0);
     assert_int_equal(ps.rejected_total, 0);
