@@ -4948,8 +4948,7 @@ GS__PRIVATE double gs__ghost_lead(const gs__ghost *g, double t_i, uint32_t *lead
     int p, k;
     for (p = 0; p < GS__MAX_PEERS; ++p)
         for (k = 0; g->q[p] && k < g->d.queue_size; ++k)
-            if (g->q[p][k].used && gs__snap_xcomp(g, &g->q[p][k], t_i) > x_max)
-                x_max = gs__snap_xcomp(g, &g->q[p][k], t_i);
+            if (g->q[p][k].used) x_max = fmax(x_max, gs__snap_xcomp(g, &g->q[p][k], t_i));
     *lead = x_max <= band ? wd->host_id : 0;
     for (p = 0; p < GS__MAX_PEERS; ++p)
         for (k = 0; g->q[p] && k < g->d.queue_size; ++k) {
@@ -5045,9 +5044,9 @@ GS__PRIVATE int gs__snap_tells_time(const gs__ghost *g, int p, const gs__snap *s
    it apart from the rest, and their contacts with them). */
 #define GS__LEAD_FALL 0.1
 GS__PRIVATE double gs__peer_lead(gs__ghost *g, int p, double x, double t_i) {
-    double fall = g->lead_at[p] == -HUGE_VAL ? HUGE_VAL
-                                             : GS__LEAD_FALL * fabs(t_i - g->lead_at[p]);
+    double fall;
     if (gs__time_literal(g)) return x;
+    fall = g->lead_at[p] == -HUGE_VAL ? HUGE_VAL : GS__LEAD_FALL * fabs(t_i - g->lead_at[p]);
     if (x > g->lead[p] - fall) g->lead[p] = x;
     else g->lead[p] -= fall;
     g->lead_at[p] = t_i;

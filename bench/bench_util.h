@@ -106,9 +106,10 @@ BU__UNUSED static double bu_quantile(double *v, int n, double q)
 
 typedef void (*bu_fn)(void *user);
 
-/* Seconds per call of fn(user): the median over `repeats` runs (at most
-   1024), each of which times `inner` calls in a row. */
-BU__UNUSED static double bu_time_median(bu_fn fn, void *user, int repeats, int inner)
+/* Seconds per call of fn(user) on `clock`: the median over `repeats` runs
+   (at most 1024), each of which times `inner` calls in a row. */
+BU__UNUSED static double bu__time_median_on(double (*clock)(void), bu_fn fn, void *user, int repeats,
+                                 int inner)
 {
     double v[1024];
     int r, i;
@@ -116,28 +117,24 @@ BU__UNUSED static double bu_time_median(bu_fn fn, void *user, int repeats, int i
     if (repeats > 1024) repeats = 1024;
     if (inner < 1) inner = 1;
     for (r = 0; r < repeats; ++r) {
-        double t0 = bu_now();
+        double t0 = clock();
         for (i = 0; i < inner; ++i) fn(user);
-        v[r] = (bu_now() - t0) / inner;
+        v[r] = (clock() - t0) / inner;
     }
     return bu_median(v, repeats);
 }
 
-/* The same in this thread's CPU time (bu_cpu_now): for runs of a
-   millisecond or more on a busy machine. */
+/* On the monotonic clock (bu_now). */
+BU__UNUSED static double bu_time_median(bu_fn fn, void *user, int repeats, int inner)
+{
+    return bu__time_median_on(bu_now, fn, user, repeats, inner);
+}
+
+/* In this thread's CPU time (bu_cpu_now): for runs of a millisecond or
+   more on a busy machine. */
 BU__UNUSED static double bu_cpu_time_median(bu_fn fn, void *user, int repeats, int inner)
 {
-    double v[1024];
-    int r, i;
-    if (repeats < 1) repeats = 1;
-    if (repeats > 1024) repeats = 1024;
-    if (inner < 1) inner = 1;
-    for (r = 0; r < repeats; ++r) {
-        double t0 = bu_cpu_now();
-        for (i = 0; i < inner; ++i) fn(user);
-        v[r] = (bu_cpu_now() - t0) / inner;
-    }
-    return bu_median(v, repeats);
+    return bu__time_median_on(bu_cpu_now, fn, user, repeats, inner);
 }
 
 /* Keeps a computed value alive so the optimizer cannot drop the work. */
