@@ -680,7 +680,9 @@ typedef struct gs_weight_in {
     double x_max;    /* s; the largest x_comp of this blend, the local state
                         (0) included: the client/server rule's reference */
     double age;      /* s of wall time since the snapshot was sent (an
-                        estimate: half the round trip plus queueing) */
+                        estimate: its datagram's arrival less its send
+                        time, less the hosts' clock offset, which the
+                        least-delayed round trip tells to half of it) */
     uint32_t host;   /* the sending host (this host for the local state) */
     uint32_t lead;   /* the host whose x_comp is x_max; but hosts within the
                         ghost's time deadband of it are in step, a tie, and
@@ -4620,6 +4622,10 @@ typedef struct gs__peer {
     double tokens;            /* bytes the budget allows now */
     double tokens_at;         /* s, wall time of the last refill */
     gs__peer_guard guard;     /* replay window, receive cap (>>net) */
+    int clock_known;          /* their clock against ours, from the round */
+    double clock_offset;      /* trip with the least delay: s, their */
+    double clock_rtt;         /* datagrams' (arrival - send time) less the */
+    double clock_at;          /* way; that round trip (s) and when (s) */
 } gs__peer;
 
 struct gs_net {
@@ -5085,8 +5091,8 @@ GS__PRIVATE int gs__ghost_gather(gs__ghost *g, double t_i, double *num_t,
 /* Simulation time is blended only past the deadband (by default the world's
    tolerance). Hosts in step
    differ by less, and there the correction is mostly the error of the age
-   estimate (half a round trip, quantized to when datagrams are sent and
-   read): applied at every blend it would push the time on, and the agent
+   estimate (the clock offset's, and a snapshot's wait to be sent, which
+   the age does not count): applied at every blend it would push the time on, and the agent
    would skip steps to stay on its world's clock. A host far behind (one
    that joins late) is pulled to the others at once. */
 GS__PRIVATE double gs__time_correction(const gs__ghost *g, double gap, double dt) {
@@ -5870,15 +5876,51 @@ GS__PRIVATE gs_result gs__reject(gs_net *net, int p, gs_reject r, gs_reject *why
 /* Round trip from the echo: now - echo_time - the time they held it,
    smoothed as TCP does (7/8 old, 1/8 new). Only the newest datagram counts:
    one held back by reordering echoes an old send time and would make the
-   round trip, and every snapshot's age, look up to a latency longer. */
+   round trip look up to a latency longer.
+
+   The same round trip places their clock against ours, as NTP does: their
+   datagram left at send_time on their clock and arrived at `now` on ours,
+   so arrival - send time is the offset between the clocks plus the way
+   here, which is between 0 and the round trip; taken as half of it, the
+   error is at most half a round trip. The round trip with the least delay
+   gives the best offset, and the offset does not change while both clocks
+   run: the best one is kept (its error bound widened by GS__CLOCK_DRIFT
+   per second, so that a fresh one replaces it in time) until a round trip
+   with less delay comes, or one whose bounds exclude it (a clock stepped,
+   a peer started again). A smoothed or recent round trip would not do:
+   when the latency falls, the first datagrams of the fast link would be
+   taken for a latency old, the peer's clock for that far ahead, and every
+   agent would jump forward (measured: 0.1-0.2 s at the end of a 150 ms
+   delay, and a sphere thrown off the cloth). */
+#define GS__CLOCK_DRIFT 1e-4 /* s/s: 100 ppm, more than crystals drift */
 GS__PRIVATE void gs__peer_clock(gs__peer *pe, const gs_wire_header *h, double now) {
     if (h->echo_time > 0.0) {
         double rtt = now - h->echo_time - h->echo_hold;
-        if (rtt >= 0.0 && rtt < 60.0)
+        if (rtt >= 0.0 && rtt < 60.0) {
+            double d = now - h->send_time;
+            double half = 0.5 * pe->clock_rtt + GS__CLOCK_DRIFT * (now - pe->clock_at);
             pe->st.rtt = pe->st.rtt > 0.0 ? 0.875 * pe->st.rtt + 0.125 * rtt : rtt;
+            if (!pe->clock_known || 0.5 * rtt <= half || pe->clock_offset + half < d - rtt ||
+                pe->clock_offset - half > d) {
+                pe->clock_known = 1;
+                pe->clock_offset = d - 0.5 * rtt;
+                pe->clock_rtt = rtt;
+                pe->clock_at = now;
+            }
+        }
     }
     pe->their_send_time = h->send_time;
     pe->their_recv_now = now;
+}
+
+/* How long a datagram was on the way (s): its arrival less its send time
+   less the clocks' offset. Per datagram, so one held back on the way is as
+   old as it is. -1 before the first round trip (unknown). */
+GS__PRIVATE double gs__datagram_age(const gs__peer *pe, const gs_wire_header *h, double now) {
+    double age;
+    if (!pe->clock_known) return -1.0;
+    age = now - h->send_time - pe->clock_offset;
+    return age > 0.0 ? age : 0.0;
 }
 
 /* The receive cap: a bucket of max_rate datagrams/s holding a quarter
@@ -6005,9 +6047,9 @@ GS__PRIVATE gs_result gs__deliver_locked(gs_net *net, const void *data, size_t s
         res = gs__reject(net, p, GS_REJECT_RATE, why);
     } else {
         gs__peer *pe = &net->peers[p];
-        /* as known before this datagram; -1: no round trip yet */
-        double age = pe->st.rtt > 0.0 ? 0.5 * pe->st.rtt : -1.0;
+        double age;
         if (order == 2) gs__peer_clock(pe, &v->header, now);
+        age = gs__datagram_age(pe, &v->header, now);
         pe->st.datagrams_received++;
         pe->st.bytes_received += size;
         for (i = 0; i < v->chunk_count; ++i) gs__queue_chunk(net, p, &v->chunks[i], age);

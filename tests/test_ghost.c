@@ -154,6 +154,7 @@ typedef struct snap {
     uint32_t sender, dseq;  /* datagram: from whom, its sequence */
     uint32_t object, sseq;  /* snapshot: object id, its sequence */
     double time;            /* its simulation time */
+    double send_time;       /* s, the sender's clock; default 1 */
     double echo_time, echo_hold;
     gs_encoding enc;        /* default f64 */
     uint16_t index, count;  /* default 0 of 1 */
@@ -168,7 +169,7 @@ static size_t snap_datagram(unsigned char *buf, const snap *s, const double *val
     h.session = 1;
     h.sender = s->sender;
     h.sequence = s->dseq;
-    h.send_time = 1.0;
+    h.send_time = s->send_time != 0.0 ? s->send_time : 1.0;
     h.echo_time = s->echo_time;
     h.echo_hold = s->echo_hold;
     memset(&c, 0, sizeof c);
@@ -357,8 +358,9 @@ static void test_blend_one_snapshot(void **state) {
     host_free(h);
 }
 
-/* After an echo the age is half the measured round trip, and x_comp and
-   the blended time carry it. */
+/* A snapshot's age is its datagram's time on the way: arrival less send
+   time less the offset between the clocks, which the first round trip
+   measures (to half of it); x_comp and the blended time carry it. */
 static void test_blend_with_age(void **state) {
     static const uint32_t peers[] = {2, 0};
     const double x0[3] = {0.0, 1.0, 0.0}, q1[3] = {0.1, 1.0, 0.0}, q2[3] = {-0.4, 0.5, 2.0};
@@ -369,27 +371,32 @@ static void test_blend_with_age(void **state) {
     gs_peer_stats ps;
     (void)state;
     /* echo: we sent at 10.0 (by their account), they held it 0.05 s, it
-       came back at 10.3: rtt = 10.3 - 10.0 - 0.05 = 0.25 s */
+       came back at 10.3: rtt = 10.3 - 10.0 - 0.05 = 0.25 s. They sent it
+       at 20.2 on their clock, so theirs reads 20.2 - 10.3 + 0.125 = 10.025 s
+       ahead of ours, and this datagram was 0.125 s on the way */
+    s.send_time = 20.2;
     s.echo_time = 10.0;
     s.echo_hold = 0.05;
     assert_int_equal(deliver(h->net, &s, q1, 3, 10.3), GS_OK);
     assert_int_equal(gs_net_peer_stats(h->net, 2, &ps), GS_OK);
     assert_true(fabs(ps.rtt - 0.25) <= 1e-14); /* 3 roundings of numbers ~10 */
-    /* that first snapshot came before the rtt was known: age 0 */
     get_state(h->a, S0, 4);
     assert_int_equal(gs_agent_step(h->a), GS_OK);
     S1[0] = S0[0] + 0.002;
     S1[1] = S0[1] + S0[2] * 0.002;
     S1[2] = S0[2];
     S1[3] = S0[3];
-    tq = 1.9;
-    w = exp(rate * (1.9 - S1[0]));
+    tq = 1.9 + 0.125;
+    w = exp(rate * (tq - S1[0]));
     formula(S1, 4, 1, &tq, q1, &w, 1.0, want);
     get_state(h->a, got, 4);
     assert_close(got, want, 4, TOL);
 
-    /* the second one, with no echo in it, is 0.125 s old when it arrives */
+    /* the second one, with no echo in it, left at 20.25 on their clock and
+       came at 10.4 on ours: 10.4 - (20.25 - 10.025) = 0.175 s on the way
+       (held back: half the round trip would say 0.125) */
     s = snap_of(2, 11, 3, 2, 1.95);
+    s.send_time = 20.25;
     assert_int_equal(deliver(h->net, &s, q2, 3, 10.4), GS_OK);
     memcpy(S0, got, sizeof S0);
     assert_int_equal(gs_agent_step(h->a), GS_OK);
@@ -397,11 +404,59 @@ static void test_blend_with_age(void **state) {
     S1[1] = S0[1] + S0[2] * 0.002;
     S1[2] = S0[2];
     S1[3] = S0[3];
-    tq = 1.95 + 0.125;
-    w = exp(rate * (1.95 + 0.125 - S1[0]));
+    tq = 1.95 + 0.175;
+    w = exp(rate * (tq - S1[0]));
     formula(S1, 4, 1, &tq, q2, &w, 1.0, want);
     get_state(h->a, got, 4);
     assert_close(got, want, 4, TOL);
+    host_free(h);
+}
+
+/* The weight rule that notes the age of the snapshot it weighs. */
+static double note_age(const gs_weight_in *in, void *user) {
+    if (!in->local) *(double *)user = in->age;
+    return 1.0;
+}
+
+/* The clock offset holds until a round trip with less delay comes, or one
+   whose bounds exclude it: a slow round trip after a fast one changes
+   nothing, a stepped clock is read again at once. Ages to 1e-12 s: sums of
+   a few numbers of order 100 s. */
+static void test_clock_offset(void **state) {
+    static const uint32_t peers[] = {2, 0};
+    const double x0[3] = {0.0, 1.0, 0.0}, q[3] = {0.1, 1.0, 0.0};
+    double age = -1.0;
+    gs_ghost_desc gd = ghost_exp(3, NULL);
+    host *h;
+    snap s = snap_of(2, 10, 3, 1, 1.9);
+    (void)state;
+    gd.weight = note_age;
+    gd.weight_user = &age;
+    h = host_new(1, 0.002, 1, 2.0, x0, &gd, peers);
+    /* a fast round trip (10 ms): their clock is 100 s ahead, 5 ms way */
+    s.send_time = 109.995;
+    s.echo_time = 9.99;
+    assert_int_equal(deliver(h->net, &s, q, 3, 10.0), GS_OK);
+    assert_int_equal(gs_agent_step(h->a), GS_OK);
+    assert_true(fabs(age - 0.005) <= 1e-12);
+    /* a slow one (300 ms, all of it on the way here): the offset stays, so
+       this datagram is 0.3 s old, not the 0.15 that half its round trip
+       would say */
+    s = snap_of(2, 11, 3, 2, 1.91);
+    s.send_time = 110.1;
+    s.echo_time = 10.1;
+    assert_int_equal(deliver(h->net, &s, q, 3, 10.4), GS_OK);
+    assert_int_equal(gs_agent_step(h->a), GS_OK);
+    assert_true(fabs(age - 0.3) <= 1e-12);
+    /* their clock stepped back 50 s: the round trip (20 ms) bounds the
+       offset to [50 - 0.02, 50] s ahead, which excludes 100: read again,
+       half the round trip on the way */
+    s = snap_of(2, 12, 3, 3, 1.92);
+    s.send_time = 60.49;
+    s.echo_time = 10.48;
+    assert_int_equal(deliver(h->net, &s, q, 3, 10.5), GS_OK);
+    assert_int_equal(gs_agent_step(h->a), GS_OK);
+    assert_true(fabs(age - 0.01) <= 1e-12);
     host_free(h);
 }
 
@@ -1354,6 +1409,7 @@ int main(int argc, char **argv) {
         cmocka_unit_test(test_weight_rules),
         cmocka_unit_test(test_blend_one_snapshot),
         cmocka_unit_test(test_blend_with_age),
+        cmocka_unit_test(test_clock_offset),
         cmocka_unit_test(test_blend_many_snapshots),
         cmocka_unit_test(test_shift_invariance),
         cmocka_unit_test(test_client_server_three_hosts),
