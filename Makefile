@@ -138,7 +138,7 @@ test: deps
 	@$(MAKE) --no-print-directory test-plain
 	@$(MAKE) --no-print-directory test-asan
 	@$(MAKE) --no-print-directory tsan valgrind-udp
-	@$(MAKE) --no-print-directory test-peers
+	@$(MAKE) --no-print-directory test-peers faults-short
 
 # The UDP tests (gather and scatter threads) under ThreadSanitizer, and under
 # valgrind for leaks: sockets, threads and buffers all released at shutdown.
