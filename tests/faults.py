@@ -10,14 +10,16 @@ its peers' addresses: the proxy holds one socket per ordered pair (x, y),
 reaches x from y's socket for x, the address x was given for y. Each
 direction of each pair is a Link whose faults can change at any moment:
 drop, duplicate, hold back (reorder), delay with jitter, corrupt bytes, cut.
-Ports 47700-47799 for the scenarios, 47800-47899 for the soak. Nothing
-reaches a peer before it prints its first line (at the start and after a
-restart): ghostpeer opens its socket before it adds its peers, and refuses
-what comes in between as from an unknown sender, which no fault caused.
+Every port is the kernel's choice (fixed ones collide with other runs on a
+shared machine): the peers' as peers.py picks them, the proxy's held open
+for the run. Nothing reaches a peer before it prints its first line (at
+the start and after a restart): ghostpeer opens its socket before it adds
+its peers, and refuses what comes in between as from an unknown sender,
+which no fault caused.
 
 A scenario runs two (or three) peers with their probes moving for the whole
-run, applies one fault for a while, and then checks (the same measure as
-tests/peers.py; its helpers are imported from there):
+run, applies one fault for a while, and then checks (tests/peers.py's
+helpers are imported from there):
   - no crash: every peer exits 0 with its final line (a peer the scenario
     SIGKILLs excepted), every line is JSON, no NaN or infinity anywhere;
   - every datagram the proxy corrupted and delivered to a peer is counted
@@ -168,7 +170,7 @@ class Proxy(threading.Thread):
 
     MAX_QUEUE = 20000        # datagrams held at once; more are dropped (counted)
 
-    def __init__(self, real, first_port, seed):
+    def __init__(self, real, seed):
         super().__init__(daemon=True)
         self.real = dict(real)
         self.rng = random.Random(seed)
@@ -178,18 +180,16 @@ class Proxy(threading.Thread):
         self.to = {i: self._zero() for i in real}   # per receiver: corrupted, dup copies sent
         self.lock = threading.Lock()
         self.error = None
-        port = first_port
         for x in real:
             for y in real:
                 if x == y:
                     continue
                 s = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
                 s.setsockopt(socket.SOL_SOCKET, socket.SO_RCVBUF, 1 << 21)
-                s.bind((HOST, port))
+                s.bind((HOST, 0))     # the kernel's choice, held for the run
                 s.setblocking(False)
-                self.sock[(x, y)], self.port[(x, y)] = s, port
+                self.sock[(x, y)], self.port[(x, y)] = s, s.getsockname()[1]
                 self.links[(y, x)] = Link()
-                port += 1
         self.heap, self.seq = [], 0
         self.down = set()    # peers being restarted: nothing reaches them (counted as cut)
 
@@ -461,14 +461,14 @@ class Run:
     """Peers `ids` behind a proxy; the scenario drives it with at(), kill(),
     restart(); check() judges it."""
 
-    def __init__(self, exe, name, ids, base, duration, probe_until, extra=None, seed=1,
+    def __init__(self, exe, name, ids, duration, probe_until, extra=None, seed=1,
                  direct=False, stats_every=STATS):
         self.exe, self.name, self.ids = exe, name, list(ids)
         self.direct, self.stats_every = direct, stats_every
         self.duration, self.probe_until = duration, probe_until
         self.extra = extra or {}
-        self.real = {i: base + k for k, i in enumerate(ids)}
-        self.proxy = Proxy(self.real, base + 10, seed)
+        self.real = dict(zip(ids, P.free_ports(len(ids))))
+        self.proxy = Proxy(self.real, seed)
         self.proxy.start()
         self.peers = {}
         self.retired = []          # peers killed on purpose
@@ -697,8 +697,8 @@ def judge(run, since=None):
 
 
 def link_fault(what, ids=(1, 2), check_dups=False, **faults):
-    def scenario(exe, name, base, tm):
-        run = Run(exe, name, ids, base, tm.duration, tm.f1)
+    def scenario(exe, name, tm):
+        run = Run(exe, name, ids, tm.duration, tm.f1)
         try:
             run.check_dups = check_dups
             run.what = what
@@ -718,8 +718,8 @@ def link_fault(what, ids=(1, 2), check_dups=False, **faults):
     return scenario
 
 
-def sc_control(exe, name, base, tm):
-    run = Run(exe, name, [1, 2], base, tm.duration, tm.f1)
+def sc_control(exe, name, tm):
+    run = Run(exe, name, [1, 2], tm.duration, tm.f1)
     try:
         run.what = "none (the same timeline, no fault)"
         run.at(tm.f1)
@@ -729,8 +729,8 @@ def sc_control(exe, name, base, tm):
         run.close()
 
 
-def sc_control_direct(exe, name, base, tm):
-    run = Run(exe, name, [1, 2], base, tm.duration, tm.f1, direct=True)
+def sc_control_direct(exe, name, tm):
+    run = Run(exe, name, [1, 2], tm.duration, tm.f1, direct=True)
     try:
         run.what = "none, and no proxy: the peers talk directly"
         run.notes.append("counts not judged without the proxy (a peer may refuse its peer's "
@@ -742,8 +742,8 @@ def sc_control_direct(exe, name, base, tm):
         run.close()
 
 
-def sc_kill(exe, name, base, tm):
-    run = Run(exe, name, [1, 2], base, tm.duration, tm.f1)
+def sc_kill(exe, name, tm):
+    run = Run(exe, name, [1, 2], tm.duration, tm.f1)
     try:
         down = 1.5
         run.what = "peer 2 SIGKILLed, restarted %.1f s later" % down
@@ -759,8 +759,8 @@ def sc_kill(exe, name, base, tm):
 
 
 def sc_clock(step):
-    def scenario(exe, name, base, tm):
-        run = Run(exe, name, [1, 2], base, tm.duration, tm.f1,
+    def scenario(exe, name, tm):
+        run = Run(exe, name, [1, 2], tm.duration, tm.f1,
                   extra={2: ["--clock-step", "%g:%g" % (tm.f0, step)]})
         try:
             run.what = "peer 2's pacing clock steps %+g s at %g s" % (step, tm.f0)
@@ -778,9 +778,9 @@ def sc_clock(step):
 
 
 def sc_wild(speed, seconds=1.0):
-    def scenario(exe, name, base, tm):
+    def scenario(exe, name, tm):
         at = tm.f1 - seconds
-        run = Run(exe, name, [1, 2], base, tm.duration, tm.f1,
+        run = Run(exe, name, [1, 2], tm.duration, tm.f1,
                   extra={2: ["--probe-wild", "%g:%g:%g" % (at, seconds, speed)]})
         try:
             run.what = "peer 2's probe at %g m/s (set by hand) for %g s" % (speed, seconds)
@@ -851,7 +851,7 @@ def run_scenarios(exe, short, want):
     rows = []
     todo = [(n, f) for n, full, sh, f in SCENARIOS
             if ((n in want) if want else (sh if short else full))]
-    for k, (name, fn) in enumerate(todo):
+    for name, fn in todo:
         P._current[0] = "faults-" + name
         t = time.monotonic()
         if remaining() < tm.duration + 20:
@@ -859,7 +859,7 @@ def run_scenarios(exe, short, want):
                      ok=False, problems=["not run"], counts="")
         else:
             try:
-                r = fn(exe, name, 47700 + 20 * (k % 5), tm)
+                r = fn(exe, name, tm)
             except Failed as e:
                 r = dict(name=name, what="", ok=False, problems=[str(e)], counts="")
             except Exception as e:  # a bug here: the scenario fails, the suite goes on
@@ -918,7 +918,7 @@ def run_soak(exe, seconds):
           "a SIGKILL and restart every %.0f s (never peer 1); the last %.0f s quiet, probes parked"
           % (seconds, ", ".join(SOAK_FAULTS), kill_every, quiet))
     sys.stdout.flush()
-    run = Run(exe, "soak", ids, 47800, seconds, faulty, stats_every=0.1)
+    run = Run(exe, "soak", ids, seconds, faulty, stats_every=0.1)
     active = {k: [] for k in run.proxy.links}   # link: [(end wall, settings)]
     rss = {}                                      # (id, incarnation): [(s into the run, KiB)]
     incarnation = {i: 0 for i in ids}
