@@ -460,6 +460,51 @@ static void test_clock_offset(void **state) {
     host_free(h);
 }
 
+/* The owner of an object starts again: its snapshots come from time 0.
+   The local copy takes its state but not its time: a peer's clock is read
+   as an envelope that falls at most GS__LEAD_FALL (0.1 s/s), so one
+   snapshot 5 s behind pulls nothing back, and the restarted owner catches
+   up with the others instead. The new run's snapshots still count. */
+static void test_owner_restart_time(void **state) {
+    static const uint32_t peers[] = {2, 0};
+    const double x0[3] = {0.0, 1.0, 0.0}, q1[3] = {0.5, 1.0, 0.0}, q2[3] = {0.2, 0.0, 0.0};
+    const double q3[3] = {0.3, 0.0, 0.0};
+    gs_ghost_desc gd = gs_ghost_desc_default();
+    host *h;
+    double got[4];
+    snap s = snap_of(2, 10, 7, 1, 5.0);
+    (void)state;
+    /* clocks in step, 1 ms each way: the ages are known */
+    s.send_time = 9.999;
+    s.echo_time = 9.998;
+    gd.object_id = 7;
+    gd.weight = gs_weight_owner;
+    gd.owner = 2;
+    h = host_new(1, 0.002, 1, 5.0, x0, &gd, peers);
+    assert_int_equal(deliver(h->net, &s, q1, 3, 10.0), GS_OK);
+    assert_int_equal(gs_agent_step(h->a), GS_OK);
+    get_state(h->a, got, 4);
+    assert_true(got[1] == 0.5);               /* the owner's state, copied */
+    /* the owner's new run: its datagrams and snapshots from 0 again */
+    s = snap_of(2, 0, 7, 0, 0.1);
+    s.send_time = 10.999;
+    s.echo_time = 10.998;
+    assert_int_equal(deliver(h->net, &s, q2, 3, 11.0), GS_OK);
+    assert_int_equal(gs_agent_step(h->a), GS_OK);
+    get_state(h->a, got, 4);
+    assert_true(got[1] == 0.2);
+    assert_true(got[0] > 5.0 && got[0] < 5.01); /* two 2 ms steps from 5 s */
+    s = snap_of(2, 1, 7, 1, 0.12);
+    s.send_time = 11.019;
+    s.echo_time = 11.018;
+    assert_int_equal(deliver(h->net, &s, q3, 3, 11.02), GS_OK);
+    assert_int_equal(gs_agent_step(h->a), GS_OK);
+    get_state(h->a, got, 4);
+    assert_true(got[1] == 0.3);
+    assert_true(got[0] > 5.0 && got[0] < 5.01);
+    host_free(h);
+}
+
 /* Several snapshots from two peers, two from one of them: each counts once. */
 static void blend_many(double shift, double *out) {
     static const uint32_t peers[] = {2, 3, 0};
@@ -1410,6 +1455,7 @@ int main(int argc, char **argv) {
         cmocka_unit_test(test_blend_one_snapshot),
         cmocka_unit_test(test_blend_with_age),
         cmocka_unit_test(test_clock_offset),
+        cmocka_unit_test(test_owner_restart_time),
         cmocka_unit_test(test_blend_many_snapshots),
         cmocka_unit_test(test_shift_invariance),
         cmocka_unit_test(test_client_server_three_hosts),
