@@ -684,9 +684,11 @@ typedef struct gs_weight_in {
                         time, less the hosts' clock offset, which the
                         least-delayed round trip tells to half of it) */
     uint32_t host;   /* the sending host (this host for the local state) */
-    uint32_t lead;   /* the host whose x_comp is x_max; but hosts within the
-                        ghost's time deadband of it are in step, a tie, and
-                        the lowest id among them leads */
+    uint32_t lead;   /* the most advanced host among this one and the
+                        peers heard in the last 0.5 s (their snapshots in
+                        this blend or not); but hosts within the ghost's
+                        time deadband of it are in step, a tie, and the
+                        lowest id among them leads */
     uint32_t owner;  /* the object's owner, 0 if shared */
     int local;       /* 1 for the local state */
     int local_owns;  /* 1 if this host owns the object */
@@ -4605,6 +4607,9 @@ struct gs__ghost {
                                       of ours (see gs__peer_lead) */
     double lead_at[GS__MAX_PEERS]; /* s; local time of its last sample,
                                       -HUGE_VAL before the first */
+    double heard_at[GS__MAX_PEERS];/* s; local time of the last blend with
+                                      a snapshot of the peer, -HUGE_VAL */
+    double heard_x[GS__MAX_PEERS]; /* s; its x_comp then (the freshest) */
     gs_ghost_stats stats;
 };
 typedef struct gs__ghost gs__ghost;
@@ -4766,7 +4771,8 @@ GS_API gs_result gs_ghost_attach(gs_agent *a, const gs_ghost_desc *desc) {
     gs_agent_get_state(a, g->B, n);
     g->b_seq = 1;
     g->t_local = g->B[0];
-    for (i = 0; i < GS__MAX_PEERS; ++i) g->newest[i] = g->lead_at[i] = -HUGE_VAL;
+    for (i = 0; i < GS__MAX_PEERS; ++i)
+        g->newest[i] = g->lead_at[i] = g->heard_at[i] = -HUGE_VAL;
     a->ghost = g;
     r = gs__ghost_queues(g);
     if (r != GS_OK) {
@@ -4946,23 +4952,46 @@ GS__PRIVATE double gs__snap_xcomp(const gs__ghost *g, const gs__snap *s, double 
     return g->d.raw_time ? s->time - t_i : s->time + s->age - t_i;
 }
 
-/* The largest x_comp of a blend (the local state's is 0), and the lead:
-   the lowest host id within the time band of it. */
-GS__PRIVATE double gs__ghost_lead(const gs__ghost *g, double t_i, uint32_t *lead) {
-    const gs_world *wd = g->agent->world;
-    double x_max = 0.0, band = gs__time_band(g);
+/* Notes, for each peer with a snapshot in this blend, that it was heard
+   now and its freshest x_comp. */
+GS__PRIVATE void gs__ghost_hear(gs__ghost *g, double t_i) {
     int p, k;
     for (p = 0; p < GS__MAX_PEERS; ++p)
+        for (k = 0; g->q[p] && k < g->d.queue_size; ++k) {
+            double x;
+            if (!g->q[p][k].used) continue;
+            x = gs__snap_xcomp(g, &g->q[p][k], t_i);
+            if (g->heard_at[p] != t_i || x > g->heard_x[p]) g->heard_x[p] = x;
+            g->heard_at[p] = t_i;
+        }
+}
+
+/* The largest x_comp of a blend (the local state's is 0), and the lead:
+   the lowest host id within the time band of the most advanced host among
+   this one and the peers heard in the last GS__LIVE_TIME, whether or not
+   a snapshot of theirs is in this blend. Elected from this blend's
+   snapshots alone, the lead changed with whichever arrived first: a host
+   that heard hosts 1 and 2 copied host 1's state at one blend and host
+   2's at the next while the link from 1 to 2 was cut and 2 went its own
+   way (measured in the soak: a sphere 3 m apart every other line). */
+#define GS__LIVE_TIME 0.5 /* s of local simulation time */
+GS__PRIVATE double gs__ghost_lead(gs__ghost *g, double t_i, uint32_t *lead) {
+    const gs_world *wd = g->agent->world;
+    double x_max = 0.0, x_live = 0.0, band = gs__time_band(g);
+    int p, k;
+    gs__ghost_hear(g, t_i);
+    for (p = 0; p < GS__MAX_PEERS; ++p) {
         for (k = 0; g->q[p] && k < g->d.queue_size; ++k)
             if (g->q[p][k].used) x_max = fmax(x_max, gs__snap_xcomp(g, &g->q[p][k], t_i));
-    *lead = x_max <= band ? wd->host_id : 0;
-    for (p = 0; p < GS__MAX_PEERS; ++p)
-        for (k = 0; g->q[p] && k < g->d.queue_size; ++k) {
-            uint32_t h = wd->net->peers[p].host;
-            if (g->q[p][k].used && gs__snap_xcomp(g, &g->q[p][k], t_i) >= x_max - band &&
-                (*lead == 0 || h < *lead))
-                *lead = h;
-        }
+        if (t_i - g->heard_at[p] <= GS__LIVE_TIME) x_live = fmax(x_live, g->heard_x[p]);
+    }
+    *lead = x_live <= band ? wd->host_id : 0;
+    for (p = 0; p < GS__MAX_PEERS; ++p) {
+        uint32_t h = wd->net->peers[p].host;
+        if (t_i - g->heard_at[p] <= GS__LIVE_TIME && g->heard_x[p] >= x_live - band &&
+            (*lead == 0 || h < *lead))
+            *lead = h;
+    }
     return x_max;
 }
 

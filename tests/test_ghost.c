@@ -648,6 +648,46 @@ static void test_client_server_tie(void **state) {
     assert_true(x == 1.0);
 }
 
+/* The client/server lead is elected among the hosts heard in the last
+   GS__LIVE_TIME (0.5 s), not among the snapshots of one blend: on host 3,
+   a blend that holds only host 2's snapshot, while host 1 was heard a
+   blend ago, keeps the local state (host 1 leads, and its snapshot is not
+   there); once host 1 has been silent for longer, host 2 leads. */
+static void test_cs_lead_among_live(void **state) {
+    static const uint32_t peers[] = {1, 2, 0};
+    const double x0[3] = {0.0, 0.0, 0.0}, q1[3] = {1.0, 0.0, 0.0}, q2[3] = {2.0, 0.0, 0.0};
+    gs_ghost_desc gd = gs_ghost_desc_default();
+    double st[4];
+    host *h;
+    snap s;
+    int k;
+    (void)state;
+    gd.object_id = 6;
+    gd.weight = gs_weight_cs;
+    h = host_new(3, 0.01, 0, 1.0, x0, &gd, peers);
+    s = snap_of(1, 1, 6, 1, 1.0);
+    assert_int_equal(deliver(h->net, &s, q1, 3, 0.0), GS_OK);
+    s = snap_of(2, 1, 6, 1, 1.0);
+    assert_int_equal(deliver(h->net, &s, q2, 3, 0.0), GS_OK);
+    assert_int_equal(gs_agent_step(h->a), GS_OK);
+    get_state(h->a, st, 4);
+    assert_true(st[1] == 1.0);                 /* host 1's */
+    s = snap_of(2, 2, 6, 2, 1.01);
+    assert_int_equal(deliver(h->net, &s, q2, 3, 0.01), GS_OK);
+    assert_int_equal(gs_agent_step(h->a), GS_OK);
+    get_state(h->a, st, 4);
+    assert_true(st[1] == 1.0);                 /* still host 1's: not host 2's */
+    /* 0.6 s of host 2 alone (10 ms steps): host 1 is no longer live */
+    for (k = 0; k < 60; ++k) {
+        s = snap_of(2, (uint32_t)(3 + k), 6, (uint32_t)(3 + k), 1.02 + 0.01 * k);
+        assert_int_equal(deliver(h->net, &s, q2, 3, 0.02 + 0.01 * k), GS_OK);
+        assert_int_equal(gs_agent_step(h->a), GS_OK);
+    }
+    get_state(h->a, st, 4);
+    assert_true(st[1] == 2.0);
+    host_free(h);
+}
+
 /* A rule returning garbage: -1, NaN and +inf count as 0 and are counted. */
 static double table_weight(const gs_weight_in *in, void *user) {
     const double *t = (const double *)user; /* by host: t[host] */
@@ -1460,6 +1500,7 @@ int main(int argc, char **argv) {
         cmocka_unit_test(test_shift_invariance),
         cmocka_unit_test(test_client_server_three_hosts),
         cmocka_unit_test(test_client_server_tie),
+        cmocka_unit_test(test_cs_lead_among_live),
         cmocka_unit_test(test_bad_weights),
         cmocka_unit_test(test_queue_full),
         cmocka_unit_test(test_time_deadband),
