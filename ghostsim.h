@@ -1174,6 +1174,7 @@ typedef struct gs__net_guard {
     uint64_t epoch, salt;       /* this run's: wall clock us, random */
     uint64_t counter;           /* sealed datagrams sent in this run */
     unsigned char plain[GS_WIRE_MAX_DATAGRAM]; /* an opened datagram */
+    unsigned char sealed[GS_WIRE_MAX_DATAGRAM]; /* one peer's copy, sealed */
 } gs__net_guard;
 
 GS__PRIVATE void *gs__default_alloc(size_t size, void *user) {
@@ -5843,6 +5844,7 @@ GS__PRIVATE void gs__net_forget_key(gs_net *net) {
 #ifdef GHOSTSIM_SODIUM
     sodium_memzero(net->guard.key, sizeof net->guard.key);
     sodium_memzero(net->guard.plain, sizeof net->guard.plain);
+    sodium_memzero(net->guard.sealed, sizeof net->guard.sealed);
 #else
     (void)net;
 #endif
@@ -6006,14 +6008,14 @@ GS__PRIVATE int gs__peer_budget(gs_net *net, gs__peer *pe, size_t bytes, double 
     return 1;
 }
 
-GS__PRIVATE void gs__datagram_begin(gs_net *net, gs__peer *pe, double now, size_t *size) {
+/* Starts the datagram in net->buf that every peer gets: the fields that
+   differ per peer (sequence, echo) are written by gs__datagram_to_peer. */
+GS__PRIVATE void gs__datagram_begin(gs_net *net, double now, size_t *size) {
     gs_wire_header h;
+    memset(&h, 0, sizeof h);
     h.session = net->d.session;
     h.sender = net->world->host_id;
-    h.sequence = pe->send_seq;
     h.send_time = now;
-    h.echo_time = pe->their_send_time;
-    h.echo_hold = pe->recv_any ? now - pe->their_recv_now : 0.0;
     gs_wire_begin(net->buf, sizeof net->buf, &h, size);
 }
 
@@ -6023,36 +6025,54 @@ GS__PRIVATE size_t gs__net_cap(const gs_net *net) {
                             : GS_WIRE_MAX_DATAGRAM;
 }
 
-/* Ends the datagram in net->buf: the CRC, or sealed. */
-GS__PRIVATE size_t gs__datagram_end(gs_net *net, size_t size) {
+/* The datagram in net->buf (size bytes, header and chunks) made one
+   peer's: its sequence and echo written into the header, then the CRC, or
+   sealed in a copy (guard.sealed: sealing encrypts in place, and the next
+   peer needs the chunks in clear). Returns where the datagram is and its
+   size in *n. */
+GS__PRIVATE const unsigned char *gs__datagram_to_peer(gs_net *net, const gs__peer *pe,
+                                                      double now, size_t size, size_t *n) {
+    unsigned char *b = net->buf;
+    gs__put32(b + 16, pe->send_seq);
+    gs__putf64(b + 32, pe->their_send_time);
+    gs__putf64(b + 40, pe->recv_any ? now - pe->their_recv_now : 0.0);
 #ifdef GHOSTSIM_SODIUM
-    if (net->guard.keyed)
-        return gs__wire_seal(net->buf, size, net->guard.key, net->guard.epoch, net->guard.salt,
-                             net->guard.counter++);
+    if (net->guard.keyed) {
+        memcpy(net->guard.sealed, b, size);
+        *n = gs__wire_seal(net->guard.sealed, size, net->guard.key, net->guard.epoch,
+                           net->guard.salt, net->guard.counter++);
+        return net->guard.sealed;
+    }
 #endif
-    return gs_wire_end(net->buf, size);
+    *n = gs_wire_end(b, size);
+    return b;
 }
 
-/* Sends the datagram being built if it holds a chunk and the budget allows. */
-GS__PRIVATE void gs__datagram_flush(gs_net *net, gs__peer *pe, double now, size_t *size) {
-    size_t n;
+/* Sends the datagram being built, if it holds a chunk, to every peer whose
+   budget allows it, then starts the next. The chunks were encoded once for
+   all peers; only the header's per-peer fields and the CRC (or the seal)
+   are done per peer. */
+GS__PRIVATE void gs__datagram_flush(gs_net *net, double now, size_t *size) {
+    size_t wire = *size + (net->guard.keyed ? GS_WIRE_SEAL_TRAILER : 4), n;
+    int p;
     if (gs__get16(net->buf + 6) == 0) return;
-    n = *size + (net->guard.keyed ? GS_WIRE_SEAL_TRAILER : 4);
-    if (gs__peer_budget(net, pe, n, now)) {
-        n = gs__datagram_end(net, *size);
+    for (p = 0; p < GS__MAX_PEERS; ++p) {
+        gs__peer *pe = &net->peers[p];
+        const unsigned char *d;
+        if (!pe->used || !gs__peer_budget(net, pe, wire, now)) continue;
+        d = gs__datagram_to_peer(net, pe, now, *size, &n);
         pe->send_seq++;
         pe->st.datagrams_sent++;
         pe->st.bytes_sent += n;
-        net->d.send(net->d.send_user, pe->host, net->buf, n);
+        net->d.send(net->d.send_user, pe->host, d, n);
     }
-    gs__datagram_begin(net, pe, now, size);
+    gs__datagram_begin(net, now, size);
 }
 
-/* Appends every chunk of a ghost's B to the datagrams for one peer. */
-GS__PRIVATE void gs__send_ghost(gs_net *net, gs__peer *pe, const gs__ghost *g,
-                                double now, size_t *size) {
+/* Appends every chunk of a ghost's B to the datagrams for all peers. */
+GS__PRIVATE void gs__send_ghost(gs_net *net, const gs__ghost *g, double now, size_t *size) {
     size_t vars = g->n - 1;
-    int c;
+    int c, p;
     for (c = 0; c < g->nchunks; ++c) {
         gs_wire_chunk ch;
         size_t first = (size_t)c * (size_t)g->per_chunk, cnt = (size_t)g->per_chunk;
@@ -6068,37 +6088,33 @@ GS__PRIVATE void gs__send_ghost(gs_net *net, gs__peer *pe, const gs__ghost *g,
         ch.payload = NULL;
         if (gs_wire_add(net->buf, gs__net_cap(net), size, &ch, g->B + 1 + first) ==
             GS_ERR_CAPACITY) {
-            gs__datagram_flush(net, pe, now, size);
+            gs__datagram_flush(net, now, size);
             gs_wire_add(net->buf, gs__net_cap(net), size, &ch, g->B + 1 + first);
         }
     }
-    pe->st.snapshots_sent++;
+    for (p = 0; p < GS__MAX_PEERS; ++p)
+        if (net->peers[p].used) net->peers[p].st.snapshots_sent++;
 }
 
+/* Every due ghost is encoded once into datagrams that go to every peer
+   (a peer whose budget is spent misses that datagram). */
 GS_API gs_result gs_net_update(gs_net *net, double now) {
     gs_world *w = net->world;
-    int p, i;
+    int p, i, peers = 0;
+    size_t size;
     if (!gs__finite(now)) return GS_ERR_NOT_FINITE;
     gs__lock(net);
     net->now = now;
-    for (p = 0; p < GS__MAX_PEERS; ++p) {
-        gs__peer *pe = &net->peers[p];
-        size_t size;
-        if (!pe->used) continue;
-        gs__datagram_begin(net, pe, now, &size);
-        for (i = 0; i < w->agent_count; ++i) {
-            gs__ghost *g = gs__ghost_of(w->agents[i]);
-            if (g && now >= g->next_send && g->b_seq != g->sent_seq)
-                gs__send_ghost(net, pe, g, now, &size);
-        }
-        gs__datagram_flush(net, pe, now, &size);
-    }
+    for (p = 0; p < GS__MAX_PEERS; ++p) peers += net->peers[p].used;
+    if (peers) gs__datagram_begin(net, now, &size);
     for (i = 0; i < w->agent_count; ++i) {
         gs__ghost *g = gs__ghost_of(w->agents[i]);
         if (!g || now < g->next_send || g->b_seq == g->sent_seq) continue;
+        if (peers) gs__send_ghost(net, g, now, &size);
         g->sent_seq = g->b_seq;
         g->next_send = now + 1.0 / g->d.send_rate;
     }
+    if (peers) gs__datagram_flush(net, now, &size);
     gs__unlock(net);
     return GS_OK;
 }
