@@ -6659,9 +6659,9 @@ GS_API void gs_simnet_counts(const gs_simnet *s, uint64_t *dropped,
 #include <errno.h>
 #include <netdb.h>
 #include <netinet/in.h>
-#include <poll.h>
 #include <pthread.h>
 #include <sys/socket.h>
+#include <sys/time.h>
 #include <unistd.h>
 #endif
 
@@ -6671,6 +6671,17 @@ typedef struct gs__udp_peer {
     struct sockaddr_storage addr;
     socklen_t len;
 } gs__udp_peer;
+
+/* A datagram gs_net_update made, waiting for the net lock to be released
+   before it goes out (see gs__udp_send). */
+typedef struct gs__udp_out {
+    struct sockaddr_storage addr;
+    socklen_t len;
+    size_t size;
+    unsigned char data[GS_WIRE_MAX_DATAGRAM];
+} gs__udp_out;
+#define GS__UDP_BATCH 16
+#define GS__UDP_WAIT 20000 /* us: how long gs_udp_close may wait for the gather thread */
 
 struct gs_udp {
     gs_world *world;
@@ -6682,8 +6693,11 @@ struct gs_udp {
     pthread_mutex_t mu;      /* the net lock: queues, peers, stats */
     pthread_mutex_t wake_mu; /* the scatter thread's wake-up */
     pthread_cond_t wake;
+    pthread_mutex_t send_mu; /* out and out_n; taken after mu, or alone */
     gs__udp_peer peers[GS__MAX_PEERS];
     unsigned char rbuf[GS_WIRE_MAX_DATAGRAM + 64];
+    int out_n;               /* datagrams in out (atomic: read under mu) */
+    gs__udp_out out[GS__UDP_BATCH];
 };
 
 GS_API double gs_udp_now(void) {
@@ -6692,8 +6706,29 @@ GS_API double gs_udp_now(void) {
     return (double)ts.tv_sec + 1e-9 * (double)ts.tv_nsec;
 }
 
+/* Sends what gs__udp_send queued. Under send_mu. */
+GS__PRIVATE void gs__udp_flush_out(gs_udp *u) {
+    int i, n = __atomic_load_n(&u->out_n, __ATOMIC_RELAXED);
+    for (i = 0; i < n; ++i)
+        sendto(u->fd, u->out[i].data, u->out[i].size, 0,
+               (const struct sockaddr *)&u->out[i].addr, u->out[i].len);
+    __atomic_store_n(&u->out_n, 0, __ATOMIC_RELAXED);
+}
+
 GS__PRIVATE void gs__udp_lock(void *user) { pthread_mutex_lock(&((gs_udp *)user)->mu); }
-GS__PRIVATE void gs__udp_unlock(void *user) { pthread_mutex_unlock(&((gs_udp *)user)->mu); }
+
+/* The net lock's release; then what gs_net_update queued goes out, without
+   the lock, so that the gather thread never waits on a sendto. */
+GS__PRIVATE void gs__udp_unlock(void *user) {
+    gs_udp *u = (gs_udp *)user;
+    int pending = __atomic_load_n(&u->out_n, __ATOMIC_RELAXED) > 0;
+    pthread_mutex_unlock(&u->mu);
+    if (pending) {
+        pthread_mutex_lock(&u->send_mu);
+        gs__udp_flush_out(u);
+        pthread_mutex_unlock(&u->send_mu);
+    }
+}
 
 /* "HOST:PORT" or "[IPV6]:PORT" to a socket address. */
 GS__PRIVATE int gs__udp_resolve(const char *text, struct sockaddr_storage *out,
@@ -6729,16 +6764,29 @@ GS__PRIVATE int gs__udp_resolve(const char *text, struct sockaddr_storage *out,
     return 1;
 }
 
-/* The transport's send: called by gs_net_update under the net lock. */
+/* The transport's send: called by gs_net_update under the net lock. The
+   datagram is copied out with its address and sent when the lock is
+   released (gs__udp_unlock): a sendto on loopback takes microseconds, and
+   a gather thread that found the lock held would sleep on it and cost a
+   wake-up per datagram. A full batch (a big update) goes out at once. */
 GS__PRIVATE gs_result gs__udp_send(void *user, uint32_t host, const void *data,
                                    size_t size) {
     gs_udp *u = (gs_udp *)user;
     int p;
+    if (size > GS_WIRE_MAX_DATAGRAM) return GS_ERR_INVALID_ARG;
     for (p = 0; p < GS__MAX_PEERS; ++p)
         if (u->peers[p].used && u->peers[p].host == host) {
-            ssize_t r = sendto(u->fd, data, size, 0, (const struct sockaddr *)&u->peers[p].addr,
-                               u->peers[p].len);
-            return r == (ssize_t)size ? GS_OK : GS_ERR_SYSTEM;
+            gs__udp_out *o;
+            pthread_mutex_lock(&u->send_mu);
+            if (u->out_n == GS__UDP_BATCH) gs__udp_flush_out(u);
+            o = &u->out[u->out_n];
+            o->addr = u->peers[p].addr;
+            o->len = u->peers[p].len;
+            o->size = size;
+            memcpy(o->data, data, size);
+            __atomic_store_n(&u->out_n, u->out_n + 1, __ATOMIC_RELAXED);
+            pthread_mutex_unlock(&u->send_mu);
+            return GS_OK;
         }
     return GS_ERR_INVALID_ARG;
 }
@@ -6798,33 +6846,36 @@ GS__PRIVATE int gs__udp_from_ok(gs_udp *u, size_t n, const struct sockaddr_stora
     return ok;
 }
 
+/* Receives one datagram into u->rbuf and hands it on (flags: 0 waits up
+   to the socket's receive timeout, MSG_DONTWAIT not at all). Returns 0
+   when nothing came. */
+GS__PRIVATE int gs__udp_take(gs_udp *u, int flags) {
+    struct sockaddr_storage from;
+    socklen_t flen = sizeof from;
+    ssize_t n;
+    memset(&from, 0, sizeof from);
+    n = recvfrom(u->fd, u->rbuf, sizeof u->rbuf, flags, (struct sockaddr *)&from, &flen);
+    if (n < 0) return 0;
+    pthread_mutex_lock(&u->mu); /* the net lock: one for both */
+    if (gs__udp_from_ok(u, (size_t)n, &from))
+        gs__deliver_locked(u->net, u->rbuf, (size_t)n, gs_udp_now(), NULL);
+    gs__udp_unlock(u);
+    return 1;
+}
+
 /* Receives what is waiting (at most `max`, without blocking). */
 GS__PRIVATE void gs__udp_drain(gs_udp *u, int max) {
     int i;
-    for (i = 0; i < max; ++i) {
-        struct sockaddr_storage from;
-        socklen_t flen = sizeof from;
-        ssize_t n;
-        memset(&from, 0, sizeof from);
-        n = recvfrom(u->fd, u->rbuf, sizeof u->rbuf, MSG_DONTWAIT, (struct sockaddr *)&from, &flen);
-        if (n < 0) break;
-        pthread_mutex_lock(&u->mu); /* the net lock: one for both */
-        if (gs__udp_from_ok(u, (size_t)n, &from))
-            gs__deliver_locked(u->net, u->rbuf, (size_t)n, gs_udp_now(), NULL);
-        pthread_mutex_unlock(&u->mu);
-    }
+    for (i = 0; i < max && gs__udp_take(u, MSG_DONTWAIT); ++i) {}
 }
 
-/* The paper's gather thread: receive, validate, queue. */
+/* The paper's gather thread: receive, validate, queue. It sleeps in
+   recvfrom itself (the socket's receive timeout, GS__UDP_WAIT, bounds the
+   wait so that a stop is seen): one system call per datagram, where
+   poll, recvfrom and a last recvfrom that finds nothing made three. */
 GS__PRIVATE void *gs__udp_gather(void *arg) {
     gs_udp *u = (gs_udp *)arg;
-    while (!__atomic_load_n(&u->stop, __ATOMIC_ACQUIRE)) {
-        struct pollfd pfd;
-        pfd.fd = u->fd;
-        pfd.events = POLLIN;
-        pfd.revents = 0;
-        if (poll(&pfd, 1, 20) > 0) gs__udp_drain(u, 256);
-    }
+    while (!__atomic_load_n(&u->stop, __ATOMIC_ACQUIRE)) gs__udp_take(u, 0);
     return NULL;
 }
 
@@ -6857,6 +6908,12 @@ GS__PRIVATE gs_result gs__udp_socket(gs_udp *u, const gs_udp_desc *d) {
     if (u->fd < 0)
         return gs__fail(u->world, GS_ERR_SYSTEM, "gs_udp_open: socket: %s", strerror(errno));
     setsockopt(u->fd, SOL_SOCKET, SO_RCVBUF, &rcv, sizeof rcv);
+    if (d->threads) { /* the gather thread's longest wait (poll mode never waits) */
+        struct timeval tv;
+        tv.tv_sec = 0;
+        tv.tv_usec = GS__UDP_WAIT;
+        setsockopt(u->fd, SOL_SOCKET, SO_RCVTIMEO, &tv, sizeof tv);
+    }
     if (bind(u->fd, (const struct sockaddr *)&addr, len) != 0) {
         gs_result r = gs__fail(u->world, GS_ERR_SYSTEM, "gs_udp_open: bind %s: %s", d->bind,
                                strerror(errno));
@@ -6892,6 +6949,7 @@ GS_API gs_result gs_udp_open(gs_world *w, const gs_udp_desc *desc, gs_udp **out)
     u->threads = desc->threads;
     pthread_mutex_init(&u->mu, NULL);
     pthread_mutex_init(&u->wake_mu, NULL);
+    pthread_mutex_init(&u->send_mu, NULL);
     pthread_cond_init(&u->wake, NULL);
     r = gs__udp_socket(u, desc);
     nd = desc->net;
@@ -6909,6 +6967,7 @@ GS_API gs_result gs_udp_open(gs_world *w, const gs_udp_desc *desc, gs_udp **out)
         if (u->net) gs_net_destroy(u->net);
         if (u->fd > 0) close(u->fd);
         pthread_cond_destroy(&u->wake);
+        pthread_mutex_destroy(&u->send_mu);
         pthread_mutex_destroy(&u->wake_mu);
         pthread_mutex_destroy(&u->mu);
         gs__free(w, u);
@@ -6933,6 +6992,7 @@ GS_API void gs_udp_close(gs_udp *u) {
     gs_net_destroy(u->net);
     close(u->fd);
     pthread_cond_destroy(&u->wake);
+    pthread_mutex_destroy(&u->send_mu);
     pthread_mutex_destroy(&u->wake_mu);
     pthread_mutex_destroy(&u->mu);
     gs__free(w, u);
