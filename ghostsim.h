@@ -7168,11 +7168,12 @@ GS__PRIVATE int gs__udp_resolve(const char *text, struct sockaddr_storage *out,
     return 1;
 }
 
-/* The transport's send: called by gs_net_update under the net lock. The
-   datagram is copied out with its address and sent when the lock is
-   released (gs__udp_unlock): a sendto on loopback takes microseconds, and
-   a gather thread that found the lock held would sleep on it and cost a
-   wake-up per datagram. A full batch (a big update) goes out at once. */
+/* The transport's send: called by gs_net_update under the net lock. With
+   the threads, the datagram is copied out with its address and sent when
+   the lock is released (gs__udp_unlock): a sendto on loopback takes
+   microseconds, and a gather thread that found the lock held would sleep
+   on it and cost a wake-up per datagram. A full batch (a big update) goes
+   out at once. In poll mode nobody else receives: it goes out now. */
 GS__PRIVATE gs_result gs__udp_send(void *user, uint32_t host, const void *data,
                                    size_t size) {
     gs_udp *u = (gs_udp *)user;
@@ -7181,6 +7182,11 @@ GS__PRIVATE gs_result gs__udp_send(void *user, uint32_t host, const void *data,
     for (p = 0; p < GS__MAX_PEERS; ++p)
         if (u->peers[p].used && u->peers[p].host == host) {
             gs__udp_out *o;
+            if (!u->threads) {
+                ssize_t r = sendto(u->fd, data, size, 0,
+                                   (const struct sockaddr *)&u->peers[p].addr, u->peers[p].len);
+                return r == (ssize_t)size ? GS_OK : GS_ERR_SYSTEM;
+            }
             pthread_mutex_lock(&u->send_mu);
             if (u->out_n == GS__UDP_BATCH) gs__udp_flush_out(u);
             o = &u->out[u->out_n];
