@@ -711,8 +711,8 @@ int main(int argc, char **argv) {
     bu_json_obj_begin(j, "summary");
     bu_json_num(j, "worst_ratio_to_raw", worst_raw);
     bu_json_num(j, "worst_ratio_to_enet", worst_enet);
-    bu_json_num(j, "ratio_to_raw_1196B", med_raw[NSIZES - 1]);
-    bu_json_num(j, "ratio_to_enet_1196B", med_enet[NSIZES - 1]);
+    bu_json_num(j, "ratio_to_raw_1164B", med_raw[NSIZES - 1]);
+    bu_json_num(j, "ratio_to_enet_1164B", med_enet[NSIZES - 1]);
     bu_json_bool(j, "target_90pct_of_raw_met", worst_raw >= 0.9);
     bu_json_bool(j, "target_ahead_of_enet_met", worst_enet > 1.0);
     bu_json_obj_end(j);
