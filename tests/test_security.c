@@ -7,6 +7,9 @@
    key run in clear. What is checked:
    - a key without GHOSTSIM_SODIUM is a clear error; with it, datagrams are
      sealed (flag set, values not in clear) and blended as before;
+   - a snapshot is encoded once for every peer: in clear, the datagrams
+     differ only in the sequence, the echo and the CRC; sealed, each has
+     its own nonce; each peer takes its own;
    - forged, tampered (every byte of a datagram, one at a time), replayed,
      wrongly keyed and in-clear datagrams are refused, each counted under
      its reason, and never blended; a forgery does not move the replay
@@ -257,6 +260,61 @@ static void expect_state(host *h, double base) {
             print_error("value %d is %.17g, expected %.17g\n", i, h->t.x[i], base + i);
         assert_true(fabs(h->t.x[i] - (base + i)) <= 1e-9);
     }
+}
+
+/* ---- one encoding, every peer ---- */
+
+/* gs_net_update encodes a snapshot once and sends it to every peer: each
+   peer's datagram carries its own sequence and echo and its own CRC (or
+   seal, with its own nonce), and each one is taken by its peer. Host 2
+   has peers 1 and 3; host 1 was heard from first, so its echo differs. */
+static void one_encoding_every_peer(const unsigned char *key) {
+    host_opts o;
+    host *h1, *h2, *h3;
+    gs_reject why;
+    size_t n;
+    int k;
+    memset(&o, 0, sizeof o);
+    o.key = key;
+    h1 = host_new(1, &o);
+    o.peers[0] = 2;
+    h3 = host_new(3, &o);
+    o.peers[0] = 1;
+    o.peers[1] = 3;
+    h2 = host_new(2, &o);
+    h1->now = 0.5;
+    assert_int_equal(host_send(h1, 1.0), 1);
+    assert_int_equal(deliver(h2, h1->out.data[0], h1->out.size[0], 0.6, &why), GS_OK);
+    for (k = 0; k < 3; ++k) {
+        h2->out.count = 0;
+        assert_int_equal(host_send(h2, 10.0 * k), 2);
+        assert_int_equal(h2->out.to[0], 1);
+        assert_int_equal(h2->out.to[1], 3);
+        n = h2->out.size[0];
+        assert_int_equal(h2->out.size[1], n);
+        if (!key) { /* the same bytes but the sequence, the echo and the CRC */
+            const unsigned char *a = h2->out.data[0], *b = h2->out.data[1];
+            assert_memory_equal(a, b, 16);
+            assert_memory_equal(a + 20, b + 20, 12);
+            assert_memory_equal(a + GS_WIRE_HEADER, b + GS_WIRE_HEADER, n - 4 - GS_WIRE_HEADER);
+            assert_memory_not_equal(a + 32, b + 32, 8);
+        }
+        assert_int_equal(deliver(h1, h2->out.data[0], n, 1.0 + k, &why), GS_OK);
+        expect_state(h1, 10.0 * k);
+        assert_int_equal(deliver(h3, h2->out.data[1], n, 1.0 + k, &why), GS_OK);
+        expect_state(h3, 10.0 * k);
+    }
+    host_free(h1);
+    host_free(h2);
+    host_free(h3);
+}
+
+static void test_one_encoding_every_peer(void **state) {
+    (void)state;
+    one_encoding_every_peer(NULL);
+#ifdef GHOSTSIM_SODIUM
+    one_encoding_every_peer(key_a);
+#endif
 }
 
 /* ---- the key ---- */
@@ -984,6 +1042,7 @@ static void test_udp_allow_list_ipv6(void **state) {
 int main(int argc, char **argv) {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_key_without_sodium),
+        cmocka_unit_test(test_one_encoding_every_peer),
 #ifdef GHOSTSIM_SODIUM
         cmocka_unit_test(test_key),
         cmocka_unit_test(test_nonces_never_repeat),

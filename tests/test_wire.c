@@ -693,6 +693,50 @@ static void check_decoded(const unsigned char *buf, size_t n, const gs_wire_view
    (so that the chunk parser sees the noise). Decoding never crashes; the
    first two families never decode (a random CRC matches once in 2^32);
    the third almost never does, and whatever decodes is self-consistent. */
+/* The CRC-32 that gs_wire_end writes (the header's sliced-by-8 tables):
+   the published check values of CRC-32/ISO-HDLC (zlib's crc32), then
+   random bytes of every length from 0 to past a datagram at every
+   alignment of the start, against this file's bitwise CRC. Each buffer
+   is a malloc of exactly its size, so a read past the end trips ASan. */
+static uint32_t crc_of(const unsigned char *p, size_t n, size_t align) {
+    unsigned char *buf = (unsigned char *)malloc(align + n + 4);
+    uint32_t c;
+    assert_non_null(buf);
+    if (n) memcpy(buf + align, p, n);
+    assert_int_equal(gs_wire_end(buf + align, n), n + 4);
+    c = (uint32_t)buf[align + n] | (uint32_t)buf[align + n + 1] << 8 |
+        (uint32_t)buf[align + n + 2] << 16 | (uint32_t)buf[align + n + 3] << 24;
+    free(buf);
+    return c;
+}
+
+static void test_crc32_known_values(void **state) {
+    static const struct { const char *text; uint32_t crc; } known[] = {
+        {"", 0x00000000u},
+        {"a", 0xe8b7be43u},
+        {"abc", 0x352441c2u},
+        {"123456789", 0xcbf43926u},
+        {"The quick brown fox jumps over the lazy dog", 0x414fa339u},
+    };
+    unsigned char buf[GS_WIRE_MAX_DATAGRAM + 100];
+    size_t i, n, align;
+    (void)state;
+    for (i = 0; i < sizeof known / sizeof known[0]; ++i)
+        for (align = 0; align < 8; ++align)
+            assert_int_equal(crc_of((const unsigned char *)known[i].text,
+                                    strlen(known[i].text), align), known[i].crc);
+    lcg_state = 4242u;
+    for (n = 0; n < sizeof buf; ++n) {
+        for (i = 0; i < n; ++i) buf[i] = (unsigned char)lcg();
+        align = n % 8;
+        assert_int_equal(crc_of(buf, n, align), crc32_ref(buf, n));
+    }
+    memset(buf, 0xff, sizeof buf); /* every table entry's high byte path */
+    for (n = 0; n < 64; ++n)
+        for (align = 0; align < 8; ++align)
+            assert_int_equal(crc_of(buf, n, align), crc32_ref(buf, n));
+}
+
 static void test_random_garbage(void **state) {
     gs_wire_view *v = (gs_wire_view *)malloc(sizeof *v);
     int k, decoded[3] = {0, 0, 0}, tries[3] = {0, 0, 0};
@@ -789,6 +833,7 @@ int main(int argc, char **argv) {
         cmocka_unit_test(test_reject_not_finite_value),
         cmocka_unit_test(test_reject_time),
         cmocka_unit_test(test_reject_strings),
+        cmocka_unit_test(test_crc32_known_values),
         cmocka_unit_test(test_random_garbage),
         cmocka_unit_test(test_mutated_datagrams),
     };
