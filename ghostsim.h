@@ -797,7 +797,9 @@ GS_API gs_result gs_scene_attach_ghosts(gs_scene *sc, const gs_ghost_desc *share
    Wire format v1, little-endian. A datagram (at most GS_WIRE_MAX_DATAGRAM
    bytes) is a header, whole chunks, and a CRC-32 of everything before it:
      header (48 B): magic "GSIM", version u8 = 1, flags u8, chunk count u16,
-       session u32, sender host u32, datagram sequence u32, reserved u32,
+       session u32, sender host u32, datagram sequence u32, run u32 (drawn
+       by the sender at each start, so that its peers know it started again
+       and its sequence with it; 0: not said),
        send time f64 (s, sender's clock), echo time f64 (the latest send time
        received from the destination), echo hold f64 (s it was held since)
      chunk (32 B + payload): object id u32, snapshot sequence u32,
@@ -842,6 +844,7 @@ GS_API gs_result gs_scene_attach_ghosts(gs_scene *sc, const gs_ghost_desc *share
 
 typedef struct gs_wire_header {
     uint32_t session, sender, sequence;
+    uint32_t run;                           /* the sender's run, 0: not said */
     double send_time, echo_time, echo_hold; /* s */
 } gs_wire_header;
 
@@ -4629,6 +4632,7 @@ typedef struct gs__peer {
     double tokens;            /* bytes the budget allows now */
     double tokens_at;         /* s, wall time of the last refill */
     gs__peer_guard guard;     /* replay window, receive cap (>>net) */
+    uint32_t run, prev_run;   /* their run, and the one before (0: none) */
     int clock_known;          /* their clock against ours, from the round */
     double clock_offset;      /* trip with the least delay: s, their */
     double clock_rtt;         /* datagrams' (arrival - send time) less the */
@@ -4638,6 +4642,7 @@ typedef struct gs__peer {
 struct gs_net {
     gs_world *world;
     gs_net_desc d;
+    uint32_t run;             /* this run's number, in every header */
     gs__peer peers[GS__MAX_PEERS];
     uint64_t unknown_rejected[GS_REJECT_COUNT];
     gs_net_lock lock;
@@ -5293,7 +5298,7 @@ GS_API gs_result gs_wire_begin(unsigned char *buf, size_t cap,
     gs__put32(buf + 8, h->session);
     gs__put32(buf + 12, h->sender);
     gs__put32(buf + 16, h->sequence);
-    gs__put32(buf + 20, 0);
+    gs__put32(buf + 20, h->run);
     gs__putf64(buf + 24, h->send_time);
     gs__putf64(buf + 32, h->echo_time);
     gs__putf64(buf + 40, h->echo_hold);
@@ -5458,6 +5463,7 @@ GS__PRIVATE int gs__wire_parse(const unsigned char *buf, size_t end, gs_wire_vie
     out->header.session = gs__get32(buf + 8);
     out->header.sender = gs__get32(buf + 12);
     out->header.sequence = gs__get32(buf + 16);
+    out->header.run = gs__get32(buf + 20);
     out->header.send_time = gs__getf64(buf + 24);
     out->header.echo_time = gs__getf64(buf + 32);
     out->header.echo_hold = gs__getf64(buf + 40);
@@ -5562,6 +5568,19 @@ GS__PRIVATE gs_result gs__ghost_queues(gs__ghost *g) {
     return GS_OK;
 }
 
+/* This run's number: different at each start of a peer, so that its peers
+   see it started again (its datagram sequence starts again too). Not a
+   secret and not an order, only different: the wall clock's seconds, the
+   CPU time used so far and where the net lives (which address-space
+   randomization moves at each start) mixed together; never 0. */
+GS__PRIVATE uint32_t gs__net_run(const gs_net *net) {
+    uint64_t x = (uint64_t)time(NULL) ^ (uint64_t)clock() << 24 ^ (uint64_t)(uintptr_t)net;
+    x ^= x >> 33;
+    x *= 0xff51afd7ed558ccdull; /* the splitmix64 / murmur3 finalizer */
+    x ^= x >> 33;
+    return (uint32_t)x ? (uint32_t)x : 1u;
+}
+
 GS_API gs_result gs_net_create(gs_world *w, const gs_net_desc *desc,
                                gs_net **out) {
     gs__check c;
@@ -5599,6 +5618,7 @@ GS_API gs_result gs_net_create(gs_world *w, const gs_net_desc *desc,
     net->world = w;
     net->d = d;
     net->d.key = NULL; /* the copy below is the net's; the caller's may go */
+    net->run = gs__net_run(net);
     if (d.key) gs__net_keep_key(net, d.key);
     w->net = net;
     *out = net;
@@ -5695,12 +5715,13 @@ GS_API gs_result gs_net_unknown_stats(const gs_net *net,
 
 /* ---- sending ---- */
 
-/* The budget: a token bucket of bandwidth bytes/s holding at most 50 ms. */
+/* The budget: a token bucket of bandwidth bytes/s holding at most 50 ms.
+   A clock that goes back refills nothing (and drains nothing). */
 GS__PRIVATE int gs__peer_budget(gs_net *net, gs__peer *pe, size_t bytes, double now) {
     double cap = 0.05 * net->d.bandwidth;
     if (cap < GS_WIRE_MAX_DATAGRAM) cap = GS_WIRE_MAX_DATAGRAM;
     if (pe->tokens < 0.0) { pe->tokens = cap; pe->tokens_at = now; }
-    pe->tokens += (now - pe->tokens_at) * net->d.bandwidth;
+    if (now > pe->tokens_at) pe->tokens += (now - pe->tokens_at) * net->d.bandwidth;
     pe->tokens_at = now;
     if (pe->tokens > cap) pe->tokens = cap;
     if (pe->tokens < (double)bytes) return 0;
@@ -5715,6 +5736,7 @@ GS__PRIVATE void gs__datagram_begin(gs_net *net, double now, size_t *size) {
     memset(&h, 0, sizeof h);
     h.session = net->d.session;
     h.sender = net->world->host_id;
+    h.run = net->run;
     h.send_time = now;
     gs_wire_begin(net->buf, sizeof net->buf, &h, size);
 }
@@ -5796,6 +5818,15 @@ GS__PRIVATE void gs__send_ghost(gs_net *net, const gs__ghost *g, double now, siz
         if (net->peers[p].used) net->peers[p].st.snapshots_sent++;
 }
 
+/* Has a ghost a new B to send at wall time now? Its next send further
+   ahead than one period means the clock went back since (or one `now`
+   was wild, 1e300): due at once, or the ghost would be silent until the
+   clock came back there. */
+GS__PRIVATE int gs__ghost_due(const gs__ghost *g, double now) {
+    double period = 1.0 / g->d.send_rate;
+    return g->b_seq != g->sent_seq && (now >= g->next_send || g->next_send - now > period);
+}
+
 /* Every due ghost is encoded once into datagrams that go to every peer
    (a peer whose budget is spent misses that datagram). */
 GS_API gs_result gs_net_update(gs_net *net, double now) {
@@ -5809,7 +5840,7 @@ GS_API gs_result gs_net_update(gs_net *net, double now) {
     if (peers) gs__datagram_begin(net, now, &size);
     for (i = 0; i < w->agent_count; ++i) {
         gs__ghost *g = gs__ghost_of(w->agents[i]);
-        if (!g || now < g->next_send || g->b_seq == g->sent_seq) continue;
+        if (!g || !gs__ghost_due(g, now)) continue;
         if (peers) gs__send_ghost(net, g, now, &size);
         g->sent_seq = g->b_seq;
         g->next_send = now + 1.0 / g->d.send_rate;
@@ -5824,6 +5855,37 @@ GS_API gs_result gs_net_update(gs_net *net, double now) {
 /* Wrap-safe: a is newer than b. */
 GS__PRIVATE int gs__seq_newer(uint32_t a, uint32_t b) {
     return (int32_t)(a - b) > 0;
+}
+
+/* A peer that started again (a new run number in its header) starts its
+   datagram sequence and its clock again: what was known of the old run is
+   forgotten (its sequence window, which would take the new run's first
+   datagrams for duplicates or too old to tell; the clock offset; the send
+   time to echo; snapshots queued from it). A datagram of the run before
+   that arrives late is refused (0). A peer that does not say (0) is taken
+   as it comes. Under the lock. */
+GS__PRIVATE int gs__peer_run(gs_net *net, int p, uint32_t run) {
+    gs__peer *pe = &net->peers[p];
+    gs_world *w = net->world;
+    int i, k;
+    if (run == 0 || run == pe->run) return 1;
+    if (run == pe->prev_run) return 0;
+    if (pe->run != 0) {
+        pe->recv_any = 0;
+        pe->clock_known = 0;
+        pe->their_send_time = 0.0;
+        for (i = 0; i < w->agent_count; ++i) {
+            gs__ghost *g = gs__ghost_of(w->agents[i]);
+            for (k = 0; g && g->q[p] && k < g->d.queue_size; ++k) {
+                g->q[p][k].used = 0;
+                g->q[p][k].chunks = 0;
+                memset(g->q[p][k].got, 0, (size_t)g->nchunks);
+            }
+        }
+    }
+    pe->prev_run = pe->run;
+    pe->run = run;
+    return 1;
 }
 
 /* Loss and duplicates from the datagram sequence, with a 64-wide window.
@@ -6104,6 +6166,8 @@ GS__PRIVATE gs_result gs__deliver_locked(gs_net *net, const void *data, size_t s
         res = gs__reject(net, p, r, why);
     } else if (!gs__chunks_fit(net, v, now, ghosts, &r)) {
         res = gs__reject(net, p, r, why);
+    } else if (!gs__peer_run(net, p, v->header.run)) {
+        res = gs__reject(net, p, GS_REJECT_REPLAY, why);
     } else if ((order = gs__peer_sequence(&net->peers[p], v->header.sequence)) == 0) {
         net->peers[p].st.duplicates++;
         res = gs__reject(net, p, GS_REJECT_DUPLICATE, why);

@@ -842,7 +842,7 @@ def table(rows):
     lines.append("final: over the last second; bad sent: corrupted by the proxy (+ invalid as "
                  "sent), refused: the receiver's rejected_unknown;")
     lines.append("dups: copies the proxy delivered, and the receiver's rejected from its peers "
-                 "(a restarted sender adds up to 64: see README).")
+                 "(a late datagram of a restarted sender's previous run counts too).")
     return "\n".join(lines)
 
 

@@ -155,6 +155,7 @@ typedef struct snap {
     uint32_t object, sseq;  /* snapshot: object id, its sequence */
     double time;            /* its simulation time */
     double send_time;       /* s, the sender's clock; default 1 */
+    uint32_t run;           /* the sender's run; default 0, not said */
     double echo_time, echo_hold;
     gs_encoding enc;        /* default f64 */
     uint16_t index, count;  /* default 0 of 1 */
@@ -169,6 +170,7 @@ static size_t snap_datagram(unsigned char *buf, const snap *s, const double *val
     h.session = 1;
     h.sender = s->sender;
     h.sequence = s->dseq;
+    h.run = s->run;
     h.send_time = s->send_time != 0.0 ? s->send_time : 1.0;
     h.echo_time = s->echo_time;
     h.echo_hold = s->echo_hold;
@@ -502,6 +504,65 @@ static void test_owner_restart_time(void **state) {
     get_state(h->a, got, 4);
     assert_true(got[1] == 0.3);
     assert_true(got[0] > 5.0 && got[0] < 5.01);
+    host_free(h);
+}
+
+/* A peer that starts again says so with a new run number: its datagram
+   sequence starts from 0 again and none of it counts as a duplicate or as
+   too old to tell its clock; a datagram of its previous run that comes
+   late is refused (GS_REJECT_REPLAY). */
+static void test_peer_new_run(void **state) {
+    static const uint32_t peers[] = {2, 0};
+    const double x0[3] = {0.0, 1.0, 0.0}, q[3] = {0.1, 1.0, 0.0};
+    gs_ghost_desc gd = ghost_exp(3, NULL);
+    host *h = host_new(1, 0.002, 1, 2.0, x0, &gd, peers);
+    unsigned char buf[GS_WIRE_MAX_DATAGRAM];
+    gs_peer_stats ps;
+    gs_reject why = GS_REJECT_COUNT;
+    snap s;
+    uint32_t k;
+    (void)state;
+    for (k = 0; k < 5; ++k) {           /* the first run: datagrams 100-104 */
+        s = snap_of(2, 100 + k, 3, 1 + k, 1.9);
+        s.run = 0xabcd;
+        assert_int_equal(deliver(h->net, &s, q, 3, 10.0 + 0.01 * k), GS_OK);
+    }
+    for (k = 0; k < 5; ++k) {           /* started again: datagrams 0-4 */
+        s = snap_of(2, k, 3, 1 + k, 0.1);
+        s.run = 0x1234;
+        assert_int_equal(deliver(h->net, &s, q, 3, 12.0 + 0.01 * k), GS_OK);
+    }
+    assert_int_equal(gs_net_peer_stats(h->net, 2, &ps), GS_OK);
+    assert_int_equal(ps.duplicates, 0);
+    assert_int_equal(ps.datagrams_received, 10);
+    /* the first run's datagram 105, late: refused */
+    s = snap_of(2, 105, 3, 6, 1.95);
+    s.run = 0xabcd;
+    assert_int_equal(gs_net_deliver(h->net, buf, snap_datagram(buf, &s, q, 3), 12.1, &why),
+                     GS_ERR_REJECTED);
+    assert_int_equal(why, GS_REJECT_REPLAY);
+    host_free(h);
+}
+
+/* A wall time that jumps far ahead once (1e300) and comes back: a ghost's
+   next send is then further ahead than a period, so it is due at once
+   rather than silent until the clock gets back there. */
+static void test_send_after_wild_now(void **state) {
+    static const uint32_t peers[] = {2, 0};
+    const double x0[3] = {0.0, 1.0, 0.0};
+    gs_ghost_desc gd = ghost_exp(3, NULL);
+    host *h = host_new(1, 0.002, 1, 2.0, x0, &gd, peers);
+    long before;
+    int k;
+    (void)state;
+    assert_int_equal(gs_agent_step(h->a), GS_OK);        /* publishes */
+    assert_int_equal(gs_net_update(h->net, 1e300), GS_OK);
+    assert_int_equal(h->sent, 1);
+    before = h->sent;
+    for (k = 0; k < 10; ++k)        /* 20 ms: past the next 1/60 s publish */
+        assert_int_equal(gs_agent_step(h->a), GS_OK);
+    assert_int_equal(gs_net_update(h->net, 10.0), GS_OK);
+    assert_true(h->sent == before + 1);
     host_free(h);
 }
 
@@ -1496,6 +1557,8 @@ int main(int argc, char **argv) {
         cmocka_unit_test(test_blend_with_age),
         cmocka_unit_test(test_clock_offset),
         cmocka_unit_test(test_owner_restart_time),
+        cmocka_unit_test(test_peer_new_run),
+        cmocka_unit_test(test_send_after_wild_now),
         cmocka_unit_test(test_blend_many_snapshots),
         cmocka_unit_test(test_shift_invariance),
         cmocka_unit_test(test_client_server_three_hosts),
