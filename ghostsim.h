@@ -834,6 +834,11 @@ GS_API gs_result gs_scene_attach_ghosts(gs_scene *sc, const gs_ghost_desc *share
 #define GS_WIRE_CHUNK_HEADER 32
 #define GS_WIRE_MAX_CHUNKS 64 /* chunks one datagram may carry */
 #define GS_WIRE_FLAG_SEALED 0x01
+/* The latest simulation time a chunk may carry (s; 31 years). A double
+   there still resolves 1.2e-7 s, so a 1 ms step still moves a clock; a time
+   far past it (1e308 from a broken or hostile peer) would stop every clock
+   that took it (t + dt == t). */
+#define GS_WIRE_MAX_TIME 1e9
 #define GS_WIRE_KEY_BYTES 32
 #define GS_WIRE_NONCE_BYTES 24
 #define GS_WIRE_TAG_BYTES 16
@@ -876,7 +881,9 @@ typedef struct gs_wire_view {
     X(GS_REJECT_OBJECT, "unknown object id")                                   \
     X(GS_REJECT_RANGE, "elements or chunk index outside the object's state")   \
     X(GS_REJECT_NOT_FINITE, "a NaN or infinite value")                         \
-    X(GS_REJECT_TIME, "simulation time negative, non-finite or off window")    \
+    X(GS_REJECT_TIME,                                                          \
+      "simulation time negative, past GS_WIRE_MAX_TIME, non-finite or off "    \
+      "window")                                                                \
     X(GS_REJECT_DUPLICATE, "a datagram already received")                      \
     X(GS_REJECT_ADDRESS,                                                       \
       "from an address other than the one registered for its sender")          \
@@ -902,7 +909,8 @@ GS_API gs_result gs_wire_begin(unsigned char *buf, size_t cap,
                                const gs_wire_header *h, size_t *size);
 /* Appends a chunk of `c->elements` values. GS_ERR_CAPACITY if it does not
    fit in cap (leave room for the 4-byte checksum), GS_ERR_NOT_FINITE for a
-   NaN or infinite value, or one beyond float range in f32 (never sent). */
+   NaN or infinite value, or one beyond float range in f32 (never sent),
+   GS_ERR_INVALID_ARG for a time negative or past GS_WIRE_MAX_TIME. */
 GS_API gs_result gs_wire_add(unsigned char *buf, size_t cap, size_t *size,
                              const gs_wire_chunk *c, const double *values);
 /* Writes the chunk count and the checksum; returns the datagram size. */
@@ -5347,6 +5355,7 @@ GS_API gs_result gs_wire_add(unsigned char *buf, size_t cap, size_t *size,
     need = GS_WIRE_CHUNK_HEADER + vs * c->elements;
     if (*size + need + 4 > cap || *size + need + 4 > GS_WIRE_MAX_DATAGRAM) return GS_ERR_CAPACITY;
     if (!gs__finite(c->time)) return GS_ERR_NOT_FINITE;
+    if (c->time < 0.0 || c->time > GS_WIRE_MAX_TIME) return GS_ERR_INVALID_ARG;
     /* the values first, checked as they are written: the bytes past *size
        are the caller's scratch until the chunk is counted below */
     if (!gs__wire_put_values(buf + *size + GS_WIRE_CHUNK_HEADER, c->encoding, values,
@@ -5436,7 +5445,7 @@ GS__PRIVATE int gs__wire_chunk(const unsigned char *buf, size_t end, size_t *off
         c->count == 0 || c->index >= c->count) { *why = GS_REJECT_LAYOUT; return 0; }
     len = gs__value_size(c->encoding) * c->elements;
     if (*off + GS_WIRE_CHUNK_HEADER + len > end) { *why = GS_REJECT_SHORT; return 0; }
-    if (!gs__finite(c->time) || c->time < 0.0) { *why = GS_REJECT_TIME; return 0; }
+    if (!(c->time >= 0.0 && c->time <= GS_WIRE_MAX_TIME)) { *why = GS_REJECT_TIME; return 0; }
     c->payload = p + GS_WIRE_CHUNK_HEADER;
     if (!gs__wire_values_finite(c)) { *why = GS_REJECT_NOT_FINITE; return 0; }
     *off += GS_WIRE_CHUNK_HEADER + len;

@@ -624,16 +624,34 @@ static void test_reject_not_finite_value(void **state) {
 }
 
 static void test_reject_time(void **state) {
-    static const double bad[5] = {-1e-300, -1.0, -INFINITY, INFINITY, 0.0 /* NaN below */};
+    static const double bad[7] = {-1e-300, -1.0, -INFINITY, INFINITY, 1e308,
+                                  GS_WIRE_MAX_TIME * (1.0 + 1e-15), 0.0 /* NaN below */};
     unsigned char buf[GS_WIRE_MAX_DATAGRAM];
     size_t n;
     int k;
     (void)state;
-    for (k = 0; k < 5; ++k) {
+    for (k = 0; k < 7; ++k) {
         n = valid_datagram(buf, sizeof buf);
-        putf64(buf + GS_WIRE_HEADER + C_TIME, k < 4 ? bad[k] : NAN);
+        putf64(buf + GS_WIRE_HEADER + C_TIME, k < 6 ? bad[k] : NAN);
         recrc(buf, n);
         expect_reject(buf, n, GS_REJECT_TIME);
+    }
+    /* the encoder does not make what the decoder refuses */
+    {
+        gs_wire_header h;
+        gs_wire_chunk c;
+        double v = 1.0;
+        size_t size;
+        memset(&h, 0, sizeof h);
+        memset(&c, 0, sizeof c);
+        c.count = 1;
+        c.elements = 1;
+        c.encoding = GS_ENCODING_F64;
+        c.time = 1e308;
+        assert_int_equal(gs_wire_begin(buf, sizeof buf, &h, &size), GS_OK);
+        assert_int_equal(gs_wire_add(buf, sizeof buf, &size, &c, &v), GS_ERR_INVALID_ARG);
+        c.time = GS_WIRE_MAX_TIME;
+        assert_int_equal(gs_wire_add(buf, sizeof buf, &size, &c, &v), GS_OK);
     }
     /* -0.0 is not negative */
     {
