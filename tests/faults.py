@@ -1068,7 +1068,7 @@ def run_soak(exe, seconds):
                                or "none"))
         print("  counts at the end (this incarnation): %s" % counts)
         print("  resident memory: %s" % "; ".join(mem_rows))
-        print("  divergence, every pair at equal wall time, per 30 s (start: median / p95 / max, mm):")
+        print("  divergence, every pair at equal simulation time, per 30 s (start: median / p95 / max, mm):")
         for w0, med, p95, mx in win:
             print("    %4d s  %8.3f %8.3f %8.3f%s" % (w0, 1e3 * med, 1e3 * p95, 1e3 * mx,
                                                    "   (quiet)" if w0 + 30 > faulty else ""))
