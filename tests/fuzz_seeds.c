@@ -178,7 +178,8 @@ static void hand_made(void) {
 }
 
 /* Values and times at the edges: the largest f64 and f32, subnormals,
-   -0, a time of 1e308. */
+   -0, the latest time the wire carries (GS_WIRE_MAX_TIME; the fuzzer
+   mutates it past the edge, which decode must refuse). */
 static void extremes(double *v) {
     gs_wire_chunk c[2];
     int i;
@@ -192,9 +193,9 @@ static void extremes(double *v) {
     c[1] = chunk(11, 0.05, 1, 2, 279, 9, GS_ENCODING_F32);
     wire_seed("wire-huge-f32", 13, c, 2, v);
     for (i = 0; i < 300; ++i) v[i] = 0.01 * i;
-    c[0] = chunk(14, 1e308, 0, 1, 0, 6, GS_ENCODING_F64);
-    c[1] = chunk(12, 1e308, 0, 1, 0, 13, GS_ENCODING_F64);
-    wire_seed("wire-time-1e308", 14, c, 2, v);
+    c[0] = chunk(14, GS_WIRE_MAX_TIME, 0, 1, 0, 6, GS_ENCODING_F64);
+    c[1] = chunk(12, GS_WIRE_MAX_TIME, 0, 1, 0, 13, GS_ENCODING_F64);
+    wire_seed("wire-time-max", 14, c, 2, v);
 }
 
 int main(int argc, char **argv) {
