@@ -1356,6 +1356,8 @@ struct gs_agent {
     int queued;
     int failed;
     uint64_t enqueued_at; /* world->dispatches when it was queued */
+    double span_t;       /* s; its time when the span heaps last saw it */
+    int span_lo, span_hi; /* its place in them, -1 when out (failed) */
     gs_agent_stats stats;
     void *ghost;         /* gs__ghost, if one is attached */
 };
@@ -1374,6 +1376,11 @@ struct gs_world {
     int busy;            /* inside gs_world_advance */
     gs_agent **agents;
     int agent_count, agent_cap;
+    /* During an advance, the live agents in a min-heap and a max-heap on
+       their time (agent_cap each): the slowest and fastest time at every
+       dispatch without a scan of every agent. */
+    gs_agent **span_lo, **span_hi;
+    int span_n;
     uint64_t dispatches;
     gs_net *net;         /* at most one */
     struct gs__rigid **bodies; /* the broad phase: rigid bodies and probes
@@ -1495,6 +1502,7 @@ GS_API void gs_world_destroy(gs_world *w) {
         gs__free(w, w->agents[i]);
     }
     gs__free(w, w->agents);
+    gs__free(w, w->span_lo);
     gs__free(w, w->bodies);
     w->alloc.free(w, w->alloc.user);
 }
@@ -1505,11 +1513,19 @@ GS__PRIVATE gs_result gs__world_add(gs_world *w, gs_agent *a) {
     if (w->agent_count == w->agent_cap) {
         int cap = w->agent_cap ? 2 * w->agent_cap : 8;
         gs_agent **list = (gs_agent **)gs__alloc(w, (size_t)cap * sizeof *list);
-        if (!list) return gs__fail(w, GS_ERR_NO_MEMORY, "agent list: out of memory");
+        gs_agent **heaps = (gs_agent **)gs__alloc(w, 2 * (size_t)cap * sizeof *heaps);
+        if (!list || !heaps) {
+            gs__free(w, list);
+            gs__free(w, heaps);
+            return gs__fail(w, GS_ERR_NO_MEMORY, "agent list: out of memory");
+        }
         if (w->agent_count)
             memcpy(list, w->agents, (size_t)w->agent_count * sizeof *list);
         gs__free(w, w->agents);
+        gs__free(w, w->span_lo);
         w->agents = list;
+        w->span_lo = heaps; /* the heaps are rebuilt at each advance */
+        w->span_hi = heaps + cap;
         w->agent_cap = cap;
     }
     a->index = w->agent_count;
@@ -1610,6 +1626,102 @@ GS__PRIVATE int gs__clamp_priority(const gs_world *w, int p) {
 /* Done for this advance: within half a step of the target. */
 GS__PRIVATE int gs__agent_done(const gs_agent *a) {
     return gs__agent_time(a) >= a->world->target - 0.5 * a->dt;
+}
+
+/* ---- the span heaps: the slowest and fastest live agent in O(log n) per
+   change of a time, where a scan at every dispatch made a frame O(n^2).
+   They hold exactly the agents gs__time_span counts (the ones not failed)
+   and each one's time as gs__agent_time computes it, so the span is the
+   same, bit for bit. ---- */
+GS__PRIVATE int *gs__span_pos(gs_agent *a, int hi) {
+    return hi ? &a->span_hi : &a->span_lo;
+}
+
+/* Does a belong above b: earlier in the min-heap, later in the max-heap. */
+GS__PRIVATE int gs__span_above(const gs_agent *a, const gs_agent *b, int hi) {
+    return hi ? a->span_t > b->span_t : a->span_t < b->span_t;
+}
+
+GS__PRIVATE void gs__span_put(gs_agent **heap, int i, gs_agent *a, int hi) {
+    heap[i] = a;
+    *gs__span_pos(a, hi) = i;
+}
+
+GS__PRIVATE void gs__span_down(gs_world *w, int hi, int i) {
+    gs_agent **heap = hi ? w->span_hi : w->span_lo, *a = heap[i];
+    for (;;) {
+        int c = 2 * i + 1;
+        if (c >= w->span_n) break;
+        if (c + 1 < w->span_n && gs__span_above(heap[c + 1], heap[c], hi)) c++;
+        if (!gs__span_above(heap[c], a, hi)) break;
+        gs__span_put(heap, i, heap[c], hi);
+        i = c;
+    }
+    gs__span_put(heap, i, a, hi);
+}
+
+/* Moves heap[i] up or down to its place. */
+GS__PRIVATE void gs__span_sift(gs_world *w, int hi, int i) {
+    gs_agent **heap = hi ? w->span_hi : w->span_lo, *a = heap[i];
+    while (i > 0 && gs__span_above(a, heap[(i - 1) / 2], hi)) {
+        gs__span_put(heap, i, heap[(i - 1) / 2], hi);
+        i = (i - 1) / 2;
+    }
+    gs__span_put(heap, i, a, hi);
+    gs__span_down(w, hi, i);
+}
+
+/* Every agent not failed, at the start of an advance. */
+GS__PRIVATE void gs__span_build(gs_world *w) {
+    int i, hi;
+    w->span_n = 0;
+    for (i = 0; i < w->agent_count; ++i) {
+        gs_agent *a = w->agents[i];
+        a->span_lo = a->span_hi = -1;
+        if (a->failed) continue;
+        a->span_t = gs__agent_time(a);
+        gs__span_put(w->span_lo, w->span_n, a, 0);
+        gs__span_put(w->span_hi, w->span_n, a, 1);
+        w->span_n++;
+    }
+    for (hi = 0; hi < 2; ++hi)
+        for (i = w->span_n / 2 - 1; i >= 0; --i) gs__span_down(w, hi, i);
+}
+
+/* After a's time changed (a step, a blend, a set_state). */
+GS__PRIVATE void gs__span_update(gs_agent *a) {
+    gs_world *w = a->world;
+    if (!w->busy || a->span_lo < 0) return;
+    a->span_t = gs__agent_time(a);
+    gs__span_sift(w, 0, a->span_lo);
+    gs__span_sift(w, 1, a->span_hi);
+}
+
+/* A failed agent leaves the span. */
+GS__PRIVATE void gs__span_remove(gs_agent *a) {
+    gs_world *w = a->world;
+    int hi;
+    if (a->span_lo < 0) return;
+    w->span_n--;
+    for (hi = 0; hi < 2; ++hi) {
+        gs_agent **heap = hi ? w->span_hi : w->span_lo;
+        int i = *gs__span_pos(a, hi);
+        if (i < w->span_n) {
+            gs__span_put(heap, i, heap[w->span_n], hi);
+            gs__span_sift(w, hi, i);
+        }
+    }
+    a->span_lo = a->span_hi = -1;
+}
+
+/* The span from the heaps: what gs__time_span would find. */
+GS__PRIVATE void gs__span_get(const gs_world *w, double *t_min, double *t_max) {
+    if (w->span_n == 0) {
+        *t_min = *t_max = w->target;
+        return;
+    }
+    *t_min = w->span_lo[0]->span_t;
+    *t_max = w->span_hi[0]->span_t;
 }
 
 /* Slowest and fastest simulation time of the agents still live. */
@@ -1738,14 +1850,16 @@ GS__PRIVATE int gs__dispatch(gs_world *w, gs_result *first_error,
     double t_min, t_max;
     gs_agent *a;
     gs_result r;
-    gs__time_span(w, &t_min, &t_max);
+    gs__span_get(w, &t_min, &t_max);
     a = gs__pick(w, t_min);
     if (!a) return 0;
     gs__activate(w, a, t_min, t_max);
     w->dispatches++;
     r = gs__agent_step(a);
+    gs__span_update(a);
     if (r != GS_OK) {
         a->failed = 1;
+        gs__span_remove(a);
         rep->failed_agents++;
         if (*first_error == GS_OK) *first_error = r;
         return 1;
@@ -1821,6 +1935,7 @@ GS_API gs_result gs_world_advance(gs_world *w, double seconds,
     gs__sap_refresh(w);
     if (w->budget > 0.0) start = w->clock(w->clock_user);
     gs__queue_all(w);
+    gs__span_build(w);
     rep.reached = 1;
     for (;;) {
         if (w->budget > 0.0 && w->clock(w->clock_user) - start >= w->budget) {
@@ -1948,9 +2063,17 @@ GS_API gs_result gs_agent_get_state(const gs_agent *a, double *out,
     return GS_OK;
 }
 
+/* Sets a state already checked: right size, every value finite. */
+GS__PRIVATE gs_result gs__agent_put_state(gs_agent *a, const double *in) {
+    gs_result r = a->kind->set_state(a, in + 1);
+    if (r != GS_OK) return r;
+    a->t_offset = in[0] - (double)a->steps * a->dt;
+    gs__span_update(a);
+    return GS_OK;
+}
+
 GS_API gs_result gs_agent_set_state(gs_agent *a, const double *in, size_t n) {
     size_t i;
-    gs_result r;
     if (n != gs_agent_state_size(a))
         return gs__fail(a->world, GS_ERR_SIZE_MISMATCH,
                         "gs_agent_set_state: n is %lu, the state has %lu",
@@ -1964,10 +2087,7 @@ GS_API gs_result gs_agent_set_state(gs_agent *a, const double *in, size_t n) {
             return gs__fail(a->world, GS_ERR_NOT_FINITE,
                             "gs_agent_set_state: element %lu is %g",
                             (unsigned long)i, in[i]);
-    r = a->kind->set_state(a, in + 1);
-    if (r != GS_OK) return r;
-    a->t_offset = in[0] - (double)a->steps * a->dt;
-    return GS_OK;
+    return gs__agent_put_state(a, in);
 }
 
 GS_API gs_result gs_agent_step(gs_agent *a) {
