@@ -4711,8 +4711,12 @@ struct gs__ghost {
     double next_publish;  /* s, simulation time */
     double next_send;     /* s, wall time */
     gs__snap *q[GS__MAX_PEERS]; /* queue_size snapshots per peer slot */
-    double *num, *den, *local, *scratch, *offset;
+    double *local, *scratch;
+    double *offset, *offset_next; /* render offsets; a blend writes the next
+                                     ones and swaps only if it is applied */
     double *wq;           /* weight of each queued snapshot in a blend */
+    struct gs__src *src;  /* the queued snapshots of a blend, in order */
+    int nsrc;
     double offset_t;      /* s; simulation time the offset was last set */
     double t_local;       /* s; the agent's time after its last step, for
                              the receiving side (written under the lock) */
@@ -4726,6 +4730,16 @@ struct gs__ghost {
     gs_ghost_stats stats;
 };
 typedef struct gs__ghost gs__ghost;
+
+/* One queued snapshot as a blend reads it. */
+typedef struct gs__src {
+    const double *v;          /* its values (the state without its time) */
+    const unsigned char *got; /* per chunk */
+    double w;                 /* its weight */
+    double d2;                /* sum of squared position differences */
+    size_t counted;           /* position values in d2 */
+    int peer;
+} gs__src;
 
 typedef struct gs__peer {
     int used;
@@ -4861,7 +4875,8 @@ GS_API gs_result gs_ghost_attach(gs_agent *a, const gs_ghost_desc *desc) {
     d = gs__ghost_defaults(desc);
     r = gs__ghost_check(w, &d);
     if (r != GS_OK) return r;
-    bytes = sizeof *g + (6 * n + (size_t)GS__MAX_PEERS * (size_t)d.queue_size) * sizeof(double);
+    bytes = sizeof *g + (size_t)GS__MAX_PEERS * (size_t)d.queue_size * sizeof(gs__src) +
+            (5 * n + (size_t)GS__MAX_PEERS * (size_t)d.queue_size) * sizeof(double);
     g = (gs__ghost *)gs__alloc(w, bytes);
     if (!g) return gs__fail(w, GS_ERR_NO_MEMORY, "gs_ghost_attach: out of memory");
     memset(g, 0, bytes);
@@ -4870,13 +4885,13 @@ GS_API gs_result gs_ghost_attach(gs_agent *a, const gs_ghost_desc *desc) {
     g->n = n;
     g->per_chunk = (int)(GS_WIRE_CHUNK_ROOM / gs__value_size(d.encoding));
     g->nchunks = vars ? (int)((vars + (size_t)g->per_chunk - 1) / (size_t)g->per_chunk) : 1;
-    g->B = (double *)(g + 1);
-    g->num = g->B + n;
-    g->den = g->num + n;
-    g->local = g->den + n;
+    g->src = (gs__src *)(g + 1);
+    g->B = (double *)(g->src + (size_t)GS__MAX_PEERS * (size_t)d.queue_size);
+    g->local = g->B + n;
     g->scratch = g->local + n;
     g->offset = g->scratch + n;
-    g->wq = g->offset + n;
+    g->offset_next = g->offset + n;
+    g->wq = g->offset_next + n;
     gs_agent_get_state(a, g->B, n);
     g->b_seq = 1;
     g->t_local = g->B[0];
@@ -5001,51 +5016,21 @@ GS__PRIVATE gs_weight_in gs__weight_in(const gs__ghost *g, uint32_t host,
     return in;
 }
 
-/* The snapshot as a full state vector: received values, the local state
-   where chunks are missing, carried to the local time along its velocities
-   when the ghost dead-reckons. */
-GS__PRIVATE const double *gs__snap_view(gs__ghost *g, const gs__snap *s,
-                                        double t_i) {
+/* Dead reckoning: the snapshot carried to the local time along its
+   velocities, in place (it is blended once, then dropped). Missing chunks
+   take the local values first: the kind's extrapolation reads them. */
+GS__PRIVATE void gs__snap_catch_up(gs__ghost *g, gs__snap *s, double t_i) {
     const gs__kind *k = g->agent->kind;
     size_t vars = g->n - 1;
     int c;
-    if (s->chunks == g->nchunks && !(g->d.catchup == GS_CATCHUP_VELOCITY && k->extrapolate))
-        return s->data;
-    memcpy(g->scratch, g->local + 1, vars * sizeof(double));
+    if (g->d.catchup != GS_CATCHUP_VELOCITY || !k->extrapolate) return;
     for (c = 0; c < g->nchunks; ++c) {
         size_t first = (size_t)c * (size_t)g->per_chunk, cnt = (size_t)g->per_chunk;
-        if (!s->got[c]) continue;
+        if (s->got[c]) continue;
         if (first + cnt > vars) cnt = vars - first;
-        memcpy(g->scratch + first, s->data + first, cnt * sizeof(double));
+        memcpy(s->data + first, g->local + 1 + first, cnt * sizeof(double));
     }
-    if (g->d.catchup == GS_CATCHUP_VELOCITY && k->extrapolate)
-        k->extrapolate(g->agent, g->scratch, t_i - s->time);
-    return g->scratch;
-}
-
-/* Adds one weighted snapshot to the sums; returns the RMS distance of its
-   position values from the local ones (m). */
-GS__PRIVATE double gs__snap_accumulate(gs__ghost *g, const gs__snap *s,
-                                       const double *v, double w) {
-    size_t npos = g->agent->kind->positions ? g->agent->kind->positions(g->agent) : g->n - 1;
-    double d2 = 0.0;
-    size_t e, counted = 0;
-    int c;
-    for (c = 0; c < g->nchunks; ++c) {
-        size_t first = (size_t)c * (size_t)g->per_chunk, end = first + (size_t)g->per_chunk;
-        if (!s->got[c]) continue;
-        if (end > g->n - 1) end = g->n - 1;
-        for (e = first; e < end; ++e) { /* differences: exact 0 when equal */
-            g->num[e] += w * (v[e] - g->local[1 + e]);
-            g->den[e] += w;
-            if (e < npos) {
-                double d = v[e] - g->local[1 + e];
-                d2 += d * d;
-                counted++;
-            }
-        }
-    }
-    return counted ? sqrt(3.0 * d2 / (double)counted) : 0.0;
+    k->extrapolate(g->agent, s->data, t_i - s->time);
 }
 
 /* Time differences within this are noise: the hosts are in step. */
@@ -5173,33 +5158,205 @@ GS__PRIVATE double gs__peer_lead(gs__ghost *g, int p, double x, double t_i) {
     return g->lead[p];
 }
 
-/* Sums every queued snapshot into num/den and the blended time; fills the
-   per-peer divergence and gap. Returns the number of snapshots. */
+/* Lists every queued snapshot with its weight in g->src, in queue order,
+   and sums the blended time; fills the per-peer gap. Returns the number of
+   snapshots. */
 GS__PRIVATE int gs__ghost_gather(gs__ghost *g, double t_i, double *num_t,
                                  double *den_t) {
     gs_net *net = g->agent->world->net;
-    int p, k, m = 0, used = 0;
+    int p, k, m = 0;
     for (p = 0; p < GS__MAX_PEERS; ++p) {
         double newest = g->newest[p];
         for (k = 0; g->q[p] && k < g->d.queue_size; ++k) {
-            const gs__snap *s = &g->q[p][k];
-            double w, tq;
+            gs__snap *s = &g->q[p][k];
+            gs__src *src = &g->src[m];
+            double tq;
             if (!s->used) continue;
-            w = g->wq[m++];
+            src->w = g->wq[m++];
+            gs__snap_catch_up(g, s, t_i);
+            src->v = s->data;
+            src->got = s->got;
+            src->d2 = 0.0;
+            src->counted = 0;
+            src->peer = p;
             tq = g->d.raw_time ? s->time : s->time + s->age;
-            g->divergence[p] = gs__snap_accumulate(g, s, gs__snap_view(g, s, t_i), w);
-            net->peers[p].st.divergence = gs__peer_divergence(g->agent->world, p);
             net->peers[p].st.gap = s->time - t_i;
             if (gs__snap_tells_time(g, p, s, t_i)) {
-                *num_t += w * gs__peer_lead(g, p, tq - t_i, t_i);
-                *den_t += w;
+                *num_t += src->w * gs__peer_lead(g, p, tq - t_i, t_i);
+                *den_t += src->w;
                 newest = s->time;
             }
-            used++;
         }
         g->newest[p] = newest;
     }
-    return used;
+    g->nsrc = m;
+    return m;
+}
+
+/* What one pass of a blend carries from chunk to chunk. Sums run in 4
+   lanes, so that no chain of dependent adds sets the pace: the statistics
+   they give (divergence, last_correction) may differ from a sum in element
+   order in their last bits. */
+typedef struct gs__pass {
+    double w0, fade;
+    double corr2[4];  /* squared corrections */
+    int finite;       /* every new value finite so far */
+} gs__pass;
+
+/* How a chunk's new values are made from its weighted sum of differences:
+   times 1 / (w0 + sum w) computed once per chunk; divided by it when the
+   inverse would overflow; or not at all when every weight is 0. */
+enum { GS__BLEND_MUL, GS__BLEND_DIV, GS__BLEND_KEEP };
+
+/* One chunk's elements, where they are to be written. */
+typedef struct gs__blend_out {
+    const double *old, *off; /* local values, render offsets now */
+    double *nv, *next;       /* new values, next render offsets */
+} gs__blend_out;
+
+/* Element e from its weighted sum of differences num: new value, next
+   render offset; returns the squared correction. */
+GS__PRIVATE double gs__blend_put(const gs__blend_out *o, size_t e, double num,
+                                 int mode, double r, double d, double fade,
+                                 int *finite) {
+    double x = o->old[e], n, k, f;
+    n = mode == GS__BLEND_MUL ? x + num * r : mode == GS__BLEND_DIV ? x + num / d : x;
+    k = x - n;
+    f = fade * o->off[e] + k;
+    o->nv[e] = n;
+    o->next[e] = f - f == 0.0 ? f : 0.0; /* huge: no fading */
+    *finite &= n - n == 0.0;
+    return k * k;
+}
+
+/* One element against a single snapshot (v, weight w), the chunk
+   multiplying by r: new value, next render offset; adds its squared
+   difference to *s2 (position values: pos) and its squared correction to
+   *c2. Inline: the caller keeps the sums in registers. */
+GS__PRIVATE inline void gs__blend_el(const gs__blend_out *o, const double *v, size_t i,
+                                     double w, double r, double fade, int pos,
+                                     double *s2, double *c2) {
+    double x = o->old[i], dd = v[i] - x, n = x + (w * dd) * r, k = x - n;
+    double f = fade * o->off[i] + k;
+    o->nv[i] = n;
+    o->next[i] = f - f == 0.0 ? f : 0.0; /* huge: no fading */
+    if (pos) *s2 += dd * dd;
+    *c2 += k * k;
+}
+
+/* Elements [a, b) against a single snapshot, the common case, four
+   elements to a round with a sum each, so that no chain of dependent adds
+   sets the pace. Its new values are not checked one by one: a non-finite
+   one makes its correction, and so the sum of squared corrections,
+   non-finite (gs__blend_pass looks closer then). d2 gets the squared
+   differences of position values (pos). */
+GS__PRIVATE void gs__blend_one(const gs__blend_out *o, const double *v, double w,
+                               size_t a, size_t b, int pos, double r,
+                               gs__pass *ps, double *d2) {
+    double s0 = 0.0, s1 = 0.0, s2 = 0.0, s3 = 0.0, fade = ps->fade;
+    double c0 = ps->corr2[0], c1 = ps->corr2[1], c2 = ps->corr2[2], c3 = ps->corr2[3];
+    size_t e = a;
+    for (; e + 4 <= b; e += 4) {
+        gs__blend_el(o, v, e, w, r, fade, pos, &s0, &c0);
+        gs__blend_el(o, v, e + 1, w, r, fade, pos, &s1, &c1);
+        gs__blend_el(o, v, e + 2, w, r, fade, pos, &s2, &c2);
+        gs__blend_el(o, v, e + 3, w, r, fade, pos, &s3, &c3);
+    }
+    for (; e < b; ++e) gs__blend_el(o, v, e, w, r, fade, pos, &s0, &c0);
+    ps->corr2[0] = c0; ps->corr2[1] = c1; ps->corr2[2] = c2; ps->corr2[3] = c3;
+    *d2 += (s0 + s1) + (s2 + s3);
+}
+
+/* Elements [a, b) of chunk c against every snapshot that holds it, in
+   queue order (the sum of differences in the order the formula had). */
+GS__PRIVATE void gs__blend_many(gs__ghost *g, const gs__blend_out *o, int c,
+                                size_t a, size_t b, size_t npos, int mode,
+                                double r, double d, gs__pass *ps) {
+    int j, fin = 1;
+    size_t e;
+    for (e = a; e < b; ++e) {
+        double num = 0.0;
+        for (j = 0; j < g->nsrc; ++j) {
+            gs__src *q = &g->src[j];
+            double dd;
+            if (!q->got[c]) continue;
+            dd = q->v[e] - o->old[e];
+            num += q->w * dd;
+            if (e < npos) q->d2 += dd * dd;
+        }
+        ps->corr2[e & 3] += gs__blend_put(o, e, num, mode, r, d, ps->fade, &fin);
+    }
+    ps->finite &= fin;
+}
+
+/* The elements [a, b) of chunk c, covered by the snapshots that hold it:
+   new values into scratch and next render offsets, in one pass. The
+   paper's (w0 S + sum w q) / (w0 + sum w) is written as S plus the
+   weighted mean difference, so that agreeing states give exactly S, and
+   its division as a multiplication by 1 / (w0 + sum w): a new value
+   differs from the quotient by at most an ulp of the correction
+   (|num / d| * 2^-52). */
+GS__PRIVATE void gs__blend_chunk(gs__ghost *g, gs__pass *ps, int c, size_t a,
+                                 size_t b, size_t npos) {
+    gs__blend_out o;
+    double den = 0.0, d, r = 0.0;
+    gs__src *one = NULL;
+    int j, nq = 0, mode;
+    size_t pend = npos < a ? a : npos < b ? npos : b;
+    o.old = g->local + 1;
+    o.off = g->offset + 1;
+    o.nv = g->scratch + 1;
+    o.next = g->offset_next + 1;
+    for (j = 0; j < g->nsrc; ++j)
+        if (g->src[j].got[c]) {
+            den += g->src[j].w;
+            g->src[j].counted += pend - a;
+            one = &g->src[j];
+            nq++;
+        }
+    d = ps->w0 + den;
+    if (d > 0.0) r = 1.0 / d;
+    mode = !(d > 0.0) ? GS__BLEND_KEEP : r - r == 0.0 ? GS__BLEND_MUL : GS__BLEND_DIV;
+    if (nq == 1 && mode == GS__BLEND_MUL) {
+        gs__blend_one(&o, one->v, one->w, a, pend, 1, r, ps, &one->d2);
+        gs__blend_one(&o, one->v, one->w, pend, b, 0, r, ps, &one->d2);
+    } else {
+        gs__blend_many(g, &o, c, a, b, npos, mode, r, d, ps);
+    }
+}
+
+/* Every element of the state once, chunk by chunk. Returns 0 if a new
+   value is not finite (a sum that overflows, dead reckoning at an absurd
+   speed: found by fuzzing), and then nothing may be applied. */
+GS__PRIVATE int gs__blend_pass(gs__ghost *g, gs__pass *ps) {
+    size_t vars = g->n - 1, first;
+    size_t npos = g->agent->kind->positions ? g->agent->kind->positions(g->agent) : vars;
+    int c;
+    for (c = 0; c < g->nchunks; ++c) {
+        first = (size_t)c * (size_t)g->per_chunk;
+        if (first >= vars) break;
+        gs__blend_chunk(g, ps, c, first,
+                        first + (size_t)g->per_chunk < vars ? first + (size_t)g->per_chunk : vars,
+                        npos);
+    }
+    if (ps->finite && !gs__finite((ps->corr2[0] + ps->corr2[1]) + (ps->corr2[2] + ps->corr2[3])))
+        for (first = 0; first < vars; ++first) /* or corrections over 1e154 */
+            ps->finite &= gs__finite(g->scratch[1 + first]);
+    return ps->finite;
+}
+
+/* Each snapshot's distance from the local state (RMS of its position
+   values, m) becomes its peer's divergence; the latest snapshot of a peer
+   counts. Returns the peers seen, bit p for peer slot p. */
+GS__PRIVATE uint32_t gs__ghost_divergence(gs__ghost *g) {
+    uint32_t seen = 0;
+    int j;
+    for (j = 0; j < g->nsrc; ++j) {
+        const gs__src *q = &g->src[j];
+        g->divergence[q->peer] = q->counted ? sqrt(3.0 * q->d2 / (double)q->counted) : 0.0;
+        seen |= (uint32_t)1 << q->peer;
+    }
+    return seen;
 }
 
 /* Simulation time is blended only past the deadband (by default the world's
@@ -5213,55 +5370,57 @@ GS__PRIVATE double gs__time_correction(const gs__ghost *g, double gap, double dt
     return fabs(gap) > gs__time_band(g) ? dt : 0.0;
 }
 
+/* Applies a blended state (scratch) that the pass found finite: the kind
+   may still refuse it (a zero quaternion), and then nothing moves. */
+GS__PRIVATE int gs__blend_apply(gs__ghost *g, double t_i) {
+    double *t;
+    int e;
+    if (gs__agent_put_state(g->agent, g->scratch) != GS_OK) return 0;
+    for (e = 0; e < GS__MAX_PEERS; ++e) g->lead[e] -= g->scratch[0] - t_i;
+    t = g->offset; /* the next offsets are now the offsets */
+    g->offset = g->offset_next;
+    g->offset_next = t;
+    g->offset_t = g->scratch[0];
+    return 1;
+}
+
 /* The paper's ghost update, after a step: blend every queued snapshot once
-   with the local state, then empty the queues. */
-GS__PRIVATE void gs__ghost_blend(gs__ghost *g, gs_net *net) {
-    size_t n = g->n, e;
-    double t_i, w0, num_t = 0.0, den_t = 0.0, fade, corr2 = 0.0;
+   with the local state, then empty the queues. One pass over the state
+   after the agent's get_state, then its set_state. Returns the peers whose
+   divergence it measured (bit p for peer slot p). */
+GS__PRIVATE uint32_t gs__ghost_blend(gs__ghost *g, gs_net *net) {
+    size_t n = g->n;
+    double t_i, num_t = 0.0, den_t = 0.0;
+    gs__pass ps;
+    uint32_t seen = 0;
     int used;
     gs__lock(net);
     gs_agent_get_state(g->agent, g->local, n);
     t_i = g->local[0];
-    w0 = gs__ghost_weigh(g, t_i, g->wq);
-    if (w0 < 0.0) { gs__ghost_clear(g); gs__unlock(net); return; }
-    memset(g->num, 0, n * sizeof(double));
-    memset(g->den, 0, n * sizeof(double));
-    used = gs__ghost_gather(g, t_i, &num_t, &den_t);
-    if (used == 0) { gs__ghost_clear(g); gs__unlock(net); return; }
-    /* the paper's (w0 S + sum w q) / (w0 + sum w), written as S plus the
-       weighted mean difference so that agreeing states give exactly S */
-    /* the band applies to the gap to the others (their weighted mean time),
-       not to the correction, which is only part of it: otherwise two hosts
-       would settle up to (1 + w0 / w) bands apart */
-    g->scratch[0] = t_i;
-    if (den_t > 0.0)
-        g->scratch[0] += gs__time_correction(g, num_t / den_t, num_t / (w0 + den_t));
-    for (e = 0; e + 1 < n; ++e) {
-        double old = g->local[1 + e], d = w0 + g->den[e];
-        g->scratch[1 + e] = d > 0.0 ? old + g->num[e] / d : old;
+    memset(&ps, 0, sizeof ps);
+    ps.w0 = gs__ghost_weigh(g, t_i, g->wq);
+    used = ps.w0 < 0.0 ? 0 : gs__ghost_gather(g, t_i, &num_t, &den_t);
+    if (used > 0) {
+        /* the band applies to the gap to the others (their weighted mean
+           time), not to the correction, which is only part of it: otherwise
+           two hosts would settle up to (1 + w0 / w) bands apart */
+        g->scratch[0] = t_i;
+        if (den_t > 0.0)
+            g->scratch[0] += gs__time_correction(g, num_t / den_t, num_t / (ps.w0 + den_t));
+        ps.fade = gs__offset_fade(g, g->scratch[0]);
+        ps.finite = g->scratch[0] - g->scratch[0] == 0.0;
+        ps.finite = gs__blend_pass(g, &ps);
+        seen = gs__ghost_divergence(g);
+        if (ps.finite && gs__blend_apply(g, t_i)) {
+            double c2 = (ps.corr2[0] + ps.corr2[1]) + (ps.corr2[2] + ps.corr2[3]);
+            g->stats.blends++;
+            g->stats.snapshots_blended += (uint64_t)used;
+            g->stats.last_correction = n > 1 ? sqrt(c2 / (double)(n - 1)) : 0.0;
+        }
     }
-    /* finite snapshots can still blend to inf or NaN (a sum that overflows,
-       dead reckoning at an absurd speed): set_state refuses that, and then
-       the local state stands and nothing else moves (found by fuzzing) */
-    if (gs_agent_set_state(g->agent, g->scratch, n) != GS_OK) {
-        gs__ghost_clear(g);
-        gs__unlock(net);
-        return;
-    }
-    for (e = 0; e < GS__MAX_PEERS; ++e) g->lead[e] -= g->scratch[0] - t_i;
-    fade = gs__offset_fade(g, g->scratch[0]);
-    for (e = 0; e + 1 < n; ++e) {
-        double old = g->local[1 + e], nv = g->scratch[1 + e];
-        double o = fade * g->offset[1 + e] + (old - nv);
-        g->offset[1 + e] = gs__finite(o) ? o : 0.0; /* huge: no fading */
-        corr2 += (old - nv) * (old - nv);
-    }
-    g->offset_t = g->scratch[0];
-    g->stats.blends++;
-    g->stats.snapshots_blended += (uint64_t)used;
-    g->stats.last_correction = n > 1 ? sqrt(corr2 / (double)(n - 1)) : 0.0;
     gs__ghost_clear(g);
     gs__unlock(net);
+    return seen;
 }
 
 /* Any snapshot waiting? Read under the lock by the caller. */
@@ -5293,7 +5452,11 @@ GS__PRIVATE void gs__ghost_after_step(gs_agent *a) {
     if (pending) gs__world_blend(a->world);
 }
 
+/* A peer's divergence is the largest over the world's objects: taken once
+   per peer after every ghost has blended (per snapshot, it made a world
+   blend O(agents^2)). */
 GS__PRIVATE void gs__world_blend(gs_world *w) {
+    uint32_t seen = 0;
     int i, pending;
     if (!w->net) return;
     for (i = 0; i < w->agent_count; ++i) {
@@ -5302,8 +5465,13 @@ GS__PRIVATE void gs__world_blend(gs_world *w) {
         gs__lock(w->net);
         pending = gs__ghost_pending(g);
         gs__unlock(w->net);
-        if (pending) gs__ghost_blend(g, w->net);
+        if (pending) seen |= gs__ghost_blend(g, w->net);
     }
+    if (!seen) return;
+    gs__lock(w->net);
+    for (i = 0; i < GS__MAX_PEERS; ++i)
+        if (seen & ((uint32_t)1 << i)) w->net->peers[i].st.divergence = gs__peer_divergence(w, i);
+    gs__unlock(w->net);
 }
 
 /* ========================================================================
