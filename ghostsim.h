@@ -1386,7 +1386,12 @@ struct gs_world {
     struct gs__rigid **bodies; /* the broad phase: rigid bodies and probes
                                   sorted by the low end of their sweep on x */
     int nbodies, bodies_cap;
-    double sweep_max;    /* m; the largest sweep half-width of any body */
+    struct gs__rigid **wide;   /* bodies with a sweep over wide_at */
+    int nwide;
+    struct gs__rigid **cand;   /* the answer to a query (bodies_cap) */
+    double wide_at;      /* m; a sweep over this makes a body wide */
+    double sweep_max;    /* m; the largest sweep half-width of any body
+                            that is not wide */
     int nmeshes;         /* spring-mass agents (contacts loop over them) */
     int ground;          /* a plane y = ground_height */
     double ground_height;
@@ -3484,6 +3489,7 @@ typedef struct gs__rigid {
     gs_vec3 x, v, w;           /* m, m/s, rad/s (world) */
     gs_vec3 v_prev, w_prev;    /* at the start of the last step */
     int sap;                   /* index in world->bodies */
+    int wide;                  /* index in world->wide, -1 if not wide */
     double sweep;              /* m; half-width on x: bound + 0.1 s of travel
                                   (contacts look up to 0.1 s ahead or back) */
     double key;                /* m; x - sweep, the sort key */
@@ -3945,7 +3951,12 @@ GS_API double gs_rigid_stable_dt(const gs_agent *a) {
 /* ---- broad phase: sweep and prune on x ----
    Bodies stay sorted by the low end of their sweep; a body that moved is
    bubbled to its place (a step moves it little, so this is about O(1)), and
-   a query is a binary search plus the bodies it could touch. */
+   a query is a binary search plus the bodies it could touch. A body whose
+   sweep is over wide_at (a wall, a floor, a body moving fast) is listed
+   apart and left out of sweep_max, the reach of the binary search: one
+   wall used to stretch every query over the whole world. A query answers
+   in the order of the sorted list whatever the lists, so that contact
+   forces add up in the same order. */
 GS__PRIVATE void gs__sap_swap(gs_world *w, int i, int j) {
     struct gs__rigid *t = w->bodies[i];
     w->bodies[i] = w->bodies[j];
@@ -3954,12 +3965,26 @@ GS__PRIVATE void gs__sap_swap(gs_world *w, int i, int j) {
     w->bodies[j]->sap = j;
 }
 
+/* Puts r in the wide list or takes it out, as its sweep says. */
+GS__PRIVATE void gs__sap_classify(gs_world *w, gs__rigid *r) {
+    int wide = r->sweep > w->wide_at;
+    if (wide && r->wide < 0) {
+        r->wide = w->nwide;
+        w->wide[w->nwide++] = r;
+    } else if (!wide && r->wide >= 0) {
+        w->wide[r->wide] = w->wide[--w->nwide];
+        w->wide[r->wide]->wide = r->wide;
+        r->wide = -1;
+    }
+    if (!wide && r->sweep > w->sweep_max) w->sweep_max = r->sweep;
+}
+
 GS__PRIVATE void gs__sap_update(gs__rigid *r) {
     gs_world *w = r->base.world;
     int i = r->sap;
     r->sweep = r->shape.bound + 0.1 * gs__len(r->v);
     r->key = r->x.x - r->sweep;
-    if (r->sweep > w->sweep_max) w->sweep_max = r->sweep;
+    gs__sap_classify(w, r);
     while (i > 0 && w->bodies[i - 1]->key > r->key) { gs__sap_swap(w, i - 1, i); --i; }
     while (i + 1 < w->nbodies && w->bodies[i + 1]->key < r->key) { gs__sap_swap(w, i, i + 1); ++i; }
 }
@@ -3967,14 +3992,18 @@ GS__PRIVATE void gs__sap_update(gs__rigid *r) {
 GS__PRIVATE gs_result gs__sap_add(gs_world *w, gs__rigid *r) {
     if (w->nbodies == w->bodies_cap) {
         int cap = w->bodies_cap ? 2 * w->bodies_cap : 16;
-        struct gs__rigid **list = (struct gs__rigid **)gs__alloc(w, (size_t)cap * sizeof *list);
+        struct gs__rigid **list = (struct gs__rigid **)gs__alloc(w, 3 * (size_t)cap * sizeof *list);
         if (!list) return gs__fail(w, GS_ERR_NO_MEMORY, "broad phase: out of memory");
         if (w->nbodies) memcpy(list, w->bodies, (size_t)w->nbodies * sizeof *list);
+        if (w->nwide) memcpy(list + cap, w->wide, (size_t)w->nwide * sizeof *list);
         gs__free(w, w->bodies);
         w->bodies = list;
+        w->wide = list + cap;
+        w->cand = list + 2 * cap;
         w->bodies_cap = cap;
     }
     r->sap = w->nbodies;
+    r->wide = -1;
     w->bodies[w->nbodies++] = r;
     gs__sap_update(r);
     return GS_OK;
@@ -3982,6 +4011,8 @@ GS__PRIVATE gs_result gs__sap_add(gs_world *w, gs__rigid *r) {
 
 GS__PRIVATE void gs__sap_remove(gs_world *w, gs__rigid *r) {
     int i;
+    r->sweep = 0.0; /* out of the wide list */
+    gs__sap_classify(w, r);
     for (i = r->sap + 1; i < w->nbodies; ++i) {
         w->bodies[i - 1] = w->bodies[i];
         w->bodies[i - 1]->sap = i - 1;
@@ -3996,15 +4027,21 @@ GS__PRIVATE void gs__agent_unlink(gs_agent *a) {
     else if (gs__as_mesh(a)) a->world->nmeshes--;
 }
 
-/* The largest sweep of any body, exactly (updates only ever raise it). */
+/* At each advance: wide means a sweep over 4 times the mean body bound,
+   and sweep_max is the largest sweep of the others, exactly (updates only
+   ever raise it). */
 GS__PRIVATE void gs__sap_refresh(gs_world *w) {
+    double mean = 0.0;
     int i;
+    for (i = 0; i < w->nbodies; ++i) mean += w->bodies[i]->shape.bound;
+    w->wide_at = w->nbodies ? 4.0 * mean / (double)w->nbodies : 0.0;
     w->sweep_max = 0.0;
-    for (i = 0; i < w->nbodies; ++i)
-        if (w->bodies[i]->sweep > w->sweep_max) w->sweep_max = w->bodies[i]->sweep;
+    w->nwide = 0;
+    for (i = 0; i < w->nbodies; ++i) w->bodies[i]->wide = -1;
+    for (i = 0; i < w->nbodies; ++i) gs__sap_classify(w, w->bodies[i]);
 }
 
-/* The first body whose sweep could reach past x = lo. */
+/* The first body whose sweep could reach past x = lo, wide ones aside. */
 GS__PRIVATE int gs__sap_first(const gs_world *w, double lo) {
     int a = 0, b = w->nbodies;
     lo -= 2.0 * w->sweep_max;
@@ -4014,6 +4051,43 @@ GS__PRIVATE int gs__sap_first(const gs_world *w, double lo) {
         else b = mid;
     }
     return a;
+}
+
+/* The wide list in the order of the sorted list (it is short, and a step
+   seldom changes its order). */
+GS__PRIVATE void gs__sap_sort_wide(gs_world *w) {
+    int i, j;
+    for (i = 1; i < w->nwide; ++i) {
+        gs__rigid *r = w->wide[i];
+        for (j = i; j > 0 && w->wide[j - 1]->sap > r->sap; --j) {
+            w->wide[j] = w->wide[j - 1];
+            w->wide[j]->wide = j;
+        }
+        w->wide[j] = r;
+        r->wide = j;
+    }
+}
+
+/* Every body whose sweep may meet [lo, hi] on x, into w->cand in the order
+   of the sorted list: the wide ones before the binary search's start, then
+   the run from it. Returns how many. */
+GS__PRIVATE int gs__sap_query(gs_world *w, double lo, double hi) {
+    int start = gs__sap_first(w, lo), n = 0, i;
+    gs__sap_sort_wide(w);
+    for (i = 0; i < w->nwide && w->wide[i]->sap < start; ++i) {
+        gs__rigid *o = w->wide[i];
+        if (o->key <= hi && o->x.x + o->sweep >= lo) w->cand[n++] = o;
+    }
+    for (i = start; i < w->nbodies && w->bodies[i]->key <= hi; ++i) w->cand[n++] = w->bodies[i];
+    return n;
+}
+
+/* Can o touch r at any lag up to 0.1 s? Their sweeps must meet on y and z
+   (x is the query's): a contact needs |r - (o + v_o lag)| < both bounds. The
+   slack covers the rounding of the sweeps. */
+GS__PRIVATE int gs__sweeps_meet(const gs__rigid *r, const gs__rigid *o) {
+    double reach = (r->sweep + o->sweep) * (1.0 + 1e-9);
+    return fabs(r->x.y - o->x.y) <= reach && fabs(r->x.z - o->x.z) <= reach;
 }
 
 typedef struct gs__body {
@@ -4336,12 +4410,14 @@ GS__PRIVATE void gs__rigid_vs_rigid(gs__rigid *r, const gs__rigid *o, double t) 
     gs__body a = gs__body_of(r), b = gs__body_of(o);
     double reach = r->shape.bound + o->shape.bound;
     double lag = fmax(-0.1, fmin(0.1, t - gs__agent_time(&o->base)));
-    double f = o->probe ? 0.0 : fmax(-1.0, fmin(1.0, lag / o->base.dt));
-    gs_vec3 ov = gs__madd(o->v, gs__sub(o->v, o->v_prev), f);
-    gs_vec3 ow = gs__madd(o->w, gs__sub(o->w, o->w_prev), f);
+    double f;
+    gs_vec3 ov, ow;
     int n, i;
     if (!o->probe) b.p = gs__madd(o->x, o->v, lag);
     if (gs__dot(gs__sub(r->x, b.p), gs__sub(r->x, b.p)) >= reach * reach) return;
+    f = o->probe ? 0.0 : fmax(-1.0, fmin(1.0, lag / o->base.dt));
+    ov = gs__madd(o->v, gs__sub(o->v, o->v_prev), f);
+    ow = gs__madd(o->w, gs__sub(o->w, o->w_prev), f);
     n = gs__collide(&a, &b, cs, 2 * GS_MAX_HULL_POINTS);
     for (i = 0; i < n; ++i) {
         gs_vec3 vo = gs__add(ov, gs__cross(ow, gs__sub(cs[i].point, b.p)));
@@ -4388,12 +4464,12 @@ GS__PRIVATE void gs__rigid_vs_mesh(gs__rigid *r, const gs_agent *m, double t) {
 GS__PRIVATE void gs__rigid_contacts(gs__rigid *r, double t) {
     gs_world *w = r->base.world;
     int i;
-    double hi = r->x.x + r->sweep;
+    int n = gs__sap_query(w, r->x.x - r->sweep, r->x.x + r->sweep);
     r->force = r->torque = gs__v3(0.0, 0.0, 0.0);
     r->k_sum = r->c_sum = 0.0;
     if (w->ground) gs__rigid_ground(r);
-    for (i = gs__sap_first(w, r->x.x - r->sweep); i < w->nbodies && w->bodies[i]->key <= hi; ++i)
-        if (w->bodies[i] != r) gs__rigid_vs_rigid(r, w->bodies[i], t);
+    for (i = 0; i < n; ++i)
+        if (w->cand[i] != r && gs__sweeps_meet(r, w->cand[i])) gs__rigid_vs_rigid(r, w->cand[i], t);
     for (i = 0; w->nmeshes > 0 && i < w->agent_count; ++i)
         if (gs__mesh_info(w->agents[i], NULL, NULL, NULL, NULL)) gs__rigid_vs_mesh(r, w->agents[i], t);
 }
@@ -4489,7 +4565,7 @@ GS__PRIVATE void gs__mesh_vs_rigid(gs__mesh *m, const gs__rigid *r, double t) {
    them. */
 GS__PRIVATE void gs__mesh_contacts(gs__mesh *m, double t) {
     gs_world *w = m->base.world;
-    int i;
+    int i, n;
     if (m->ext_active) {
         memset(m->ext, 0, (size_t)m->n * sizeof *m->ext);
         if (m->ck) memset(m->ck, 0, (size_t)m->n * sizeof *m->ck);
@@ -4505,8 +4581,8 @@ GS__PRIVATE void gs__mesh_contacts(gs__mesh *m, double t) {
             gs__mesh_touch(m, i, &c, gs__v3(0.0, 0.0, 0.0), &w->ground_material, 0.0);
         }
     }
-    for (i = gs__sap_first(w, m->lo.x); i < w->nbodies && w->bodies[i]->key <= m->hi.x; ++i)
-        gs__mesh_vs_rigid(m, w->bodies[i], t);
+    n = gs__sap_query(w, m->lo.x, m->hi.x);
+    for (i = 0; i < n; ++i) gs__mesh_vs_rigid(m, w->cand[i], t);
 }
 
 /* ========================================================================
