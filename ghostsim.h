@@ -1381,17 +1381,21 @@ struct gs_world {
        dispatch without a scan of every agent. */
     gs_agent **span_lo, **span_hi;
     int span_n;
+    double failed_lo, failed_hi; /* s; the times of the agents out of them */
     uint64_t dispatches;
     gs_net *net;         /* at most one */
     struct gs__rigid **bodies; /* the broad phase: rigid bodies and probes
-                                  sorted by the low end of their sweep on x */
+                                  sorted by the low end of their sweep on x
+                                  (the order contacts are summed in) */
     int nbodies, bodies_cap;
+    struct gs__rigid **near;   /* the same sorted by x - bound (searched) */
     struct gs__rigid **wide;   /* bodies with a sweep over wide_at */
     int nwide;
     struct gs__rigid **cand;   /* the answer to a query (bodies_cap) */
     double wide_at;      /* m; a sweep over this makes a body wide */
-    double sweep_max;    /* m; the largest sweep half-width of any body
-                            that is not wide */
+    double bound_max;    /* m; the largest bound of a body not wide */
+    double speed_max;    /* m/s; the largest speed of a body not wide (not
+                            a probe: contacts do not carry those on) */
     int nmeshes;         /* spring-mass agents (contacts loop over them) */
     int ground;          /* a plane y = ground_height */
     double ground_height;
@@ -1680,6 +1684,8 @@ GS__PRIVATE void gs__span_sift(gs_world *w, int hi, int i) {
 GS__PRIVATE void gs__span_build(gs_world *w) {
     int i, hi;
     w->span_n = 0;
+    w->failed_lo = HUGE_VAL;
+    w->failed_hi = -HUGE_VAL;
     for (i = 0; i < w->agent_count; ++i) {
         gs_agent *a = w->agents[i];
         a->span_lo = a->span_hi = -1;
@@ -1693,10 +1699,22 @@ GS__PRIVATE void gs__span_build(gs_world *w) {
         for (i = w->span_n / 2 - 1; i >= 0; --i) gs__span_down(w, hi, i);
 }
 
+/* Widens the range of the failed agents' times to take in a's. */
+GS__PRIVATE void gs__span_failed(gs_agent *a) {
+    gs_world *w = a->world;
+    double t = gs__agent_time(a);
+    if (t < w->failed_lo) w->failed_lo = t;
+    if (t > w->failed_hi) w->failed_hi = t;
+}
+
 /* After a's time changed (a step, a blend, a set_state). */
 GS__PRIVATE void gs__span_update(gs_agent *a) {
     gs_world *w = a->world;
-    if (!w->busy || a->span_lo < 0) return;
+    if (!w->busy) return;
+    if (a->span_lo < 0) {
+        gs__span_failed(a);
+        return;
+    }
     a->span_t = gs__agent_time(a);
     gs__span_sift(w, 0, a->span_lo);
     gs__span_sift(w, 1, a->span_hi);
@@ -1707,6 +1725,7 @@ GS__PRIVATE void gs__span_remove(gs_agent *a) {
     gs_world *w = a->world;
     int hi;
     if (a->span_lo < 0) return;
+    gs__span_failed(a);
     w->span_n--;
     for (hi = 0; hi < 2; ++hi) {
         gs_agent **heap = hi ? w->span_hi : w->span_lo;
@@ -1727,6 +1746,21 @@ GS__PRIVATE void gs__span_get(const gs_world *w, double *t_min, double *t_max) {
     }
     *t_min = w->span_lo[0]->span_t;
     *t_max = w->span_hi[0]->span_t;
+}
+
+/* How far any agent's time can be from t (s), at most max_lag: while the
+   world advances the heaps know every time, failed agents' included; out
+   of it (gs_agent_step) nothing is known and max_lag is the answer. */
+GS__PRIVATE double gs__lag_bound(const gs_world *w, double t, double max_lag) {
+    double lo = w->failed_lo, hi = w->failed_hi, lag;
+    if (!w->busy) return max_lag;
+    if (w->span_n > 0) {
+        lo = fmin(lo, w->span_lo[0]->span_t);
+        hi = fmax(hi, w->span_hi[0]->span_t);
+    }
+    lag = fmax(t - lo, hi - t);
+    if (!(lag > 0.0)) return 0.0; /* no agent at all: -inf */
+    return lag < max_lag ? lag : max_lag;
 }
 
 /* Slowest and fastest simulation time of the agents still live. */
@@ -3489,7 +3523,11 @@ typedef struct gs__rigid {
     gs_vec3 x, v, w;           /* m, m/s, rad/s (world) */
     gs_vec3 v_prev, w_prev;    /* at the start of the last step */
     int sap;                   /* index in world->bodies */
+    int near;                  /* index in world->near */
     int wide;                  /* index in world->wide, -1 if not wide */
+    double speed;              /* m/s, |v| when the broad phase last saw it
+                                  (0 for a probe) */
+    double near_key;           /* m; x - bound, the sort key of near */
     double sweep;              /* m; half-width on x: bound + 0.1 s of travel
                                   (contacts look up to 0.1 s ahead or back) */
     double key;                /* m; x - sweep, the sort key */
@@ -3949,20 +3987,40 @@ GS_API double gs_rigid_stable_dt(const gs_agent *a) {
    whatever that agent's simulation time.
    ======================================================================== */
 /* ---- broad phase: sweep and prune on x ----
-   Bodies stay sorted by the low end of their sweep; a body that moved is
-   bubbled to its place (a step moves it little, so this is about O(1)), and
-   a query is a binary search plus the bodies it could touch. A body whose
-   sweep is over wide_at (a wall, a floor, a body moving fast) is listed
-   apart and left out of sweep_max, the reach of the binary search: one
-   wall used to stretch every query over the whole world. A query answers
-   in the order of the sorted list whatever the lists, so that contact
-   forces add up in the same order. */
-GS__PRIVATE void gs__sap_swap(gs_world *w, int i, int j) {
-    struct gs__rigid *t = w->bodies[i];
-    w->bodies[i] = w->bodies[j];
-    w->bodies[j] = t;
-    w->bodies[i]->sap = i;
-    w->bodies[j]->sap = j;
+   Two lists of the same bodies, kept sorted by bubbling a body that moved
+   to its place (a step moves it little, so this is about O(1)):
+   - bodies, by the low end of the sweep, bound + 0.1 s of travel: the order
+     in which contacts are summed, so that forces keep their last bits;
+   - near, by x - bound: what a query searches. Travel is added at the
+     query, for the lag the scheduler allows now (its tolerance and a step,
+     not 0.1 s: gs__lag_bound), so a falling pile does not make every
+     query span the world.
+   A body whose sweep is over wide_at (a wall, a floor, a body moving fast)
+   is listed apart and left out of bound_max and speed_max, which stretch
+   the search: one wall used to stretch every query over the whole world.
+   A query gathers candidates from near and wide, then puts them in the
+   order of bodies. */
+GS__PRIVATE void gs__sap_swap(gs__rigid **list, int i, int j, int near) {
+    struct gs__rigid *t = list[i];
+    list[i] = list[j];
+    list[j] = t;
+    if (near) {
+        list[i]->near = i;
+        list[j]->near = j;
+    } else {
+        list[i]->sap = i;
+        list[j]->sap = j;
+    }
+}
+
+/* Moves r to its place in one list (near: by near_key, else by key). */
+GS__PRIVATE void gs__sap_bubble(gs__rigid **list, int n, gs__rigid *r, int near) {
+    int i = near ? r->near : r->sap;
+    double k = near ? r->near_key : r->key;
+#define GS__SAP_KEY(b) (near ? (b)->near_key : (b)->key)
+    while (i > 0 && GS__SAP_KEY(list[i - 1]) > k) { gs__sap_swap(list, i - 1, i, near); --i; }
+    while (i + 1 < n && GS__SAP_KEY(list[i + 1]) < k) { gs__sap_swap(list, i, i + 1, near); ++i; }
+#undef GS__SAP_KEY
 }
 
 /* Puts r in the wide list or takes it out, as its sweep says. */
@@ -3976,46 +4034,61 @@ GS__PRIVATE void gs__sap_classify(gs_world *w, gs__rigid *r) {
         w->wide[r->wide]->wide = r->wide;
         r->wide = -1;
     }
-    if (!wide && r->sweep > w->sweep_max) w->sweep_max = r->sweep;
+    if (wide) return;
+    if (r->shape.bound > w->bound_max) w->bound_max = r->shape.bound;
+    if (r->speed > w->speed_max) w->speed_max = r->speed;
 }
 
 GS__PRIVATE void gs__sap_update(gs__rigid *r) {
     gs_world *w = r->base.world;
-    int i = r->sap;
-    r->sweep = r->shape.bound + 0.1 * gs__len(r->v);
+    double v = gs__len(r->v);
+    r->sweep = r->shape.bound + 0.1 * v;
     r->key = r->x.x - r->sweep;
+    r->speed = r->probe ? 0.0 : v;
+    r->near_key = r->x.x - r->shape.bound;
     gs__sap_classify(w, r);
-    while (i > 0 && w->bodies[i - 1]->key > r->key) { gs__sap_swap(w, i - 1, i); --i; }
-    while (i + 1 < w->nbodies && w->bodies[i + 1]->key < r->key) { gs__sap_swap(w, i, i + 1); ++i; }
+    gs__sap_bubble(w->bodies, w->nbodies, r, 0);
+    gs__sap_bubble(w->near, w->nbodies, r, 1);
 }
 
 GS__PRIVATE gs_result gs__sap_add(gs_world *w, gs__rigid *r) {
     if (w->nbodies == w->bodies_cap) {
         int cap = w->bodies_cap ? 2 * w->bodies_cap : 16;
-        struct gs__rigid **list = (struct gs__rigid **)gs__alloc(w, 3 * (size_t)cap * sizeof *list);
+        struct gs__rigid **list = (struct gs__rigid **)gs__alloc(w, 4 * (size_t)cap * sizeof *list);
         if (!list) return gs__fail(w, GS_ERR_NO_MEMORY, "broad phase: out of memory");
-        if (w->nbodies) memcpy(list, w->bodies, (size_t)w->nbodies * sizeof *list);
-        if (w->nwide) memcpy(list + cap, w->wide, (size_t)w->nwide * sizeof *list);
+        if (w->nbodies) {
+            memcpy(list, w->bodies, (size_t)w->nbodies * sizeof *list);
+            memcpy(list + cap, w->near, (size_t)w->nbodies * sizeof *list);
+        }
+        if (w->nwide) memcpy(list + 2 * cap, w->wide, (size_t)w->nwide * sizeof *list);
         gs__free(w, w->bodies);
         w->bodies = list;
-        w->wide = list + cap;
-        w->cand = list + 2 * cap;
+        w->near = list + cap;
+        w->wide = list + 2 * cap;
+        w->cand = list + 3 * cap;
         w->bodies_cap = cap;
     }
-    r->sap = w->nbodies;
+    r->sap = r->near = w->nbodies;
     r->wide = -1;
-    w->bodies[w->nbodies++] = r;
+    w->bodies[w->nbodies] = w->near[w->nbodies] = r;
+    w->nbodies++;
     gs__sap_update(r);
     return GS_OK;
 }
 
 GS__PRIVATE void gs__sap_remove(gs_world *w, gs__rigid *r) {
     int i;
-    r->sweep = 0.0; /* out of the wide list */
-    gs__sap_classify(w, r);
+    if (r->wide >= 0) {
+        w->wide[r->wide] = w->wide[--w->nwide];
+        w->wide[r->wide]->wide = r->wide;
+    }
     for (i = r->sap + 1; i < w->nbodies; ++i) {
         w->bodies[i - 1] = w->bodies[i];
         w->bodies[i - 1]->sap = i - 1;
+    }
+    for (i = r->near + 1; i < w->nbodies; ++i) {
+        w->near[i - 1] = w->near[i];
+        w->near[i - 1]->near = i - 1;
     }
     w->nbodies--;
 }
@@ -4028,65 +4101,73 @@ GS__PRIVATE void gs__agent_unlink(gs_agent *a) {
 }
 
 /* At each advance: wide means a sweep over 4 times the mean body bound,
-   and sweep_max is the largest sweep of the others, exactly (updates only
-   ever raise it). */
+   and bound_max and speed_max are those of the others, exactly (updates
+   only ever raise them). */
 GS__PRIVATE void gs__sap_refresh(gs_world *w) {
     double mean = 0.0;
     int i;
     for (i = 0; i < w->nbodies; ++i) mean += w->bodies[i]->shape.bound;
     w->wide_at = w->nbodies ? 4.0 * mean / (double)w->nbodies : 0.0;
-    w->sweep_max = 0.0;
+    w->bound_max = w->speed_max = 0.0;
     w->nwide = 0;
     for (i = 0; i < w->nbodies; ++i) w->bodies[i]->wide = -1;
     for (i = 0; i < w->nbodies; ++i) gs__sap_classify(w, w->bodies[i]);
 }
 
-/* The first body whose sweep could reach past x = lo, wide ones aside. */
-GS__PRIVATE int gs__sap_first(const gs_world *w, double lo) {
+/* How far o reaches from its centre on any axis when its state is taken
+   up to lag seconds from its time (m), with a slack for rounding. */
+GS__PRIVATE double gs__sap_reach(const gs__rigid *o, double lag) {
+    return (o->shape.bound + o->speed * lag) * (1.0 + 1e-9) + 1e-12;
+}
+
+/* Does o's reach meet [lo, hi] on x? */
+GS__PRIVATE int gs__sap_meets(const gs__rigid *o, double lo, double hi, double lag) {
+    double reach = gs__sap_reach(o, lag), eps = 1e-12 * (fabs(lo) + fabs(hi));
+    return o->x.x - reach <= hi + eps && o->x.x + reach >= lo - eps;
+}
+
+/* The first body of near that could reach past x = lo. */
+GS__PRIVATE int gs__sap_first(const gs_world *w, double lo, double lag) {
     int a = 0, b = w->nbodies;
-    lo -= 2.0 * w->sweep_max;
+    lo -= 2.0 * w->bound_max + w->speed_max * lag;
+    lo -= 1e-9 * (1.0 + fabs(lo));
     while (a < b) {
         int mid = (a + b) / 2;
-        if (w->bodies[mid]->key < lo) a = mid + 1;
+        if (w->near[mid]->near_key < lo) a = mid + 1;
         else b = mid;
     }
     return a;
 }
 
-/* The wide list in the order of the sorted list (it is short, and a step
-   seldom changes its order). */
-GS__PRIVATE void gs__sap_sort_wide(gs_world *w) {
+/* The candidates in the order of bodies (a query finds few). */
+GS__PRIVATE void gs__sap_order(gs_world *w, int n) {
     int i, j;
-    for (i = 1; i < w->nwide; ++i) {
-        gs__rigid *r = w->wide[i];
-        for (j = i; j > 0 && w->wide[j - 1]->sap > r->sap; --j) {
-            w->wide[j] = w->wide[j - 1];
-            w->wide[j]->wide = j;
-        }
-        w->wide[j] = r;
-        r->wide = j;
+    for (i = 1; i < n; ++i) {
+        gs__rigid *r = w->cand[i];
+        for (j = i; j > 0 && w->cand[j - 1]->sap > r->sap; --j) w->cand[j] = w->cand[j - 1];
+        w->cand[j] = r;
     }
 }
 
-/* Every body whose sweep may meet [lo, hi] on x, into w->cand in the order
-   of the sorted list: the wide ones before the binary search's start, then
-   the run from it. Returns how many. */
-GS__PRIVATE int gs__sap_query(gs_world *w, double lo, double hi) {
-    int start = gs__sap_first(w, lo), n = 0, i;
-    gs__sap_sort_wide(w);
-    for (i = 0; i < w->nwide && w->wide[i]->sap < start; ++i) {
-        gs__rigid *o = w->wide[i];
-        if (o->key <= hi && o->x.x + o->sweep >= lo) w->cand[n++] = o;
-    }
-    for (i = start; i < w->nbodies && w->bodies[i]->key <= hi; ++i) w->cand[n++] = w->bodies[i];
+/* Every body that may meet [lo, hi] on x when taken up to lag seconds from
+   its time, into w->cand in the order of bodies. Returns how many. */
+GS__PRIVATE int gs__sap_query(gs_world *w, double lo, double hi, double lag) {
+    double top = hi + w->speed_max * lag;
+    int n = 0, i;
+    top += 1e-9 * (1.0 + fabs(top));
+    for (i = 0; i < w->nwide; ++i)
+        if (gs__sap_meets(w->wide[i], lo, hi, lag)) w->cand[n++] = w->wide[i];
+    for (i = gs__sap_first(w, lo, lag); i < w->nbodies && w->near[i]->near_key <= top; ++i)
+        if (w->near[i]->wide < 0 && gs__sap_meets(w->near[i], lo, hi, lag)) w->cand[n++] = w->near[i];
+    gs__sap_order(w, n);
     return n;
 }
 
-/* Can o touch r at any lag up to 0.1 s? Their sweeps must meet on y and z
-   (x is the query's): a contact needs |r - (o + v_o lag)| < both bounds. The
-   slack covers the rounding of the sweeps. */
-GS__PRIVATE int gs__sweeps_meet(const gs__rigid *r, const gs__rigid *o) {
-    double reach = (r->sweep + o->sweep) * (1.0 + 1e-9);
+/* Can o touch r at a lag of o's time up to lag (s)? A contact needs
+   |r - (o + v_o lag)| < both bounds, so on each axis the centres must be
+   within both bounds and o's travel (x is the query's). */
+GS__PRIVATE int gs__sweeps_meet(const gs__rigid *r, const gs__rigid *o, double lag) {
+    double reach = gs__sap_reach(o, lag) + r->shape.bound * (1.0 + 1e-9);
     return fabs(r->x.y - o->x.y) <= reach && fabs(r->x.z - o->x.z) <= reach;
 }
 
@@ -4464,12 +4545,13 @@ GS__PRIVATE void gs__rigid_vs_mesh(gs__rigid *r, const gs_agent *m, double t) {
 GS__PRIVATE void gs__rigid_contacts(gs__rigid *r, double t) {
     gs_world *w = r->base.world;
     int i;
-    int n = gs__sap_query(w, r->x.x - r->sweep, r->x.x + r->sweep);
+    double lag = gs__lag_bound(w, t, 0.1);
+    int n = gs__sap_query(w, r->x.x - r->shape.bound, r->x.x + r->shape.bound, lag);
     r->force = r->torque = gs__v3(0.0, 0.0, 0.0);
     r->k_sum = r->c_sum = 0.0;
     if (w->ground) gs__rigid_ground(r);
     for (i = 0; i < n; ++i)
-        if (w->cand[i] != r && gs__sweeps_meet(r, w->cand[i])) gs__rigid_vs_rigid(r, w->cand[i], t);
+        if (w->cand[i] != r && gs__sweeps_meet(r, w->cand[i], lag)) gs__rigid_vs_rigid(r, w->cand[i], t);
     for (i = 0; w->nmeshes > 0 && i < w->agent_count; ++i)
         if (gs__mesh_info(w->agents[i], NULL, NULL, NULL, NULL)) gs__rigid_vs_mesh(r, w->agents[i], t);
 }
@@ -4581,7 +4663,7 @@ GS__PRIVATE void gs__mesh_contacts(gs__mesh *m, double t) {
             gs__mesh_touch(m, i, &c, gs__v3(0.0, 0.0, 0.0), &w->ground_material, 0.0);
         }
     }
-    n = gs__sap_query(w, m->lo.x, m->hi.x);
+    n = gs__sap_query(w, m->lo.x, m->hi.x, gs__lag_bound(w, t, 0.1));
     for (i = 0; i < n; ++i) gs__mesh_vs_rigid(m, w->cand[i], t);
 }
 

@@ -125,6 +125,7 @@ static int in_query(const gs_world *w, int n, const gs__rigid *o) {
    touching pairs seen. */
 static long check_world(gs_world *w, uint64_t *seed) {
     long touching = 0;
+    double bound;
     int i, k, j, n;
     for (i = 0; i < w->nbodies; ++i) {
         gs__rigid *r = w->bodies[i];
@@ -135,15 +136,17 @@ static long check_world(gs_world *w, uint64_t *seed) {
             got = sums_of(r);
             want = brute_contacts(r, t);
             assert_memory_equal(&got, &want, sizeof got);
-            n = gs__sap_query(w, r->x.x - r->sweep, r->x.x + r->sweep);
+            bound = gs__lag_bound(w, t, 0.1);
+            n = gs__sap_query(w, r->x.x - r->shape.bound, r->x.x + r->shape.bound, bound);
             for (j = 1; j < n; ++j) assert_true(w->cand[j - 1]->sap < w->cand[j]->sap);
             for (j = 0; j < w->nbodies; ++j) {
                 gs__rigid *o = w->bodies[j];
                 double lag = fmax(-0.1, fmin(0.1, t - gs__agent_time(&o->base)));
                 if (o == r || !touches(r, o, lag)) continue;
                 touching++;
+                assert_true(fabs(lag) <= bound);
                 assert_true(in_query(w, n, o));
-                assert_true(gs__sweeps_meet(r, o));
+                assert_true(gs__sweeps_meet(r, o, bound));
             }
         }
     }
@@ -162,27 +165,34 @@ static void test_sap_against_brute_force(void **state) {
         for (f = 0; f < 4; ++f) {
             assert_int_equal(gs_world_advance(w, 0.004, NULL), GS_OK);
             touching += check_world(w, &seed);
+            /* as inside an advance: the lag bound from the scheduler's
+               heaps, still those of the last advance (nothing moved since) */
+            w->busy = 1;
+            touching += check_world(w, &seed);
+            w->busy = 0;
         }
         gs_world_destroy(w);
     }
     assert_true(touching > 100); /* the scenes do have contacts */
 }
 
-/* A mesh's query (an x range): every body whose sweep meets the range is in
-   it, in list order. */
+/* A mesh's query (an x range, a lag): every body whose reach meets the
+   range is in it, in list order. */
 static void test_sap_range_queries(void **state) {
     uint64_t seed = 0x13198a2e03707344ull;
     gs_world *w = random_scene(seed, 150);
     int k, j, n;
     (void)state;
     assert_int_equal(gs_world_advance(w, 0.004, NULL), GS_OK);
-    for (k = 0; k < 200; ++k) {
+    for (k = 0; k < 400; ++k) {
         double lo = uniform(&seed, -1.5, 1.5), hi = lo + uniform(&seed, 0.0, 0.5);
-        n = gs__sap_query(w, lo, hi);
+        double lag = k % 2 ? 0.1 : uniform(&seed, 0.0, 0.02);
+        n = gs__sap_query(w, lo, hi, lag);
         for (j = 1; j < n; ++j) assert_true(w->cand[j - 1]->sap < w->cand[j]->sap);
         for (j = 0; j < w->nbodies; ++j) {
             const gs__rigid *o = w->bodies[j];
-            if (o->x.x - o->sweep <= hi && o->x.x + o->sweep >= lo) assert_true(in_query(w, n, o));
+            double reach = o->shape.bound + (o->probe ? 0.0 : gs__len(o->v)) * lag;
+            if (o->x.x - reach <= hi && o->x.x + reach >= lo) assert_true(in_query(w, n, o));
         }
     }
     gs_world_destroy(w);
