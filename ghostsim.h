@@ -4013,14 +4013,16 @@ GS__PRIVATE void gs__sap_swap(gs__rigid **list, int i, int j, int near) {
     }
 }
 
+GS__PRIVATE double gs__sap_key(const gs__rigid *b, int near) {
+    return near ? b->near_key : b->key;
+}
+
 /* Moves r to its place in one list (near: by near_key, else by key). */
 GS__PRIVATE void gs__sap_bubble(gs__rigid **list, int n, gs__rigid *r, int near) {
     int i = near ? r->near : r->sap;
-    double k = near ? r->near_key : r->key;
-#define GS__SAP_KEY(b) (near ? (b)->near_key : (b)->key)
-    while (i > 0 && GS__SAP_KEY(list[i - 1]) > k) { gs__sap_swap(list, i - 1, i, near); --i; }
-    while (i + 1 < n && GS__SAP_KEY(list[i + 1]) < k) { gs__sap_swap(list, i, i + 1, near); ++i; }
-#undef GS__SAP_KEY
+    double k = gs__sap_key(r, near);
+    while (i > 0 && gs__sap_key(list[i - 1], near) > k) { gs__sap_swap(list, i - 1, i, near); --i; }
+    while (i + 1 < n && gs__sap_key(list[i + 1], near) < k) { gs__sap_swap(list, i, i + 1, near); ++i; }
 }
 
 /* Puts r in the wide list or takes it out, as its sweep says. */
