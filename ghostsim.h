@@ -1392,6 +1392,9 @@ struct gs_world {
     struct gs__rigid **wide;   /* bodies with a sweep over wide_at */
     int nwide;
     struct gs__rigid **cand;   /* the answer to a query (bodies_cap) */
+    struct gs__rigid **grid;   /* a uniform grid of the bodies not wide:
+                                  2 * bodies_cap hashed cells */
+    double cell;         /* m; its cell size, 0 when unused */
     double wide_at;      /* m; a sweep over this makes a body wide */
     double bound_max;    /* m; the largest bound of a body not wide */
     double speed_max;    /* m/s; the largest speed of a body not wide (not
@@ -3528,6 +3531,9 @@ typedef struct gs__rigid {
     double speed;              /* m/s, |v| when the broad phase last saw it
                                   (0 for a probe) */
     double near_key;           /* m; x - bound, the sort key of near */
+    int64_t cell[3];           /* its cell in world->grid, if in_grid */
+    int in_grid;
+    struct gs__rigid *gnext, *gprev; /* in its grid bucket */
     double sweep;              /* m; half-width on x: bound + 0.1 s of travel
                                   (contacts look up to 0.1 s ahead or back) */
     double key;                /* m; x - sweep, the sort key */
@@ -3998,8 +4004,9 @@ GS_API double gs_rigid_stable_dt(const gs_agent *a) {
    A body whose sweep is over wide_at (a wall, a floor, a body moving fast)
    is listed apart and left out of bound_max and speed_max, which stretch
    the search: one wall used to stretch every query over the whole world.
-   A query gathers candidates from near and wide, then puts them in the
-   order of bodies. */
+   A body's query looks in a uniform grid of the bodies not wide (a range
+   on x, a mesh's, searches near). Either gathers candidates, adds the wide
+   ones, then puts them in the order of bodies. */
 GS__PRIVATE void gs__sap_swap(gs__rigid **list, int i, int j, int near) {
     struct gs__rigid *t = list[i];
     list[i] = list[j];
@@ -4041,6 +4048,58 @@ GS__PRIVATE void gs__sap_classify(gs_world *w, gs__rigid *r) {
     if (r->speed > w->speed_max) w->speed_max = r->speed;
 }
 
+/* ---- the grid: a body not wide sits in the cell of its centre, so that
+   a body's query looks at the few cells around it instead of the slab of
+   the world its x range crosses (O(n^(2/3)) bodies in a pile). ---- */
+#define GS__GRID_SPAN 1e15 /* cells either side of 0 (keeps int64 exact) */
+GS__PRIVATE int64_t gs__grid_coord(const gs_world *w, double x) {
+    double c = floor(x / w->cell);
+    return (int64_t)(c > GS__GRID_SPAN ? GS__GRID_SPAN : c < -GS__GRID_SPAN ? -GS__GRID_SPAN : c);
+}
+
+GS__PRIVATE size_t gs__grid_bucket(const gs_world *w, const int64_t c[3]) {
+    uint64_t h = (uint64_t)c[0] * 73856093u ^ (uint64_t)c[1] * 19349663u ^ (uint64_t)c[2] * 83492791u;
+    return (size_t)(h % (2 * (uint64_t)w->bodies_cap));
+}
+
+GS__PRIVATE void gs__grid_unlink(gs_world *w, gs__rigid *r) {
+    if (!r->in_grid) return;
+    if (r->gprev) r->gprev->gnext = r->gnext;
+    else w->grid[gs__grid_bucket(w, r->cell)] = r->gnext;
+    if (r->gnext) r->gnext->gprev = r->gprev;
+    r->in_grid = 0;
+}
+
+/* Keeps r in the cell of its centre, or out of the grid if it is wide. */
+GS__PRIVATE void gs__grid_place(gs_world *w, gs__rigid *r) {
+    int64_t c[3];
+    size_t b;
+    if (w->cell <= 0.0 || r->wide >= 0) {
+        gs__grid_unlink(w, r);
+        return;
+    }
+    c[0] = gs__grid_coord(w, r->x.x);
+    c[1] = gs__grid_coord(w, r->x.y);
+    c[2] = gs__grid_coord(w, r->x.z);
+    if (r->in_grid && c[0] == r->cell[0] && c[1] == r->cell[1] && c[2] == r->cell[2]) return;
+    gs__grid_unlink(w, r);
+    memcpy(r->cell, c, sizeof c);
+    b = gs__grid_bucket(w, c);
+    r->gprev = NULL;
+    r->gnext = w->grid[b];
+    if (r->gnext) r->gnext->gprev = r;
+    w->grid[b] = r;
+    r->in_grid = 1;
+}
+
+/* Every body again (a new cell size, a bigger table). */
+GS__PRIVATE void gs__grid_rebuild(gs_world *w) {
+    int i;
+    memset(w->grid, 0, 2 * (size_t)w->bodies_cap * sizeof *w->grid);
+    for (i = 0; i < w->nbodies; ++i) w->bodies[i]->in_grid = 0;
+    for (i = 0; i < w->nbodies; ++i) gs__grid_place(w, w->bodies[i]);
+}
+
 GS__PRIVATE void gs__sap_update(gs__rigid *r) {
     gs_world *w = r->base.world;
     double v = gs__len(r->v);
@@ -4051,12 +4110,13 @@ GS__PRIVATE void gs__sap_update(gs__rigid *r) {
     gs__sap_classify(w, r);
     gs__sap_bubble(w->bodies, w->nbodies, r, 0);
     gs__sap_bubble(w->near, w->nbodies, r, 1);
+    gs__grid_place(w, r);
 }
 
 GS__PRIVATE gs_result gs__sap_add(gs_world *w, gs__rigid *r) {
     if (w->nbodies == w->bodies_cap) {
         int cap = w->bodies_cap ? 2 * w->bodies_cap : 16;
-        struct gs__rigid **list = (struct gs__rigid **)gs__alloc(w, 4 * (size_t)cap * sizeof *list);
+        struct gs__rigid **list = (struct gs__rigid **)gs__alloc(w, 6 * (size_t)cap * sizeof *list);
         if (!list) return gs__fail(w, GS_ERR_NO_MEMORY, "broad phase: out of memory");
         if (w->nbodies) {
             memcpy(list, w->bodies, (size_t)w->nbodies * sizeof *list);
@@ -4068,10 +4128,13 @@ GS__PRIVATE gs_result gs__sap_add(gs_world *w, gs__rigid *r) {
         w->near = list + cap;
         w->wide = list + 2 * cap;
         w->cand = list + 3 * cap;
+        w->grid = list + 4 * cap;
         w->bodies_cap = cap;
+        gs__grid_rebuild(w);
     }
     r->sap = r->near = w->nbodies;
     r->wide = -1;
+    r->in_grid = 0;
     w->bodies[w->nbodies] = w->near[w->nbodies] = r;
     w->nbodies++;
     gs__sap_update(r);
@@ -4080,6 +4143,7 @@ GS__PRIVATE gs_result gs__sap_add(gs_world *w, gs__rigid *r) {
 
 GS__PRIVATE void gs__sap_remove(gs_world *w, gs__rigid *r) {
     int i;
+    gs__grid_unlink(w, r);
     if (r->wide >= 0) {
         w->wide[r->wide] = w->wide[--w->nwide];
         w->wide[r->wide]->wide = r->wide;
@@ -4114,6 +4178,9 @@ GS__PRIVATE void gs__sap_refresh(gs_world *w) {
     w->nwide = 0;
     for (i = 0; i < w->nbodies; ++i) w->bodies[i]->wide = -1;
     for (i = 0; i < w->nbodies; ++i) gs__sap_classify(w, w->bodies[i]);
+    /* a query of a body not wide reaches about 2 bound_max: two cells a side */
+    w->cell = 4.0 * w->bound_max;
+    if (w->nbodies) gs__grid_rebuild(w);
 }
 
 /* How far o reaches from its centre on any axis when its state is taken
@@ -4161,6 +4228,39 @@ GS__PRIVATE int gs__sap_query(gs_world *w, double lo, double hi, double lag) {
         if (gs__sap_meets(w->wide[i], lo, hi, lag)) w->cand[n++] = w->wide[i];
     for (i = gs__sap_first(w, lo, lag); i < w->nbodies && w->near[i]->near_key <= top; ++i)
         if (w->near[i]->wide < 0 && gs__sap_meets(w->near[i], lo, hi, lag)) w->cand[n++] = w->near[i];
+    gs__sap_order(w, n);
+    return n;
+}
+
+/* The bodies that may touch r when taken up to lag seconds from their
+   time, into w->cand in the order of bodies: the wide ones, and those of
+   the cells within reach of r (any body not wide is within bound_max +
+   speed_max lag of its cell's reach). A reach of many cells takes the list
+   search instead. Returns how many. */
+#define GS__GRID_MAX_CELLS 64
+GS__PRIVATE int gs__sap_query_near(gs_world *w, const gs__rigid *r, double lag) {
+    double lo = r->x.x - r->shape.bound, hi = r->x.x + r->shape.bound;
+    double reach = (r->shape.bound + w->bound_max + w->speed_max * lag) * (1.0 + 1e-9) + 1e-12;
+    int64_t a[3], b[3], c[3];
+    int n = 0, i;
+    if (w->cell <= 0.0 || !(reach < 0.5 * GS__GRID_MAX_CELLS * w->cell))
+        return gs__sap_query(w, lo, hi, lag);
+    a[0] = gs__grid_coord(w, r->x.x - reach); b[0] = gs__grid_coord(w, r->x.x + reach);
+    a[1] = gs__grid_coord(w, r->x.y - reach); b[1] = gs__grid_coord(w, r->x.y + reach);
+    a[2] = gs__grid_coord(w, r->x.z - reach); b[2] = gs__grid_coord(w, r->x.z + reach);
+    if ((b[0] - a[0] + 1) * (b[1] - a[1] + 1) * (b[2] - a[2] + 1) > GS__GRID_MAX_CELLS)
+        return gs__sap_query(w, lo, hi, lag);
+    for (i = 0; i < w->nwide; ++i)
+        if (gs__sap_meets(w->wide[i], lo, hi, lag)) w->cand[n++] = w->wide[i];
+    for (c[0] = a[0]; c[0] <= b[0]; ++c[0])
+        for (c[1] = a[1]; c[1] <= b[1]; ++c[1])
+            for (c[2] = a[2]; c[2] <= b[2]; ++c[2]) {
+                gs__rigid *o;
+                for (o = w->grid[gs__grid_bucket(w, c)]; o; o = o->gnext)
+                    if (o->cell[0] == c[0] && o->cell[1] == c[1] && o->cell[2] == c[2] &&
+                        gs__sap_meets(o, lo, hi, lag))
+                        w->cand[n++] = o;
+            }
     gs__sap_order(w, n);
     return n;
 }
@@ -4548,7 +4648,7 @@ GS__PRIVATE void gs__rigid_contacts(gs__rigid *r, double t) {
     gs_world *w = r->base.world;
     int i;
     double lag = gs__lag_bound(w, t, 0.1);
-    int n = gs__sap_query(w, r->x.x - r->shape.bound, r->x.x + r->shape.bound, lag);
+    int n = gs__sap_query_near(w, r, lag);
     r->force = r->torque = gs__v3(0.0, 0.0, 0.0);
     r->k_sum = r->c_sum = 0.0;
     if (w->ground) gs__rigid_ground(r);

@@ -1,7 +1,8 @@
 /* test_sap.c - the broad phase (>>contact) against brute force.
 
-   The sweep-and-prune list answers a query with the bodies near it, wide
-   ones (walls, fast bodies) listed apart. Whatever it leaves out must be a
+   The broad phase answers a query with the bodies near it (from a uniform
+   grid, or a list sorted on x), wide ones (walls, fast bodies) listed
+   apart. Whatever it leaves out must be a
    body that cannot touch, and what it keeps must come in the order of the
    sorted list, so that contact forces add up in the same order as a loop
    over every body: on random scenes of spheres, boxes and wide walls at
@@ -137,7 +138,7 @@ static long check_world(gs_world *w, uint64_t *seed) {
             want = brute_contacts(r, t);
             assert_memory_equal(&got, &want, sizeof got);
             bound = gs__lag_bound(w, t, 0.1);
-            n = gs__sap_query(w, r->x.x - r->shape.bound, r->x.x + r->shape.bound, bound);
+            n = gs__sap_query_near(w, r, bound);
             for (j = 1; j < n; ++j) assert_true(w->cand[j - 1]->sap < w->cand[j]->sap);
             for (j = 0; j < w->nbodies; ++j) {
                 gs__rigid *o = w->bodies[j];
