@@ -5492,16 +5492,17 @@ GS__PRIVATE double gs__blend_put(const gs__blend_out *o, size_t e, double num,
 /* One element against a single snapshot (v, weight w), the chunk
    multiplying by r: new value, next render offset; adds its squared
    difference to *s2 (position values: pos) and its squared correction to
-   *c2. Inline: the caller keeps the sums in registers. */
+   *c2. A non-finite offset makes *c2 NaN too (f - f), and gs__blend_pass
+   mends it then. Inline: the caller keeps the sums in registers. */
 GS__PRIVATE inline void gs__blend_el(const gs__blend_out *o, const double *v, size_t i,
                                      double w, double r, double fade, int pos,
                                      double *s2, double *c2) {
     double x = o->old[i], dd = v[i] - x, n = x + (w * dd) * r, k = x - n;
     double f = fade * o->off[i] + k;
     o->nv[i] = n;
-    o->next[i] = f - f == 0.0 ? f : 0.0; /* huge: no fading */
+    o->next[i] = f;
     if (pos) *s2 += dd * dd;
-    *c2 += k * k;
+    *c2 += k * k + (f - f);
 }
 
 /* Elements [a, b) against a single snapshot, the common case, four
@@ -5585,6 +5586,23 @@ GS__PRIVATE void gs__blend_chunk(gs__ghost *g, gs__pass *ps, int c, size_t a,
     }
 }
 
+/* After a pass whose sums came out non-finite, element by element: is
+   every new value finite; a huge render offset is dropped (no fading)
+   rather than kept as inf; and the squared corrections are summed again
+   without the offsets' NaN. */
+GS__PRIVATE void gs__blend_mend(gs__ghost *g, gs__pass *ps) {
+    double c2 = 0.0;
+    size_t e;
+    for (e = 1; e < g->n; ++e) {
+        double k = g->local[e] - g->scratch[e];
+        ps->finite &= gs__finite(g->scratch[e]);
+        if (!gs__finite(g->offset_next[e])) g->offset_next[e] = 0.0;
+        c2 += k * k;
+    }
+    memset(ps->corr2, 0, sizeof ps->corr2);
+    ps->corr2[0] = c2;
+}
+
 /* Every element of the state once, chunk by chunk. Returns 0 if a new
    value is not finite (a sum that overflows, dead reckoning at an absurd
    speed: found by fuzzing), and then nothing may be applied. */
@@ -5600,8 +5618,7 @@ GS__PRIVATE int gs__blend_pass(gs__ghost *g, gs__pass *ps) {
                         npos);
     }
     if (ps->finite && !gs__finite((ps->corr2[0] + ps->corr2[1]) + (ps->corr2[2] + ps->corr2[3])))
-        for (first = 0; first < vars; ++first) /* or corrections over 1e154 */
-            ps->finite &= gs__finite(g->scratch[1 + first]);
+        gs__blend_mend(g, ps); /* or corrections over 1e154 */
     return ps->finite;
 }
 
