@@ -4054,7 +4054,9 @@ GS__PRIVATE void gs__sap_classify(gs_world *w, gs__rigid *r) {
 #define GS__GRID_SPAN 1e15 /* cells either side of 0 (keeps int64 exact) */
 GS__PRIVATE int64_t gs__grid_coord(const gs_world *w, double x) {
     double c = floor(x / w->cell);
-    return (int64_t)(c > GS__GRID_SPAN ? GS__GRID_SPAN : c < -GS__GRID_SPAN ? -GS__GRID_SPAN : c);
+    if (!(c >= -GS__GRID_SPAN)) c = -GS__GRID_SPAN; /* and NaN */
+    if (c > GS__GRID_SPAN) c = GS__GRID_SPAN;
+    return (int64_t)c;
 }
 
 GS__PRIVATE size_t gs__grid_bucket(const gs_world *w, const int64_t c[3]) {
