@@ -1373,6 +1373,8 @@ struct gs_agent {
     int queued;
     int failed;
     uint64_t enqueued_at; /* world->dispatches when it was queued */
+    double span_t;       /* s; its time when the span heaps last saw it */
+    int span_lo, span_hi; /* its place in them, -1 when out (failed) */
     gs_agent_stats stats;
     void *ghost;         /* gs__ghost, if one is attached */
 };
@@ -1391,12 +1393,29 @@ struct gs_world {
     int busy;            /* inside gs_world_advance */
     gs_agent **agents;
     int agent_count, agent_cap;
+    /* During an advance, the live agents in a min-heap and a max-heap on
+       their time (agent_cap each): the slowest and fastest time at every
+       dispatch without a scan of every agent. */
+    gs_agent **span_lo, **span_hi;
+    int span_n;
+    double failed_lo, failed_hi; /* s; the times of the agents out of them */
     uint64_t dispatches;
     gs_net *net;         /* at most one */
     struct gs__rigid **bodies; /* the broad phase: rigid bodies and probes
-                                  sorted by the low end of their sweep on x */
+                                  sorted by the low end of their sweep on x
+                                  (the order contacts are summed in) */
     int nbodies, bodies_cap;
-    double sweep_max;    /* m; the largest sweep half-width of any body */
+    struct gs__rigid **near;   /* the same sorted by x - bound (searched) */
+    struct gs__rigid **wide;   /* bodies with a sweep over wide_at */
+    int nwide;
+    struct gs__rigid **cand;   /* the answer to a query (bodies_cap) */
+    struct gs__rigid **grid;   /* a uniform grid of the bodies not wide:
+                                  2 * bodies_cap hashed cells */
+    double cell;         /* m; its cell size, 0 when unused */
+    double wide_at;      /* m; a sweep over this makes a body wide */
+    double bound_max;    /* m; the largest bound of a body not wide */
+    double speed_max;    /* m/s; the largest speed of a body not wide (not
+                            a probe: contacts do not carry those on) */
     int nmeshes;         /* spring-mass agents (contacts loop over them) */
     int ground;          /* a plane y = ground_height */
     double ground_height;
@@ -1512,6 +1531,7 @@ GS_API void gs_world_destroy(gs_world *w) {
         gs__free(w, w->agents[i]);
     }
     gs__free(w, w->agents);
+    gs__free(w, w->span_lo);
     gs__free(w, w->bodies);
     w->alloc.free(w, w->alloc.user);
 }
@@ -1522,11 +1542,19 @@ GS__PRIVATE gs_result gs__world_add(gs_world *w, gs_agent *a) {
     if (w->agent_count == w->agent_cap) {
         int cap = w->agent_cap ? 2 * w->agent_cap : 8;
         gs_agent **list = (gs_agent **)gs__alloc(w, (size_t)cap * sizeof *list);
-        if (!list) return gs__fail(w, GS_ERR_NO_MEMORY, "agent list: out of memory");
+        gs_agent **heaps = (gs_agent **)gs__alloc(w, 2 * (size_t)cap * sizeof *heaps);
+        if (!list || !heaps) {
+            gs__free(w, list);
+            gs__free(w, heaps);
+            return gs__fail(w, GS_ERR_NO_MEMORY, "agent list: out of memory");
+        }
         if (w->agent_count)
             memcpy(list, w->agents, (size_t)w->agent_count * sizeof *list);
         gs__free(w, w->agents);
+        gs__free(w, w->span_lo);
         w->agents = list;
+        w->span_lo = heaps; /* the heaps are rebuilt at each advance */
+        w->span_hi = heaps + cap;
         w->agent_cap = cap;
     }
     a->index = w->agent_count;
@@ -1627,6 +1655,132 @@ GS__PRIVATE int gs__clamp_priority(const gs_world *w, int p) {
 /* Done for this advance: within half a step of the target. */
 GS__PRIVATE int gs__agent_done(const gs_agent *a) {
     return gs__agent_time(a) >= a->world->target - 0.5 * a->dt;
+}
+
+/* ---- the span heaps: the slowest and fastest live agent in O(log n) per
+   change of a time, where a scan at every dispatch made a frame O(n^2).
+   They hold exactly the agents gs__time_span counts (the ones not failed)
+   and each one's time as gs__agent_time computes it, so the span is the
+   same, bit for bit. ---- */
+GS__PRIVATE int *gs__span_pos(gs_agent *a, int hi) {
+    return hi ? &a->span_hi : &a->span_lo;
+}
+
+/* Does a belong above b: earlier in the min-heap, later in the max-heap. */
+GS__PRIVATE int gs__span_above(const gs_agent *a, const gs_agent *b, int hi) {
+    return hi ? a->span_t > b->span_t : a->span_t < b->span_t;
+}
+
+GS__PRIVATE void gs__span_put(gs_agent **heap, int i, gs_agent *a, int hi) {
+    heap[i] = a;
+    *gs__span_pos(a, hi) = i;
+}
+
+GS__PRIVATE void gs__span_down(gs_world *w, int hi, int i) {
+    gs_agent **heap = hi ? w->span_hi : w->span_lo, *a = heap[i];
+    for (;;) {
+        int c = 2 * i + 1;
+        if (c >= w->span_n) break;
+        if (c + 1 < w->span_n && gs__span_above(heap[c + 1], heap[c], hi)) c++;
+        if (!gs__span_above(heap[c], a, hi)) break;
+        gs__span_put(heap, i, heap[c], hi);
+        i = c;
+    }
+    gs__span_put(heap, i, a, hi);
+}
+
+/* Moves heap[i] up or down to its place. */
+GS__PRIVATE void gs__span_sift(gs_world *w, int hi, int i) {
+    gs_agent **heap = hi ? w->span_hi : w->span_lo, *a = heap[i];
+    while (i > 0 && gs__span_above(a, heap[(i - 1) / 2], hi)) {
+        gs__span_put(heap, i, heap[(i - 1) / 2], hi);
+        i = (i - 1) / 2;
+    }
+    gs__span_put(heap, i, a, hi);
+    gs__span_down(w, hi, i);
+}
+
+/* Every agent not failed, at the start of an advance. */
+GS__PRIVATE void gs__span_build(gs_world *w) {
+    int i, hi;
+    w->span_n = 0;
+    w->failed_lo = HUGE_VAL;
+    w->failed_hi = -HUGE_VAL;
+    for (i = 0; i < w->agent_count; ++i) {
+        gs_agent *a = w->agents[i];
+        a->span_lo = a->span_hi = -1;
+        if (a->failed) continue;
+        a->span_t = gs__agent_time(a);
+        gs__span_put(w->span_lo, w->span_n, a, 0);
+        gs__span_put(w->span_hi, w->span_n, a, 1);
+        w->span_n++;
+    }
+    for (hi = 0; hi < 2; ++hi)
+        for (i = w->span_n / 2 - 1; i >= 0; --i) gs__span_down(w, hi, i);
+}
+
+/* Widens the range of the failed agents' times to take in a's. */
+GS__PRIVATE void gs__span_failed(gs_agent *a) {
+    gs_world *w = a->world;
+    double t = gs__agent_time(a);
+    if (t < w->failed_lo) w->failed_lo = t;
+    if (t > w->failed_hi) w->failed_hi = t;
+}
+
+/* After a's time changed (a step, a blend, a set_state). */
+GS__PRIVATE void gs__span_update(gs_agent *a) {
+    gs_world *w = a->world;
+    if (!w->busy) return;
+    if (a->span_lo < 0) {
+        gs__span_failed(a);
+        return;
+    }
+    a->span_t = gs__agent_time(a);
+    gs__span_sift(w, 0, a->span_lo);
+    gs__span_sift(w, 1, a->span_hi);
+}
+
+/* A failed agent leaves the span. */
+GS__PRIVATE void gs__span_remove(gs_agent *a) {
+    gs_world *w = a->world;
+    int hi;
+    if (a->span_lo < 0) return;
+    gs__span_failed(a);
+    w->span_n--;
+    for (hi = 0; hi < 2; ++hi) {
+        gs_agent **heap = hi ? w->span_hi : w->span_lo;
+        int i = *gs__span_pos(a, hi);
+        if (i < w->span_n) {
+            gs__span_put(heap, i, heap[w->span_n], hi);
+            gs__span_sift(w, hi, i);
+        }
+    }
+    a->span_lo = a->span_hi = -1;
+}
+
+/* The span from the heaps: what gs__time_span would find. */
+GS__PRIVATE void gs__span_get(const gs_world *w, double *t_min, double *t_max) {
+    if (w->span_n == 0) {
+        *t_min = *t_max = w->target;
+        return;
+    }
+    *t_min = w->span_lo[0]->span_t;
+    *t_max = w->span_hi[0]->span_t;
+}
+
+/* How far any agent's time can be from t (s), at most max_lag: while the
+   world advances the heaps know every time, failed agents' included; out
+   of it (gs_agent_step) nothing is known and max_lag is the answer. */
+GS__PRIVATE double gs__lag_bound(const gs_world *w, double t, double max_lag) {
+    double lo = w->failed_lo, hi = w->failed_hi, lag;
+    if (!w->busy) return max_lag;
+    if (w->span_n > 0) {
+        lo = fmin(lo, w->span_lo[0]->span_t);
+        hi = fmax(hi, w->span_hi[0]->span_t);
+    }
+    lag = fmax(t - lo, hi - t);
+    if (!(lag > 0.0)) return 0.0; /* no agent at all: -inf */
+    return lag < max_lag ? lag : max_lag;
 }
 
 /* Slowest and fastest simulation time of the agents still live. */
@@ -1755,14 +1909,16 @@ GS__PRIVATE int gs__dispatch(gs_world *w, gs_result *first_error,
     double t_min, t_max;
     gs_agent *a;
     gs_result r;
-    gs__time_span(w, &t_min, &t_max);
+    gs__span_get(w, &t_min, &t_max);
     a = gs__pick(w, t_min);
     if (!a) return 0;
     gs__activate(w, a, t_min, t_max);
     w->dispatches++;
     r = gs__agent_step(a);
+    gs__span_update(a);
     if (r != GS_OK) {
         a->failed = 1;
+        gs__span_remove(a);
         rep->failed_agents++;
         if (*first_error == GS_OK) *first_error = r;
         return 1;
@@ -1838,6 +1994,7 @@ GS_API gs_result gs_world_advance(gs_world *w, double seconds,
     gs__sap_refresh(w);
     if (w->budget > 0.0) start = w->clock(w->clock_user);
     gs__queue_all(w);
+    gs__span_build(w);
     rep.reached = 1;
     for (;;) {
         if (w->budget > 0.0 && w->clock(w->clock_user) - start >= w->budget) {
@@ -1965,9 +2122,17 @@ GS_API gs_result gs_agent_get_state(const gs_agent *a, double *out,
     return GS_OK;
 }
 
+/* Sets a state already checked: right size, every value finite. */
+GS__PRIVATE gs_result gs__agent_put_state(gs_agent *a, const double *in) {
+    gs_result r = a->kind->set_state(a, in + 1);
+    if (r != GS_OK) return r;
+    a->t_offset = in[0] - (double)a->steps * a->dt;
+    gs__span_update(a);
+    return GS_OK;
+}
+
 GS_API gs_result gs_agent_set_state(gs_agent *a, const double *in, size_t n) {
     size_t i;
-    gs_result r;
     if (n != gs_agent_state_size(a))
         return gs__fail(a->world, GS_ERR_SIZE_MISMATCH,
                         "gs_agent_set_state: n is %lu, the state has %lu",
@@ -1981,10 +2146,7 @@ GS_API gs_result gs_agent_set_state(gs_agent *a, const double *in, size_t n) {
             return gs__fail(a->world, GS_ERR_NOT_FINITE,
                             "gs_agent_set_state: element %lu is %g",
                             (unsigned long)i, in[i]);
-    r = a->kind->set_state(a, in + 1);
-    if (r != GS_OK) return r;
-    a->t_offset = in[0] - (double)a->steps * a->dt;
-    return GS_OK;
+    return gs__agent_put_state(a, in);
 }
 
 GS_API gs_result gs_agent_step(gs_agent *a) {
@@ -3381,6 +3543,14 @@ typedef struct gs__rigid {
     gs_vec3 x, v, w;           /* m, m/s, rad/s (world) */
     gs_vec3 v_prev, w_prev;    /* at the start of the last step */
     int sap;                   /* index in world->bodies */
+    int near;                  /* index in world->near */
+    int wide;                  /* index in world->wide, -1 if not wide */
+    double speed;              /* m/s, |v| when the broad phase last saw it
+                                  (0 for a probe) */
+    double near_key;           /* m; x - bound, the sort key of near */
+    int64_t cell[3];           /* its cell in world->grid, if in_grid */
+    int in_grid;
+    struct gs__rigid *gnext, *gprev; /* in its grid bucket */
     double sweep;              /* m; half-width on x: bound + 0.1 s of travel
                                   (contacts look up to 0.1 s ahead or back) */
     double key;                /* m; x - sweep, the sort key */
@@ -3840,48 +4010,170 @@ GS_API double gs_rigid_stable_dt(const gs_agent *a) {
    whatever that agent's simulation time.
    ======================================================================== */
 /* ---- broad phase: sweep and prune on x ----
-   Bodies stay sorted by the low end of their sweep; a body that moved is
-   bubbled to its place (a step moves it little, so this is about O(1)), and
-   a query is a binary search plus the bodies it could touch. */
-GS__PRIVATE void gs__sap_swap(gs_world *w, int i, int j) {
-    struct gs__rigid *t = w->bodies[i];
-    w->bodies[i] = w->bodies[j];
-    w->bodies[j] = t;
-    w->bodies[i]->sap = i;
-    w->bodies[j]->sap = j;
+   Two lists of the same bodies, kept sorted by bubbling a body that moved
+   to its place (a step moves it little, so this is about O(1)):
+   - bodies, by the low end of the sweep, bound + 0.1 s of travel: the order
+     in which contacts are summed, so that forces keep their last bits;
+   - near, by x - bound: what a query searches. Travel is added at the
+     query, for the lag the scheduler allows now (its tolerance and a step,
+     not 0.1 s: gs__lag_bound), so a falling pile does not make every
+     query span the world.
+   A body whose sweep is over wide_at (a wall, a floor, a body moving fast)
+   is listed apart and left out of bound_max and speed_max, which stretch
+   the search: one wall used to stretch every query over the whole world.
+   A body's query looks in a uniform grid of the bodies not wide (a range
+   on x, a mesh's, searches near). Either gathers candidates, adds the wide
+   ones, then puts them in the order of bodies. */
+GS__PRIVATE void gs__sap_swap(gs__rigid **list, int i, int j, int near) {
+    struct gs__rigid *t = list[i];
+    list[i] = list[j];
+    list[j] = t;
+    if (near) {
+        list[i]->near = i;
+        list[j]->near = j;
+    } else {
+        list[i]->sap = i;
+        list[j]->sap = j;
+    }
+}
+
+GS__PRIVATE double gs__sap_key(const gs__rigid *b, int near) {
+    return near ? b->near_key : b->key;
+}
+
+/* Moves r to its place in one list (near: by near_key, else by key). */
+GS__PRIVATE void gs__sap_bubble(gs__rigid **list, int n, gs__rigid *r, int near) {
+    int i = near ? r->near : r->sap;
+    double k = gs__sap_key(r, near);
+    while (i > 0 && gs__sap_key(list[i - 1], near) > k) { gs__sap_swap(list, i - 1, i, near); --i; }
+    while (i + 1 < n && gs__sap_key(list[i + 1], near) < k) { gs__sap_swap(list, i, i + 1, near); ++i; }
+}
+
+/* Puts r in the wide list or takes it out, as its sweep says. */
+GS__PRIVATE void gs__sap_classify(gs_world *w, gs__rigid *r) {
+    int wide = r->sweep > w->wide_at;
+    if (wide && r->wide < 0) {
+        r->wide = w->nwide;
+        w->wide[w->nwide++] = r;
+    } else if (!wide && r->wide >= 0) {
+        w->wide[r->wide] = w->wide[--w->nwide];
+        w->wide[r->wide]->wide = r->wide;
+        r->wide = -1;
+    }
+    if (wide) return;
+    if (r->shape.bound > w->bound_max) w->bound_max = r->shape.bound;
+    if (r->speed > w->speed_max) w->speed_max = r->speed;
+}
+
+/* ---- the grid: a body not wide sits in the cell of its centre, so that
+   a body's query looks at the few cells around it instead of the slab of
+   the world its x range crosses (O(n^(2/3)) bodies in a pile). ---- */
+#define GS__GRID_SPAN 1e15 /* cells either side of 0 (keeps int64 exact) */
+GS__PRIVATE int64_t gs__grid_coord(const gs_world *w, double x) {
+    double c = floor(x / w->cell);
+    if (!(c >= -GS__GRID_SPAN)) c = -GS__GRID_SPAN; /* and NaN */
+    if (c > GS__GRID_SPAN) c = GS__GRID_SPAN;
+    return (int64_t)c;
+}
+
+GS__PRIVATE size_t gs__grid_bucket(const gs_world *w, const int64_t c[3]) {
+    uint64_t h = (uint64_t)c[0] * 73856093u ^ (uint64_t)c[1] * 19349663u ^ (uint64_t)c[2] * 83492791u;
+    return (size_t)(h % (2 * (uint64_t)w->bodies_cap));
+}
+
+GS__PRIVATE void gs__grid_unlink(gs_world *w, gs__rigid *r) {
+    if (!r->in_grid) return;
+    if (r->gprev) r->gprev->gnext = r->gnext;
+    else w->grid[gs__grid_bucket(w, r->cell)] = r->gnext;
+    if (r->gnext) r->gnext->gprev = r->gprev;
+    r->in_grid = 0;
+}
+
+/* Keeps r in the cell of its centre, or out of the grid if it is wide. */
+GS__PRIVATE void gs__grid_place(gs_world *w, gs__rigid *r) {
+    int64_t c[3];
+    size_t b;
+    if (w->cell <= 0.0 || r->wide >= 0) {
+        gs__grid_unlink(w, r);
+        return;
+    }
+    c[0] = gs__grid_coord(w, r->x.x);
+    c[1] = gs__grid_coord(w, r->x.y);
+    c[2] = gs__grid_coord(w, r->x.z);
+    if (r->in_grid && c[0] == r->cell[0] && c[1] == r->cell[1] && c[2] == r->cell[2]) return;
+    gs__grid_unlink(w, r);
+    memcpy(r->cell, c, sizeof c);
+    b = gs__grid_bucket(w, c);
+    r->gprev = NULL;
+    r->gnext = w->grid[b];
+    if (r->gnext) r->gnext->gprev = r;
+    w->grid[b] = r;
+    r->in_grid = 1;
+}
+
+/* Every body again (a new cell size, a bigger table). */
+GS__PRIVATE void gs__grid_rebuild(gs_world *w) {
+    int i;
+    memset(w->grid, 0, 2 * (size_t)w->bodies_cap * sizeof *w->grid);
+    for (i = 0; i < w->nbodies; ++i) w->bodies[i]->in_grid = 0;
+    for (i = 0; i < w->nbodies; ++i) gs__grid_place(w, w->bodies[i]);
 }
 
 GS__PRIVATE void gs__sap_update(gs__rigid *r) {
     gs_world *w = r->base.world;
-    int i = r->sap;
-    r->sweep = r->shape.bound + 0.1 * gs__len(r->v);
+    double v = gs__len(r->v);
+    r->sweep = r->shape.bound + 0.1 * v;
     r->key = r->x.x - r->sweep;
-    if (r->sweep > w->sweep_max) w->sweep_max = r->sweep;
-    while (i > 0 && w->bodies[i - 1]->key > r->key) { gs__sap_swap(w, i - 1, i); --i; }
-    while (i + 1 < w->nbodies && w->bodies[i + 1]->key < r->key) { gs__sap_swap(w, i, i + 1); ++i; }
+    r->speed = r->probe ? 0.0 : v;
+    r->near_key = r->x.x - r->shape.bound;
+    gs__sap_classify(w, r);
+    gs__sap_bubble(w->bodies, w->nbodies, r, 0);
+    gs__sap_bubble(w->near, w->nbodies, r, 1);
+    gs__grid_place(w, r);
 }
 
 GS__PRIVATE gs_result gs__sap_add(gs_world *w, gs__rigid *r) {
     if (w->nbodies == w->bodies_cap) {
         int cap = w->bodies_cap ? 2 * w->bodies_cap : 16;
-        struct gs__rigid **list = (struct gs__rigid **)gs__alloc(w, (size_t)cap * sizeof *list);
+        struct gs__rigid **list = (struct gs__rigid **)gs__alloc(w, 6 * (size_t)cap * sizeof *list);
         if (!list) return gs__fail(w, GS_ERR_NO_MEMORY, "broad phase: out of memory");
-        if (w->nbodies) memcpy(list, w->bodies, (size_t)w->nbodies * sizeof *list);
+        if (w->nbodies) {
+            memcpy(list, w->bodies, (size_t)w->nbodies * sizeof *list);
+            memcpy(list + cap, w->near, (size_t)w->nbodies * sizeof *list);
+        }
+        if (w->nwide) memcpy(list + 2 * cap, w->wide, (size_t)w->nwide * sizeof *list);
         gs__free(w, w->bodies);
         w->bodies = list;
+        w->near = list + cap;
+        w->wide = list + 2 * cap;
+        w->cand = list + 3 * cap;
+        w->grid = list + 4 * cap;
         w->bodies_cap = cap;
+        gs__grid_rebuild(w);
     }
-    r->sap = w->nbodies;
-    w->bodies[w->nbodies++] = r;
+    r->sap = r->near = w->nbodies;
+    r->wide = -1;
+    r->in_grid = 0;
+    w->bodies[w->nbodies] = w->near[w->nbodies] = r;
+    w->nbodies++;
     gs__sap_update(r);
     return GS_OK;
 }
 
 GS__PRIVATE void gs__sap_remove(gs_world *w, gs__rigid *r) {
     int i;
+    gs__grid_unlink(w, r);
+    if (r->wide >= 0) {
+        w->wide[r->wide] = w->wide[--w->nwide];
+        w->wide[r->wide]->wide = r->wide;
+    }
     for (i = r->sap + 1; i < w->nbodies; ++i) {
         w->bodies[i - 1] = w->bodies[i];
         w->bodies[i - 1]->sap = i - 1;
+    }
+    for (i = r->near + 1; i < w->nbodies; ++i) {
+        w->near[i - 1] = w->near[i];
+        w->near[i - 1]->near = i - 1;
     }
     w->nbodies--;
 }
@@ -3893,24 +4185,111 @@ GS__PRIVATE void gs__agent_unlink(gs_agent *a) {
     else if (gs__as_mesh(a)) a->world->nmeshes--;
 }
 
-/* The largest sweep of any body, exactly (updates only ever raise it). */
+/* At each advance: wide means a sweep over 4 times the mean body bound,
+   and bound_max and speed_max are those of the others, exactly (updates
+   only ever raise them). */
 GS__PRIVATE void gs__sap_refresh(gs_world *w) {
+    double mean = 0.0;
     int i;
-    w->sweep_max = 0.0;
-    for (i = 0; i < w->nbodies; ++i)
-        if (w->bodies[i]->sweep > w->sweep_max) w->sweep_max = w->bodies[i]->sweep;
+    for (i = 0; i < w->nbodies; ++i) mean += w->bodies[i]->shape.bound;
+    w->wide_at = w->nbodies ? 4.0 * mean / (double)w->nbodies : 0.0;
+    w->bound_max = w->speed_max = 0.0;
+    w->nwide = 0;
+    for (i = 0; i < w->nbodies; ++i) w->bodies[i]->wide = -1;
+    for (i = 0; i < w->nbodies; ++i) gs__sap_classify(w, w->bodies[i]);
+    /* a query of a body not wide reaches about 2 bound_max: two cells a side */
+    w->cell = 4.0 * w->bound_max;
+    if (w->nbodies) gs__grid_rebuild(w);
 }
 
-/* The first body whose sweep could reach past x = lo. */
-GS__PRIVATE int gs__sap_first(const gs_world *w, double lo) {
+/* How far o reaches from its centre on any axis when its state is taken
+   up to lag seconds from its time (m), with a slack for rounding. */
+GS__PRIVATE double gs__sap_reach(const gs__rigid *o, double lag) {
+    return (o->shape.bound + o->speed * lag) * (1.0 + 1e-9) + 1e-12;
+}
+
+/* Does o's reach meet [lo, hi] on x? */
+GS__PRIVATE int gs__sap_meets(const gs__rigid *o, double lo, double hi, double lag) {
+    double reach = gs__sap_reach(o, lag), eps = 1e-12 * (fabs(lo) + fabs(hi));
+    return o->x.x - reach <= hi + eps && o->x.x + reach >= lo - eps;
+}
+
+/* The first body of near that could reach past x = lo. */
+GS__PRIVATE int gs__sap_first(const gs_world *w, double lo, double lag) {
     int a = 0, b = w->nbodies;
-    lo -= 2.0 * w->sweep_max;
+    lo -= 2.0 * w->bound_max + w->speed_max * lag;
+    lo -= 1e-9 * (1.0 + fabs(lo));
     while (a < b) {
         int mid = (a + b) / 2;
-        if (w->bodies[mid]->key < lo) a = mid + 1;
+        if (w->near[mid]->near_key < lo) a = mid + 1;
         else b = mid;
     }
     return a;
+}
+
+/* The candidates in the order of bodies (a query finds few). */
+GS__PRIVATE void gs__sap_order(gs_world *w, int n) {
+    int i, j;
+    for (i = 1; i < n; ++i) {
+        gs__rigid *r = w->cand[i];
+        for (j = i; j > 0 && w->cand[j - 1]->sap > r->sap; --j) w->cand[j] = w->cand[j - 1];
+        w->cand[j] = r;
+    }
+}
+
+/* Every body that may meet [lo, hi] on x when taken up to lag seconds from
+   its time, into w->cand in the order of bodies. Returns how many. */
+GS__PRIVATE int gs__sap_query(gs_world *w, double lo, double hi, double lag) {
+    double top = hi + w->speed_max * lag;
+    int n = 0, i;
+    top += 1e-9 * (1.0 + fabs(top));
+    for (i = 0; i < w->nwide; ++i)
+        if (gs__sap_meets(w->wide[i], lo, hi, lag)) w->cand[n++] = w->wide[i];
+    for (i = gs__sap_first(w, lo, lag); i < w->nbodies && w->near[i]->near_key <= top; ++i)
+        if (w->near[i]->wide < 0 && gs__sap_meets(w->near[i], lo, hi, lag)) w->cand[n++] = w->near[i];
+    gs__sap_order(w, n);
+    return n;
+}
+
+/* The bodies that may touch r when taken up to lag seconds from their
+   time, into w->cand in the order of bodies: the wide ones, and those of
+   the cells within reach of r (any body not wide is within bound_max +
+   speed_max lag of its cell's reach). A reach of many cells takes the list
+   search instead. Returns how many. */
+#define GS__GRID_MAX_CELLS 64
+GS__PRIVATE int gs__sap_query_near(gs_world *w, const gs__rigid *r, double lag) {
+    double lo = r->x.x - r->shape.bound, hi = r->x.x + r->shape.bound;
+    double reach = (r->shape.bound + w->bound_max + w->speed_max * lag) * (1.0 + 1e-9) + 1e-12;
+    int64_t a[3], b[3], c[3];
+    int n = 0, i;
+    if (w->cell <= 0.0 || !(reach < 0.5 * GS__GRID_MAX_CELLS * w->cell))
+        return gs__sap_query(w, lo, hi, lag);
+    a[0] = gs__grid_coord(w, r->x.x - reach); b[0] = gs__grid_coord(w, r->x.x + reach);
+    a[1] = gs__grid_coord(w, r->x.y - reach); b[1] = gs__grid_coord(w, r->x.y + reach);
+    a[2] = gs__grid_coord(w, r->x.z - reach); b[2] = gs__grid_coord(w, r->x.z + reach);
+    if ((b[0] - a[0] + 1) * (b[1] - a[1] + 1) * (b[2] - a[2] + 1) > GS__GRID_MAX_CELLS)
+        return gs__sap_query(w, lo, hi, lag);
+    for (i = 0; i < w->nwide; ++i)
+        if (gs__sap_meets(w->wide[i], lo, hi, lag)) w->cand[n++] = w->wide[i];
+    for (c[0] = a[0]; c[0] <= b[0]; ++c[0])
+        for (c[1] = a[1]; c[1] <= b[1]; ++c[1])
+            for (c[2] = a[2]; c[2] <= b[2]; ++c[2]) {
+                gs__rigid *o;
+                for (o = w->grid[gs__grid_bucket(w, c)]; o; o = o->gnext)
+                    if (o->cell[0] == c[0] && o->cell[1] == c[1] && o->cell[2] == c[2] &&
+                        gs__sap_meets(o, lo, hi, lag))
+                        w->cand[n++] = o;
+            }
+    gs__sap_order(w, n);
+    return n;
+}
+
+/* Can o touch r at a lag of o's time up to lag (s)? A contact needs
+   |r - (o + v_o lag)| < both bounds, so on each axis the centres must be
+   within both bounds and o's travel (x is the query's). */
+GS__PRIVATE int gs__sweeps_meet(const gs__rigid *r, const gs__rigid *o, double lag) {
+    double reach = gs__sap_reach(o, lag) + r->shape.bound * (1.0 + 1e-9);
+    return fabs(r->x.y - o->x.y) <= reach && fabs(r->x.z - o->x.z) <= reach;
 }
 
 typedef struct gs__body {
@@ -4233,12 +4612,14 @@ GS__PRIVATE void gs__rigid_vs_rigid(gs__rigid *r, const gs__rigid *o, double t) 
     gs__body a = gs__body_of(r), b = gs__body_of(o);
     double reach = r->shape.bound + o->shape.bound;
     double lag = fmax(-0.1, fmin(0.1, t - gs__agent_time(&o->base)));
-    double f = o->probe ? 0.0 : fmax(-1.0, fmin(1.0, lag / o->base.dt));
-    gs_vec3 ov = gs__madd(o->v, gs__sub(o->v, o->v_prev), f);
-    gs_vec3 ow = gs__madd(o->w, gs__sub(o->w, o->w_prev), f);
+    double f;
+    gs_vec3 ov, ow;
     int n, i;
     if (!o->probe) b.p = gs__madd(o->x, o->v, lag);
     if (gs__dot(gs__sub(r->x, b.p), gs__sub(r->x, b.p)) >= reach * reach) return;
+    f = o->probe ? 0.0 : fmax(-1.0, fmin(1.0, lag / o->base.dt));
+    ov = gs__madd(o->v, gs__sub(o->v, o->v_prev), f);
+    ow = gs__madd(o->w, gs__sub(o->w, o->w_prev), f);
     n = gs__collide(&a, &b, cs, 2 * GS_MAX_HULL_POINTS);
     for (i = 0; i < n; ++i) {
         gs_vec3 vo = gs__add(ov, gs__cross(ow, gs__sub(cs[i].point, b.p)));
@@ -4285,12 +4666,13 @@ GS__PRIVATE void gs__rigid_vs_mesh(gs__rigid *r, const gs_agent *m, double t) {
 GS__PRIVATE void gs__rigid_contacts(gs__rigid *r, double t) {
     gs_world *w = r->base.world;
     int i;
-    double hi = r->x.x + r->sweep;
+    double lag = gs__lag_bound(w, t, 0.1);
+    int n = gs__sap_query_near(w, r, lag);
     r->force = r->torque = gs__v3(0.0, 0.0, 0.0);
     r->k_sum = r->c_sum = 0.0;
     if (w->ground) gs__rigid_ground(r);
-    for (i = gs__sap_first(w, r->x.x - r->sweep); i < w->nbodies && w->bodies[i]->key <= hi; ++i)
-        if (w->bodies[i] != r) gs__rigid_vs_rigid(r, w->bodies[i], t);
+    for (i = 0; i < n; ++i)
+        if (w->cand[i] != r && gs__sweeps_meet(r, w->cand[i], lag)) gs__rigid_vs_rigid(r, w->cand[i], t);
     for (i = 0; w->nmeshes > 0 && i < w->agent_count; ++i)
         if (gs__mesh_info(w->agents[i], NULL, NULL, NULL, NULL)) gs__rigid_vs_mesh(r, w->agents[i], t);
 }
@@ -4386,7 +4768,7 @@ GS__PRIVATE void gs__mesh_vs_rigid(gs__mesh *m, const gs__rigid *r, double t) {
    them. */
 GS__PRIVATE void gs__mesh_contacts(gs__mesh *m, double t) {
     gs_world *w = m->base.world;
-    int i;
+    int i, n;
     if (m->ext_active) {
         memset(m->ext, 0, (size_t)m->n * sizeof *m->ext);
         if (m->ck) memset(m->ck, 0, (size_t)m->n * sizeof *m->ck);
@@ -4402,8 +4784,8 @@ GS__PRIVATE void gs__mesh_contacts(gs__mesh *m, double t) {
             gs__mesh_touch(m, i, &c, gs__v3(0.0, 0.0, 0.0), &w->ground_material, 0.0);
         }
     }
-    for (i = gs__sap_first(w, m->lo.x); i < w->nbodies && w->bodies[i]->key <= m->hi.x; ++i)
-        gs__mesh_vs_rigid(m, w->bodies[i], t);
+    n = gs__sap_query(w, m->lo.x, m->hi.x, gs__lag_bound(w, t, 0.1));
+    for (i = 0; i < n; ++i) gs__mesh_vs_rigid(m, w->cand[i], t);
 }
 
 /* ========================================================================
@@ -4608,8 +4990,12 @@ struct gs__ghost {
     double next_publish;  /* s, simulation time */
     double next_send;     /* s, wall time */
     gs__snap *q[GS__MAX_PEERS]; /* queue_size snapshots per peer slot */
-    double *num, *den, *local, *scratch, *offset;
+    double *local, *scratch;
+    double *offset, *offset_next; /* render offsets; a blend writes the next
+                                     ones and swaps only if it is applied */
     double *wq;           /* weight of each queued snapshot in a blend */
+    struct gs__src *src;  /* the queued snapshots of a blend, in order */
+    int nsrc;
     double offset_t;      /* s; simulation time the offset was last set */
     double t_local;       /* s; the agent's time after its last step, for
                              the receiving side (written under the lock) */
@@ -4626,6 +5012,16 @@ struct gs__ghost {
     gs_ghost_stats stats;
 };
 typedef struct gs__ghost gs__ghost;
+
+/* One queued snapshot as a blend reads it. */
+typedef struct gs__src {
+    const double *v;          /* its values (the state without its time) */
+    const unsigned char *got; /* per chunk */
+    double w;                 /* its weight */
+    double d2;                /* sum of squared position differences */
+    size_t counted;           /* position values in d2 */
+    int peer;
+} gs__src;
 
 typedef struct gs__peer {
     int used;
@@ -4767,7 +5163,8 @@ GS_API gs_result gs_ghost_attach(gs_agent *a, const gs_ghost_desc *desc) {
     d = gs__ghost_defaults(desc);
     r = gs__ghost_check(w, &d);
     if (r != GS_OK) return r;
-    bytes = sizeof *g + (6 * n + (size_t)GS__MAX_PEERS * (size_t)d.queue_size) * sizeof(double);
+    bytes = sizeof *g + (size_t)GS__MAX_PEERS * (size_t)d.queue_size * sizeof(gs__src) +
+            (5 * n + (size_t)GS__MAX_PEERS * (size_t)d.queue_size) * sizeof(double);
     g = (gs__ghost *)gs__alloc(w, bytes);
     if (!g) return gs__fail(w, GS_ERR_NO_MEMORY, "gs_ghost_attach: out of memory");
     memset(g, 0, bytes);
@@ -4776,13 +5173,13 @@ GS_API gs_result gs_ghost_attach(gs_agent *a, const gs_ghost_desc *desc) {
     g->n = n;
     g->per_chunk = (int)(GS_WIRE_CHUNK_ROOM / gs__value_size(d.encoding));
     g->nchunks = vars ? (int)((vars + (size_t)g->per_chunk - 1) / (size_t)g->per_chunk) : 1;
-    g->B = (double *)(g + 1);
-    g->num = g->B + n;
-    g->den = g->num + n;
-    g->local = g->den + n;
+    g->src = (gs__src *)(g + 1);
+    g->B = (double *)(g->src + (size_t)GS__MAX_PEERS * (size_t)d.queue_size);
+    g->local = g->B + n;
     g->scratch = g->local + n;
     g->offset = g->scratch + n;
-    g->wq = g->offset + n;
+    g->offset_next = g->offset + n;
+    g->wq = g->offset_next + n;
     gs_agent_get_state(a, g->B, n);
     g->b_seq = 1;
     g->t_local = g->B[0];
@@ -4908,51 +5305,21 @@ GS__PRIVATE gs_weight_in gs__weight_in(const gs__ghost *g, uint32_t host,
     return in;
 }
 
-/* The snapshot as a full state vector: received values, the local state
-   where chunks are missing, carried to the local time along its velocities
-   when the ghost dead-reckons. */
-GS__PRIVATE const double *gs__snap_view(gs__ghost *g, const gs__snap *s,
-                                        double t_i) {
+/* Dead reckoning: the snapshot carried to the local time along its
+   velocities, in place (it is blended once, then dropped). Missing chunks
+   take the local values first: the kind's extrapolation reads them. */
+GS__PRIVATE void gs__snap_catch_up(gs__ghost *g, gs__snap *s, double t_i) {
     const gs__kind *k = g->agent->kind;
     size_t vars = g->n - 1;
     int c;
-    if (s->chunks == g->nchunks && !(g->d.catchup == GS_CATCHUP_VELOCITY && k->extrapolate))
-        return s->data;
-    memcpy(g->scratch, g->local + 1, vars * sizeof(double));
+    if (g->d.catchup != GS_CATCHUP_VELOCITY || !k->extrapolate) return;
     for (c = 0; c < g->nchunks; ++c) {
         size_t first = (size_t)c * (size_t)g->per_chunk, cnt = (size_t)g->per_chunk;
-        if (!s->got[c]) continue;
+        if (s->got[c]) continue;
         if (first + cnt > vars) cnt = vars - first;
-        memcpy(g->scratch + first, s->data + first, cnt * sizeof(double));
+        memcpy(s->data + first, g->local + 1 + first, cnt * sizeof(double));
     }
-    if (g->d.catchup == GS_CATCHUP_VELOCITY && k->extrapolate)
-        k->extrapolate(g->agent, g->scratch, t_i - s->time);
-    return g->scratch;
-}
-
-/* Adds one weighted snapshot to the sums; returns the RMS distance of its
-   position values from the local ones (m). */
-GS__PRIVATE double gs__snap_accumulate(gs__ghost *g, const gs__snap *s,
-                                       const double *v, double w) {
-    size_t npos = g->agent->kind->positions ? g->agent->kind->positions(g->agent) : g->n - 1;
-    double d2 = 0.0;
-    size_t e, counted = 0;
-    int c;
-    for (c = 0; c < g->nchunks; ++c) {
-        size_t first = (size_t)c * (size_t)g->per_chunk, end = first + (size_t)g->per_chunk;
-        if (!s->got[c]) continue;
-        if (end > g->n - 1) end = g->n - 1;
-        for (e = first; e < end; ++e) { /* differences: exact 0 when equal */
-            g->num[e] += w * (v[e] - g->local[1 + e]);
-            g->den[e] += w;
-            if (e < npos) {
-                double d = v[e] - g->local[1 + e];
-                d2 += d * d;
-                counted++;
-            }
-        }
-    }
-    return counted ? sqrt(3.0 * d2 / (double)counted) : 0.0;
+    k->extrapolate(g->agent, s->data, t_i - s->time);
 }
 
 /* Time differences within this are noise: the hosts are in step. */
@@ -5103,33 +5470,222 @@ GS__PRIVATE double gs__peer_lead(gs__ghost *g, int p, double x, double t_i) {
     return g->lead[p];
 }
 
-/* Sums every queued snapshot into num/den and the blended time; fills the
-   per-peer divergence and gap. Returns the number of snapshots. */
+/* Lists every queued snapshot with its weight in g->src, in queue order,
+   and sums the blended time; fills the per-peer gap. Returns the number of
+   snapshots. */
 GS__PRIVATE int gs__ghost_gather(gs__ghost *g, double t_i, double *num_t,
                                  double *den_t) {
     gs_net *net = g->agent->world->net;
-    int p, k, m = 0, used = 0;
+    int p, k, m = 0;
     for (p = 0; p < GS__MAX_PEERS; ++p) {
         double newest = g->newest[p];
         for (k = 0; g->q[p] && k < g->d.queue_size; ++k) {
-            const gs__snap *s = &g->q[p][k];
-            double w, tq;
+            gs__snap *s = &g->q[p][k];
+            gs__src *src = &g->src[m];
+            double tq;
             if (!s->used) continue;
-            w = g->wq[m++];
+            src->w = g->wq[m++];
+            gs__snap_catch_up(g, s, t_i);
+            src->v = s->data;
+            src->got = s->got;
+            src->d2 = 0.0;
+            src->counted = 0;
+            src->peer = p;
             tq = g->d.raw_time ? s->time : s->time + s->age;
-            g->divergence[p] = gs__snap_accumulate(g, s, gs__snap_view(g, s, t_i), w);
-            net->peers[p].st.divergence = gs__peer_divergence(g->agent->world, p);
             net->peers[p].st.gap = s->time - t_i;
             if (gs__snap_tells_time(g, p, s, t_i)) {
-                *num_t += w * gs__peer_lead(g, p, tq - t_i, t_i);
-                *den_t += w;
+                *num_t += src->w * gs__peer_lead(g, p, tq - t_i, t_i);
+                *den_t += src->w;
                 newest = s->time;
             }
-            used++;
         }
         g->newest[p] = newest;
     }
-    return used;
+    g->nsrc = m;
+    return m;
+}
+
+/* What one pass of a blend carries from chunk to chunk. Sums run in 4
+   lanes, so that no chain of dependent adds sets the pace: the statistics
+   they give (divergence, last_correction) may differ from a sum in element
+   order in their last bits. */
+typedef struct gs__pass {
+    double w0, fade;
+    double corr2[4];  /* squared corrections */
+    int finite;       /* every new value finite so far */
+} gs__pass;
+
+/* How a chunk's new values are made from its weighted sum of differences:
+   times 1 / (w0 + sum w) computed once per chunk; divided by it when the
+   inverse would overflow; or not at all when every weight is 0. */
+enum { GS__BLEND_MUL, GS__BLEND_DIV, GS__BLEND_KEEP };
+
+/* One chunk's elements, where they are to be written. */
+typedef struct gs__blend_out {
+    const double *old, *off; /* local values, render offsets now */
+    double *nv, *next;       /* new values, next render offsets */
+} gs__blend_out;
+
+/* Element e from its weighted sum of differences num: new value, next
+   render offset; returns the squared correction. */
+GS__PRIVATE double gs__blend_put(const gs__blend_out *o, size_t e, double num,
+                                 int mode, double r, double d, double fade,
+                                 int *finite) {
+    double x = o->old[e], n, k, f;
+    n = mode == GS__BLEND_MUL ? x + num * r : mode == GS__BLEND_DIV ? x + num / d : x;
+    k = x - n;
+    f = fade * o->off[e] + k;
+    o->nv[e] = n;
+    o->next[e] = f - f == 0.0 ? f : 0.0; /* huge: no fading */
+    *finite &= n - n == 0.0;
+    return k * k;
+}
+
+/* One element against a single snapshot (v, weight w), the chunk
+   multiplying by r: new value, next render offset; adds its squared
+   difference to *s2 (position values: pos) and its squared correction to
+   *c2. A non-finite offset makes *c2 NaN too (f - f), and gs__blend_pass
+   mends it then. Inline: the caller keeps the sums in registers. */
+GS__PRIVATE inline void gs__blend_el(const gs__blend_out *o, const double *v, size_t i,
+                                     double w, double r, double fade, int pos,
+                                     double *s2, double *c2) {
+    double x = o->old[i], dd = v[i] - x, n = x + (w * dd) * r, k = x - n;
+    double f = fade * o->off[i] + k;
+    o->nv[i] = n;
+    o->next[i] = f;
+    if (pos) *s2 += dd * dd;
+    *c2 += k * k + (f - f);
+}
+
+/* Elements [a, b) against a single snapshot, the common case, four
+   elements to a round with a sum each, so that no chain of dependent adds
+   sets the pace. Its new values are not checked one by one: a non-finite
+   one makes its correction, and so the sum of squared corrections,
+   non-finite (gs__blend_pass looks closer then). d2 gets the squared
+   differences of position values (pos). */
+GS__PRIVATE void gs__blend_one(const gs__blend_out *o, const double *v, double w,
+                               size_t a, size_t b, int pos, double r,
+                               gs__pass *ps, double *d2) {
+    double s0 = 0.0, s1 = 0.0, s2 = 0.0, s3 = 0.0, fade = ps->fade;
+    double c0 = ps->corr2[0], c1 = ps->corr2[1], c2 = ps->corr2[2], c3 = ps->corr2[3];
+    size_t e = a;
+    for (; e + 4 <= b; e += 4) {
+        gs__blend_el(o, v, e, w, r, fade, pos, &s0, &c0);
+        gs__blend_el(o, v, e + 1, w, r, fade, pos, &s1, &c1);
+        gs__blend_el(o, v, e + 2, w, r, fade, pos, &s2, &c2);
+        gs__blend_el(o, v, e + 3, w, r, fade, pos, &s3, &c3);
+    }
+    for (; e < b; ++e) gs__blend_el(o, v, e, w, r, fade, pos, &s0, &c0);
+    ps->corr2[0] = c0; ps->corr2[1] = c1; ps->corr2[2] = c2; ps->corr2[3] = c3;
+    *d2 += (s0 + s1) + (s2 + s3);
+}
+
+/* Elements [a, b) of chunk c against every snapshot that holds it, in
+   queue order (the sum of differences in the order the formula had). */
+GS__PRIVATE void gs__blend_many(gs__ghost *g, const gs__blend_out *o, int c,
+                                size_t a, size_t b, size_t npos, int mode,
+                                double r, double d, gs__pass *ps) {
+    int j, fin = 1;
+    size_t e;
+    for (e = a; e < b; ++e) {
+        double num = 0.0;
+        for (j = 0; j < g->nsrc; ++j) {
+            gs__src *q = &g->src[j];
+            double dd;
+            if (!q->got[c]) continue;
+            dd = q->v[e] - o->old[e];
+            num += q->w * dd;
+            if (e < npos) q->d2 += dd * dd;
+        }
+        ps->corr2[e & 3] += gs__blend_put(o, e, num, mode, r, d, ps->fade, &fin);
+    }
+    ps->finite &= fin;
+}
+
+/* The elements [a, b) of chunk c, covered by the snapshots that hold it:
+   new values into scratch and next render offsets, in one pass. The
+   paper's (w0 S + sum w q) / (w0 + sum w) is written as S plus the
+   weighted mean difference, so that agreeing states give exactly S, and
+   its division as a multiplication by 1 / (w0 + sum w): a new value
+   differs from the quotient by at most an ulp of the correction
+   (|num / d| * 2^-52). */
+GS__PRIVATE void gs__blend_chunk(gs__ghost *g, gs__pass *ps, int c, size_t a,
+                                 size_t b, size_t npos) {
+    gs__blend_out o;
+    double den = 0.0, d, r = 0.0;
+    gs__src *one = NULL;
+    int j, nq = 0, mode;
+    size_t pend = npos < a ? a : npos < b ? npos : b;
+    o.old = g->local + 1;
+    o.off = g->offset + 1;
+    o.nv = g->scratch + 1;
+    o.next = g->offset_next + 1;
+    for (j = 0; j < g->nsrc; ++j)
+        if (g->src[j].got[c]) {
+            den += g->src[j].w;
+            g->src[j].counted += pend - a;
+            one = &g->src[j];
+            nq++;
+        }
+    d = ps->w0 + den;
+    if (d > 0.0) r = 1.0 / d;
+    mode = !(d > 0.0) ? GS__BLEND_KEEP : r - r == 0.0 ? GS__BLEND_MUL : GS__BLEND_DIV;
+    if (nq == 1 && mode == GS__BLEND_MUL) {
+        gs__blend_one(&o, one->v, one->w, a, pend, 1, r, ps, &one->d2);
+        gs__blend_one(&o, one->v, one->w, pend, b, 0, r, ps, &one->d2);
+    } else {
+        gs__blend_many(g, &o, c, a, b, npos, mode, r, d, ps);
+    }
+}
+
+/* After a pass whose sums came out non-finite, element by element: is
+   every new value finite; a huge render offset is dropped (no fading)
+   rather than kept as inf; and the squared corrections are summed again
+   without the offsets' NaN. */
+GS__PRIVATE void gs__blend_mend(gs__ghost *g, gs__pass *ps) {
+    double c2 = 0.0;
+    size_t e;
+    for (e = 1; e < g->n; ++e) {
+        double k = g->local[e] - g->scratch[e];
+        ps->finite &= gs__finite(g->scratch[e]);
+        if (!gs__finite(g->offset_next[e])) g->offset_next[e] = 0.0;
+        c2 += k * k;
+    }
+    memset(ps->corr2, 0, sizeof ps->corr2);
+    ps->corr2[0] = c2;
+}
+
+/* Every element of the state once, chunk by chunk. Returns 0 if a new
+   value is not finite (a sum that overflows, dead reckoning at an absurd
+   speed: found by fuzzing), and then nothing may be applied. */
+GS__PRIVATE int gs__blend_pass(gs__ghost *g, gs__pass *ps) {
+    size_t vars = g->n - 1, first;
+    size_t npos = g->agent->kind->positions ? g->agent->kind->positions(g->agent) : vars;
+    int c;
+    for (c = 0; c < g->nchunks; ++c) {
+        first = (size_t)c * (size_t)g->per_chunk;
+        if (first >= vars) break;
+        gs__blend_chunk(g, ps, c, first,
+                        first + (size_t)g->per_chunk < vars ? first + (size_t)g->per_chunk : vars,
+                        npos);
+    }
+    if (ps->finite && !gs__finite((ps->corr2[0] + ps->corr2[1]) + (ps->corr2[2] + ps->corr2[3])))
+        gs__blend_mend(g, ps); /* or corrections over 1e154 */
+    return ps->finite;
+}
+
+/* Each snapshot's distance from the local state (RMS of its position
+   values, m) becomes its peer's divergence; the latest snapshot of a peer
+   counts. Returns the peers seen, bit p for peer slot p. */
+GS__PRIVATE uint32_t gs__ghost_divergence(gs__ghost *g) {
+    uint32_t seen = 0;
+    int j;
+    for (j = 0; j < g->nsrc; ++j) {
+        const gs__src *q = &g->src[j];
+        g->divergence[q->peer] = q->counted ? sqrt(3.0 * q->d2 / (double)q->counted) : 0.0;
+        seen |= (uint32_t)1 << q->peer;
+    }
+    return seen;
 }
 
 /* Simulation time is blended only past the deadband (by default the world's
@@ -5143,55 +5699,57 @@ GS__PRIVATE double gs__time_correction(const gs__ghost *g, double gap, double dt
     return fabs(gap) > gs__time_band(g) ? dt : 0.0;
 }
 
+/* Applies a blended state (scratch) that the pass found finite: the kind
+   may still refuse it (a zero quaternion), and then nothing moves. */
+GS__PRIVATE int gs__blend_apply(gs__ghost *g, double t_i) {
+    double *t;
+    int e;
+    if (gs__agent_put_state(g->agent, g->scratch) != GS_OK) return 0;
+    for (e = 0; e < GS__MAX_PEERS; ++e) g->lead[e] -= g->scratch[0] - t_i;
+    t = g->offset; /* the next offsets are now the offsets */
+    g->offset = g->offset_next;
+    g->offset_next = t;
+    g->offset_t = g->scratch[0];
+    return 1;
+}
+
 /* The paper's ghost update, after a step: blend every queued snapshot once
-   with the local state, then empty the queues. */
-GS__PRIVATE void gs__ghost_blend(gs__ghost *g, gs_net *net) {
-    size_t n = g->n, e;
-    double t_i, w0, num_t = 0.0, den_t = 0.0, fade, corr2 = 0.0;
+   with the local state, then empty the queues. One pass over the state
+   after the agent's get_state, then its set_state. Returns the peers whose
+   divergence it measured (bit p for peer slot p). */
+GS__PRIVATE uint32_t gs__ghost_blend(gs__ghost *g, gs_net *net) {
+    size_t n = g->n;
+    double t_i, num_t = 0.0, den_t = 0.0;
+    gs__pass ps;
+    uint32_t seen = 0;
     int used;
     gs__lock(net);
     gs_agent_get_state(g->agent, g->local, n);
     t_i = g->local[0];
-    w0 = gs__ghost_weigh(g, t_i, g->wq);
-    if (w0 < 0.0) { gs__ghost_clear(g); gs__unlock(net); return; }
-    memset(g->num, 0, n * sizeof(double));
-    memset(g->den, 0, n * sizeof(double));
-    used = gs__ghost_gather(g, t_i, &num_t, &den_t);
-    if (used == 0) { gs__ghost_clear(g); gs__unlock(net); return; }
-    /* the paper's (w0 S + sum w q) / (w0 + sum w), written as S plus the
-       weighted mean difference so that agreeing states give exactly S */
-    /* the band applies to the gap to the others (their weighted mean time),
-       not to the correction, which is only part of it: otherwise two hosts
-       would settle up to (1 + w0 / w) bands apart */
-    g->scratch[0] = t_i;
-    if (den_t > 0.0)
-        g->scratch[0] += gs__time_correction(g, num_t / den_t, num_t / (w0 + den_t));
-    for (e = 0; e + 1 < n; ++e) {
-        double old = g->local[1 + e], d = w0 + g->den[e];
-        g->scratch[1 + e] = d > 0.0 ? old + g->num[e] / d : old;
+    memset(&ps, 0, sizeof ps);
+    ps.w0 = gs__ghost_weigh(g, t_i, g->wq);
+    used = ps.w0 < 0.0 ? 0 : gs__ghost_gather(g, t_i, &num_t, &den_t);
+    if (used > 0) {
+        /* the band applies to the gap to the others (their weighted mean
+           time), not to the correction, which is only part of it: otherwise
+           two hosts would settle up to (1 + w0 / w) bands apart */
+        g->scratch[0] = t_i;
+        if (den_t > 0.0)
+            g->scratch[0] += gs__time_correction(g, num_t / den_t, num_t / (ps.w0 + den_t));
+        ps.fade = gs__offset_fade(g, g->scratch[0]);
+        ps.finite = g->scratch[0] - g->scratch[0] == 0.0;
+        ps.finite = gs__blend_pass(g, &ps);
+        seen = gs__ghost_divergence(g);
+        if (ps.finite && gs__blend_apply(g, t_i)) {
+            double c2 = (ps.corr2[0] + ps.corr2[1]) + (ps.corr2[2] + ps.corr2[3]);
+            g->stats.blends++;
+            g->stats.snapshots_blended += (uint64_t)used;
+            g->stats.last_correction = n > 1 ? sqrt(c2 / (double)(n - 1)) : 0.0;
+        }
     }
-    /* finite snapshots can still blend to inf or NaN (a sum that overflows,
-       dead reckoning at an absurd speed): set_state refuses that, and then
-       the local state stands and nothing else moves (found by fuzzing) */
-    if (gs_agent_set_state(g->agent, g->scratch, n) != GS_OK) {
-        gs__ghost_clear(g);
-        gs__unlock(net);
-        return;
-    }
-    for (e = 0; e < GS__MAX_PEERS; ++e) g->lead[e] -= g->scratch[0] - t_i;
-    fade = gs__offset_fade(g, g->scratch[0]);
-    for (e = 0; e + 1 < n; ++e) {
-        double old = g->local[1 + e], nv = g->scratch[1 + e];
-        double o = fade * g->offset[1 + e] + (old - nv);
-        g->offset[1 + e] = gs__finite(o) ? o : 0.0; /* huge: no fading */
-        corr2 += (old - nv) * (old - nv);
-    }
-    g->offset_t = g->scratch[0];
-    g->stats.blends++;
-    g->stats.snapshots_blended += (uint64_t)used;
-    g->stats.last_correction = n > 1 ? sqrt(corr2 / (double)(n - 1)) : 0.0;
     gs__ghost_clear(g);
     gs__unlock(net);
+    return seen;
 }
 
 /* Any snapshot waiting? Read under the lock by the caller. */
@@ -5223,7 +5781,11 @@ GS__PRIVATE void gs__ghost_after_step(gs_agent *a) {
     if (pending) gs__world_blend(a->world);
 }
 
+/* A peer's divergence is the largest over the world's objects: taken once
+   per peer after every ghost has blended (per snapshot, it made a world
+   blend O(agents^2)). */
 GS__PRIVATE void gs__world_blend(gs_world *w) {
+    uint32_t seen = 0;
     int i, pending;
     if (!w->net) return;
     for (i = 0; i < w->agent_count; ++i) {
@@ -5232,8 +5794,13 @@ GS__PRIVATE void gs__world_blend(gs_world *w) {
         gs__lock(w->net);
         pending = gs__ghost_pending(g);
         gs__unlock(w->net);
-        if (pending) gs__ghost_blend(g, w->net);
+        if (pending) seen |= gs__ghost_blend(g, w->net);
     }
+    if (!seen) return;
+    gs__lock(w->net);
+    for (i = 0; i < GS__MAX_PEERS; ++i)
+        if (seen & ((uint32_t)1 << i)) w->net->peers[i].st.divergence = gs__peer_divergence(w, i);
+    gs__unlock(w->net);
 }
 
 /* ========================================================================
