@@ -6,7 +6,8 @@
 #   make examples  build examples/ and the reference peer into build/
 #   make valgrind  the test suite under valgrind (memcheck, leaks)
 #   make fuzz      libFuzzer over decode, validation and blend for
-#                  FUZZ_SECONDS (300), then a summary; `make test` runs 60 s
+#                  FUZZ_SECONDS (300), then over a keyed net's sealed path
+#                  as long; summaries; `make test` runs 40 s + 20 s
 #   make install   PREFIX=/usr/local: the header, ghostsim.pc
 #   make bench     every benchmark in bench/ (under 20 min on 2 cores):
 #                  bench/results/*.json, REPORT.md and PNG plots
@@ -89,7 +90,8 @@ $(BUILD)/test_%: tests/test_%.c $(BUILD)/gs_impl.o ghostsim.h
 $(BUILD)/asan/test_%: tests/test_%.c $(BUILD)/asan/gs_impl.o ghostsim.h
 	$(CC) $(CSTD) $(WARN) $(SANFLAGS) $(SODIUM_CFLAGS) -I. $< $(BUILD)/asan/gs_impl.o -o $@ -lcmocka $(LIBS) $(SODIUM_LIBS)
 # The regression test replays the fuzz harness's checks.
-$(BUILD)/test_fuzz_regress $(BUILD)/asan/test_fuzz_regress: tests/fuzz_wire.c tests/fuzz_world.h
+$(BUILD)/test_fuzz_regress $(BUILD)/asan/test_fuzz_regress: tests/fuzz_wire.c tests/fuzz_sealed.c \
+  tests/fuzz_world.h
 
 # The viewer needs SDL2 (Debian libsdl2-dev); its headless mode draws PNGs.
 $(BUILD)/viewer: examples/viewer.c ghostsim.h | $(BUILD)
@@ -158,11 +160,14 @@ valgrind-udp: $(BUILD)/test_net
 	@VALGRIND="valgrind -q --fair-sched=yes --error-exitcode=99 --leak-check=full --errors-for-leak-kinds=definite,indirect" \
 	  sh tests/run.sh "valgrind, udp" "$(BUILD)/test_net test_udp*"
 
-# libFuzzer (clang; its runtime is Debian's libclang-rt-dev): the harness
-# tests/fuzz_wire.c with the library in one binary under ASan+UBSan, seeded
-# with datagrams from the encoder (tests/fuzz_seeds.c). fuzz-ci is the
+# libFuzzer (clang; its runtime is Debian's libclang-rt-dev): the harnesses
+# tests/fuzz_wire.c (datagrams in clear) and tests/fuzz_sealed.c (a keyed
+# net: the checks before decryption, the replay window, what it opens),
+# each with the library in one binary under ASan+UBSan, seeded with
+# datagrams from the encoder (tests/fuzz_seeds.c). fuzz-ci is the
 # bounded run of `make test`; either fails if the fuzzer finds anything.
 FUZZ_SECONDS ?= 300
+FUZZ_SEALED_SECONDS ?= $(FUZZ_SECONDS)
 FUZZ_CC      ?= clang
 FUZZ_FLAGS   := -O1 -g -fsanitize=fuzzer,address,undefined -fno-sanitize-recover=all \
                 -fno-omit-frame-pointer -fsanitize-coverage-ignorelist=tests/fuzz_ignore.txt
@@ -170,6 +175,10 @@ $(BUILD)/fuzz_wire: tests/fuzz_wire.c tests/fuzz_world.h tests/gs_impl.c tests/f
                     ghostsim.h | $(BUILD)
 	$(FUZZ_CC) $(CSTD) $(WARN) $(FUZZ_FLAGS) $(CCD_CFLAGS) -I. tests/fuzz_wire.c tests/gs_impl.c \
 	  -o $@ $(LIBS)
+$(BUILD)/fuzz_sealed: tests/fuzz_sealed.c tests/fuzz_wire.c tests/fuzz_world.h tests/gs_impl.c \
+                      tests/fuzz_ignore.txt ghostsim.h | $(BUILD)
+	$(FUZZ_CC) $(CSTD) $(WARN) $(FUZZ_FLAGS) -DGHOSTSIM_SODIUM $(SODIUM_CFLAGS) $(CCD_CFLAGS) -I. \
+	  tests/fuzz_sealed.c tests/gs_impl.c -o $@ $(LIBS) $(SODIUM_LIBS)
 $(BUILD)/fuzz_seeds: tests/fuzz_seeds.c tests/fuzz_world.h $(BUILD)/gs_impl.o ghostsim.h
 	$(CC) $(CSTD) $(WARN) $(CFLAGS) -I. $< $(BUILD)/gs_impl.o -o $@ $(LIBS) $(SODIUM_LIBS)
 $(BUILD)/fuzz-seeds.stamp: $(BUILD)/fuzz_seeds
@@ -178,11 +187,14 @@ $(BUILD)/fuzz-seeds.stamp: $(BUILD)/fuzz_seeds
 	touch $@
 
 fuzz: deps
-	@$(MAKE) --no-print-directory $(BUILD)/fuzz_wire $(BUILD)/fuzz-seeds.stamp
+	@$(MAKE) --no-print-directory $(BUILD)/fuzz_wire $(BUILD)/fuzz_sealed $(BUILD)/fuzz-seeds.stamp
 	@sh tests/fuzz_run.sh $(BUILD)/fuzz_wire $(FUZZ_SECONDS) fuzz
+	@sh tests/fuzz_run.sh $(BUILD)/fuzz_sealed $(FUZZ_SEALED_SECONDS) fuzz
 
-fuzz-ci: $(BUILD)/fuzz_wire $(BUILD)/fuzz-seeds.stamp
-	@sh tests/fuzz_run.sh $(BUILD)/fuzz_wire 60 ci
+# 60 s in all: the sealed path shares the wire's decode past the seal.
+fuzz-ci: $(BUILD)/fuzz_wire $(BUILD)/fuzz_sealed $(BUILD)/fuzz-seeds.stamp
+	@sh tests/fuzz_run.sh $(BUILD)/fuzz_wire 40 ci
+	@sh tests/fuzz_run.sh $(BUILD)/fuzz_sealed 20 ci
 
 # ghostpeer processes on loopback (tests/peers.py: bounded, kills what it
 # starts): two and three peers, a restart, a garbage flood, the command line.

@@ -968,7 +968,9 @@ typedef struct gs_peer_stats {
     uint64_t snapshots_sent, snapshots_received; /* chunks 0 of snapshots */
     uint64_t chunks_received;
     uint64_t lost;          /* datagrams missing from the sequence */
-    uint64_t duplicates;
+    uint64_t duplicates;    /* datagrams received again: refused as
+                               GS_REJECT_DUPLICATE, or with a key as
+                               GS_REJECT_REPLAY */
     uint64_t rejected[GS_REJECT_COUNT]; /* by reason */
     uint64_t rejected_total;
     double last_remote_time; /* s; newest simulation time received */

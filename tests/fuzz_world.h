@@ -172,9 +172,11 @@ static gs_result fuzz_ghosts(fuzz_world *f) {
 
 /* Builds the world of host `host` with the two other hosts of the session
    as peers; datagrams it sends go to send(user, ...). time_window: s, 0 =
-   none. */
-static gs_result fuzz_world_create(fuzz_world *f, uint32_t host, double time_window,
-                                   gs_send_fn send, void *user) {
+   none. key: GS_WIRE_KEY_BYTES bytes (a sealing net, GHOSTSIM_SODIUM), or
+   NULL. */
+static gs_result fuzz_world_create_keyed(fuzz_world *f, uint32_t host, double time_window,
+                                         const unsigned char *key, gs_send_fn send,
+                                         void *user) {
     static const uint32_t hosts[3] = {FUZZ_HOST, FUZZ_PEER_A, FUZZ_PEER_B};
     gs_world_desc wd = gs_world_desc_default();
     gs_net_desc nd;
@@ -189,10 +191,17 @@ static gs_result fuzz_world_create(fuzz_world *f, uint32_t host, double time_win
     nd.send = send;
     nd.send_user = user;
     nd.time_window = time_window;
+    nd.key = key;
     if ((r = gs_net_create(f->w, &nd, &f->net)) != GS_OK) return r;
     for (i = 0; i < 3; ++i)
         if (hosts[i] != host && (r = gs_net_add_peer(f->net, hosts[i])) != GS_OK) return r;
     return GS_OK;
+}
+
+/* The world with a net in clear. */
+static gs_result fuzz_world_create(fuzz_world *f, uint32_t host, double time_window,
+                                   gs_send_fn send, void *user) {
+    return fuzz_world_create_keyed(f, host, time_window, NULL, send, user);
 }
 
 /* The world takes its net with it. */
