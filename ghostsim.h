@@ -741,6 +741,14 @@ typedef struct gs_ghost_desc {
     int queue_size;        /* snapshots kept per peer; default 8. When full
                               the oldest goes (and is counted) */
     gs_catchup catchup;    /* default none */
+    double catchup_max;    /* s; dead reckoning carries a snapshot at most
+                              this far in time, either way; default 0.05
+                              (three snapshots at 60 Hz). Uncapped, the
+                              bad network profile of bench/tradeoff (150 ms
+                              +-50 ms) tore the paper's scene apart under
+                              the exponential rule: spheres carried along
+                              their velocities into the cloth, hosts 772 m
+                              apart, one off wall-clock pace */
     int raw_time;          /* 1: the paper's formula literally: x_comp = x
                               and the raw remote time is blended (see the
                               latency trap in the README) */
@@ -2723,7 +2731,6 @@ GS__PRIVATE uint64_t gs__mesh_hash(const gs_agent *a, uint64_t h) {
     return gs__fnv(h, m->v, (size_t)m->n * sizeof(gs_vec3));
 }
 
-/* Dead reckoning: positions move along the velocities that follow them. */
 /* Dead reckoning of a mesh: a rigid translation by its mean velocity, since
    its particles' own velocities carry its vibrations. */
 GS__PRIVATE void gs__mesh_extrapolate(const gs_agent *a, double *s, double dt) {
@@ -5074,6 +5081,7 @@ GS_API gs_ghost_desc gs_ghost_desc_default(void) {
     d.queue_size = 8;
     d.smoothing = 0.1;
     d.catchup = GS_CATCHUP_NONE;
+    d.catchup_max = 0.05;
     return d;
 }
 
@@ -5131,6 +5139,7 @@ GS__PRIVATE gs_ghost_desc gs__ghost_defaults(const gs_ghost_desc *in) {
     if (d.queue_size == 0) d.queue_size = def.queue_size;
     if (d.smoothing == 0.0) d.smoothing = def.smoothing;
     if (d.catchup == GS_CATCHUP_DEFAULT) d.catchup = def.catchup;
+    if (d.catchup_max == 0.0) d.catchup_max = def.catchup_max;
     return d;
 }
 
@@ -5147,6 +5156,7 @@ GS__PRIVATE gs_result gs__ghost_check(gs_world *w, const gs_ghost_desc *d) {
     gs__check_positive(&c, "smoothing", d->smoothing);
     gs__check_finite(&c, "time_deadband", d->time_deadband);
     gs__check_int(&c, "catchup", (long)d->catchup, 1, GS__CATCHUP_COUNT - 1);
+    gs__check_positive(&c, "catchup_max", d->catchup_max);
     return c.r;
 }
 
@@ -5308,8 +5318,9 @@ GS__PRIVATE gs_weight_in gs__weight_in(const gs__ghost *g, uint32_t host,
 }
 
 /* Dead reckoning: the snapshot carried to the local time along its
-   velocities, in place (it is blended once, then dropped). Missing chunks
-   take the local values first: the kind's extrapolation reads them. */
+   velocities, at most catchup_max either way, in place (it is blended
+   once, then dropped). Missing chunks take the local values first: the
+   kind's extrapolation reads them. */
 GS__PRIVATE void gs__snap_catch_up(gs__ghost *g, gs__snap *s, double t_i) {
     const gs__kind *k = g->agent->kind;
     size_t vars = g->n - 1;
@@ -5321,7 +5332,8 @@ GS__PRIVATE void gs__snap_catch_up(gs__ghost *g, gs__snap *s, double t_i) {
         if (first + cnt > vars) cnt = vars - first;
         memcpy(s->data + first, g->local + 1 + first, cnt * sizeof(double));
     }
-    k->extrapolate(g->agent, s->data, t_i - s->time);
+    k->extrapolate(g->agent, s->data,
+                   fmax(-g->d.catchup_max, fmin(g->d.catchup_max, t_i - s->time)));
 }
 
 /* Time differences within this are noise: the hosts are in step. */

@@ -1152,8 +1152,9 @@ static gs_agent *sphere_at_rest_x(gs_world *w, double vx) {
 }
 
 /* A snapshot taken at t_q with velocity v is moved by v (t_i - t_q) before
-   it is blended (catchup velocity); without catchup it blends as it is. */
-static void dead_reckoning(gs_catchup catchup, double *pos_x, double *pos_y) {
+   it is blended (catchup velocity), but by no more than v catchup_max (0:
+   the default, 0.05 s); without catchup it blends as it is. */
+static void dead_reckoning(gs_catchup catchup, double cap, double *pos_x, double *pos_y) {
     static const uint32_t peers[] = {2, 0};
     host *h = (host *)calloc(1, sizeof *h);
     gs_world *tw = world_new(1);
@@ -1165,6 +1166,7 @@ static void dead_reckoning(gs_catchup catchup, double *pos_x, double *pos_y) {
     h->w = world_new(1);
     h->a = sphere_at_rest_x(h->w, 1.0);
     gd.catchup = catchup;
+    gd.catchup_max = cap;
     assert_int_equal(gs_ghost_attach(h->a, &gd), GS_OK);
     host_net(h, peers);
     /* both at t = 1.0 s */
@@ -1186,9 +1188,11 @@ static void dead_reckoning(gs_catchup catchup, double *pos_x, double *pos_y) {
     get_state(twin, S1, 14);
     get_state(h->a, got, 14);
     w = exp(rate * (0.81 - S1[0]));
-    /* x: the snapshot's 0.5 m moved on by 2 m/s for 0.2 s (or not) */
+    /* x: the snapshot's 0.5 m moved on by 2 m/s for 0.2 s, or for the cap
+       (or not at all) */
     {
-        double qx = catchup == GS_CATCHUP_VELOCITY ? 0.5 + 2.0 * (S1[0] - 0.81) : 0.5;
+        double h_s = fmin(S1[0] - 0.81, cap > 0.0 ? cap : 0.05);
+        double qx = catchup == GS_CATCHUP_VELOCITY ? 0.5 + 2.0 * h_s : 0.5;
         assert_true(fabs(got[1] - (S1[1] + w * qx) / (1.0 + w)) <= TOL);
     }
     assert_true(fabs(got[2] - (S1[2] + w * 0.2) / (1.0 + w)) <= TOL);
@@ -1207,11 +1211,34 @@ static void dead_reckoning(gs_catchup catchup, double *pos_x, double *pos_y) {
 static void test_dead_reckoning_rigid(void **state) {
     double x_dr, y_dr, x_none, y_none;
     (void)state;
-    dead_reckoning(GS_CATCHUP_VELOCITY, &x_dr, &y_dr);
-    dead_reckoning(GS_CATCHUP_NONE, &x_none, &y_none);
+    dead_reckoning(GS_CATCHUP_VELOCITY, 1.0, &x_dr, &y_dr);
+    dead_reckoning(GS_CATCHUP_NONE, 1.0, &x_none, &y_none);
     /* the catchup moved x by w/(1+w) * 0.4 m = 0.18 m, and y not at all */
     assert_true(x_dr - x_none > 0.1);
     assert_true(fabs(y_dr - y_none) <= TOL);
+    /* by default it goes 0.05 s of the 0.2 s: w/(1+w) * 0.1 m = 0.045 m */
+    dead_reckoning(GS_CATCHUP_VELOCITY, 0.0, &x_dr, &y_dr);
+    assert_true(x_dr - x_none > 0.03 && x_dr - x_none < 0.06);
+}
+
+/* A cap on dead reckoning that is not a positive finite time is refused. */
+static void test_catchup_max_checked(void **state) {
+    static const double bad[] = {-0.1, HUGE_VAL, NAN};
+    gs_world *w = world_new(1);
+    gs_agent *a = sphere_at_rest_x(w, 0.0);
+    gs_ghost_desc gd = gs_ghost_desc_default();
+    int i;
+    (void)state;
+    gd.object_id = 31;
+    gd.catchup = GS_CATCHUP_VELOCITY;
+    for (i = 0; i < 3; ++i) {
+        gd.catchup_max = bad[i];
+        assert_int_not_equal(gs_ghost_attach(a, &gd), GS_OK);
+        assert_non_null(strstr(gs_world_error(w), "catchup_max"));
+    }
+    gd.catchup_max = 0.2;
+    assert_int_equal(gs_ghost_attach(a, &gd), GS_OK);
+    gs_world_destroy(w);
 }
 
 /* ---- f32 snapshots ---- */
@@ -1572,6 +1599,7 @@ int main(int argc, char **argv) {
         cmocka_unit_test(test_lost_chunk),
         cmocka_unit_test(test_render_smoothing),
         cmocka_unit_test(test_dead_reckoning_rigid),
+        cmocka_unit_test(test_catchup_max_checked),
         cmocka_unit_test(test_f32_ghost),
         cmocka_unit_test(test_attach_errors),
         cmocka_unit_test(test_scene_attach_ghosts),
