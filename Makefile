@@ -45,7 +45,7 @@ TESTS    := $(basename $(notdir $(wildcard tests/test_*.c)))
 TESTS_NOSODIUM := test_security_nosodium
 EXAMPLES := $(basename $(notdir $(wildcard examples/*.c)))
 
-.PHONY: all deps deps-bench bench bench-quick bench-build test test-plain test-asan tsan valgrind-udp \
+.PHONY: all deps deps-bench bench bench-quick bench-build test test-build test-plain test-asan tsan valgrind-udp \
         test-peers demo compile-checks examples peer valgrind install uninstall install-check \
         cmake-check clean fuzz fuzz-ci
 
@@ -134,7 +134,13 @@ test-asan: $(addprefix $(BUILD)/asan/,$(TESTS) $(TESTS_NOSODIUM))
 	@ASAN_OPTIONS=detect_leaks=1:abort_on_error=1 UBSAN_OPTIONS=print_stacktrace=1 \
 	  sh tests/run.sh "asan+ubsan" $(addprefix $(BUILD)/asan/,$(TESTS) $(TESTS_NOSODIUM))
 
+# Everything `make test` runs, built first on both cores.
+test-build: examples $(addprefix $(BUILD)/,$(TESTS) $(TESTS_NOSODIUM)) \
+            $(addprefix $(BUILD)/asan/,$(TESTS) $(TESTS_NOSODIUM)) $(BUILD)/tsan/test_net \
+            $(BUILD)/fuzz_wire $(BUILD)/fuzz_sealed
+
 test: deps
+	@$(MAKE) --no-print-directory -j2 test-build
 	@$(MAKE) --no-print-directory compile-checks examples cmake-check install-check
 	@$(MAKE) --no-print-directory fuzz-ci
 	@$(MAKE) --no-print-directory test-plain
