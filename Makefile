@@ -183,7 +183,7 @@ $(BUILD)/fuzz_wire: tests/fuzz_wire.c tests/fuzz_world.h tests/gs_impl.c tests/f
 	  -o $@ $(LIBS)
 $(BUILD)/fuzz_sealed: tests/fuzz_sealed.c tests/fuzz_wire.c tests/fuzz_world.h tests/gs_impl.c \
                       tests/fuzz_ignore.txt ghostsim.h | $(BUILD)
-	$(FUZZ_CC) $(CSTD) $(WARN) $(FUZZ_FLAGS) -DGHOSTSIM_SODIUM $(SODIUM_CFLAGS) $(CCD_CFLAGS) -I. \
+	$(FUZZ_CC) $(CSTD) $(WARN) $(FUZZ_FLAGS) $(SODIUM_CFLAGS) $(CCD_CFLAGS) -I. \
 	  tests/fuzz_sealed.c tests/gs_impl.c -o $@ $(LIBS) $(SODIUM_LIBS)
 $(BUILD)/fuzz_seeds: tests/fuzz_seeds.c tests/fuzz_world.h $(BUILD)/gs_impl.o ghostsim.h
 	$(CC) $(CSTD) $(WARN) $(CFLAGS) -I. $< $(BUILD)/gs_impl.o -o $@ $(LIBS) $(SODIUM_LIBS)
