@@ -385,7 +385,7 @@ static void *scene_thread(void *arg) {
 }
 
 static void scene_print(const char *label, const scene_result *r) {
-    char line[256];
+    char line[256] = ""; /* runs under 5 s (valgrind's) have no sample */
     int i, n = 0;
     for (i = 0; i < 16 && (i + 1) * 5.0 <= r->seconds + 1e-9; ++i)
         n += snprintf(line + n, sizeof line - (size_t)n, " %.0e", r->every5[i]);
