@@ -746,9 +746,8 @@ typedef struct gs_ghost_desc {
                               (three snapshots at 60 Hz). Uncapped, the
                               bad network profile of bench/tradeoff (150 ms
                               +-50 ms) tore the paper's scene apart under
-                              the exponential rule: spheres carried along
-                              their velocities into the cloth, hosts 772 m
-                              apart, one off wall-clock pace */
+                              the exponential rule: hosts 772 m apart, one
+                              off wall-clock pace */
     int raw_time;          /* 1: the paper's formula literally: x_comp = x
                               and the raw remote time is blended (see the
                               latency trap in the README) */
