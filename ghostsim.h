@@ -1668,9 +1668,8 @@ GS__PRIVATE int gs__agent_done(const gs_agent *a) {
 
 /* ---- the span heaps: the slowest and fastest live agent in O(log n) per
    change of a time, where a scan at every dispatch made a frame O(n^2).
-   They hold exactly the agents gs__time_span counts (the ones not failed)
-   and each one's time as gs__agent_time computes it, so the span is the
-   same, bit for bit. ---- */
+   They hold exactly the agents not failed, each one's time as
+   gs__agent_time computed it at its last change. ---- */
 GS__PRIVATE int *gs__span_pos(gs_agent *a, int hi) {
     return hi ? &a->span_hi : &a->span_lo;
 }
@@ -1767,7 +1766,8 @@ GS__PRIVATE void gs__span_remove(gs_agent *a) {
     a->span_lo = a->span_hi = -1;
 }
 
-/* The span from the heaps: what gs__time_span would find. */
+/* The slowest and fastest time of the agents still live (the target when
+   none is). */
 GS__PRIVATE void gs__span_get(const gs_world *w, double *t_min, double *t_max) {
     if (w->span_n == 0) {
         *t_min = *t_max = w->target;
@@ -1790,24 +1790,6 @@ GS__PRIVATE double gs__lag_bound(const gs_world *w, double t, double max_lag) {
     lag = fmax(t - lo, hi - t);
     if (!(lag > 0.0)) return 0.0; /* no agent at all: -inf */
     return lag < max_lag ? lag : max_lag;
-}
-
-/* Slowest and fastest simulation time of the agents still live. */
-GS__PRIVATE void gs__time_span(const gs_world *w, double *t_min,
-                               double *t_max) {
-    double lo = HUGE_VAL, hi = -HUGE_VAL;
-    int i;
-    for (i = 0; i < w->agent_count; ++i) {
-        const gs_agent *a = w->agents[i];
-        double t;
-        if (a->failed) continue;
-        t = gs__agent_time(a);
-        if (t < lo) lo = t;
-        if (t > hi) hi = t;
-    }
-    if (lo > hi) lo = hi = w->target;
-    *t_min = lo;
-    *t_max = hi;
 }
 
 GS__PRIVATE int gs__runnable(const gs_world *w, const gs_agent *a,
@@ -2015,7 +1997,7 @@ GS_API gs_result gs_world_advance(gs_world *w, double seconds,
     if (rep.failed_agents) rep.reached = 0;
     gs__unqueue_all(w);
     rep.target = w->target;
-    gs__time_span(w, &rep.t_min, &rep.t_max);
+    gs__span_get(w, &rep.t_min, &rep.t_max);
     w->busy = 0;
     if (report) *report = rep;
     return first_error;

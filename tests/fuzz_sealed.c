@@ -158,15 +158,7 @@ static gs_result fuzz_sealed_deliver(fuzz_world *f, fuzz_tally *t, const unsigne
     *why = GS_REJECT_COUNT;
     r = gs_net_deliver(f->net, buf, size, now, why);
     FUZZ_CHECK(r == GS_OK || r == GS_ERR_REJECTED);
-    if (r == GS_OK) {
-        t->accepted++;
-        t->bytes += size;
-        t->chunks += (uint64_t)(buf[6] | buf[7] << 8);
-    } else {
-        FUZZ_CHECK(*why >= 0 && *why < GS_REJECT_COUNT);
-        t->rejected++;
-        t->why[*why]++;
-    }
+    fuzz_count(t, r, *why, buf, size);
     free(buf);
     return r;
 }
@@ -223,16 +215,10 @@ static void fuzz_sealed_run(const uint8_t *data, size_t size, fuzz_tally *tally)
         FUZZ_CHECK(fuzz_sealed_deliver(&f, &k.t, data + start, n, now, &why) == GS_ERR_REJECTED);
         if (n >= GS_WIRE_HEADER + 4 && n <= FUZZ_MAX_SEAL)
             fuzz_sealed_piece(&f, &k, data + start, n, now);
-        gs_world_advance(f.w, FUZZ_STEP, NULL); /* may report GS_ERR_UNSTABLE */
-        FUZZ_CHECK(gs_net_update(f.net, now) == GS_OK);
-        fuzz_check_states(&f);
+        fuzz_step(&f, now);
         start = end;
     }
-    gs_world_advance(f.w, 0.05, NULL);
-    FUZZ_CHECK(gs_net_update(f.net, now + 0.05) == GS_OK);
-    fuzz_check_states(&f);
-    fuzz_check_counters(&f, &k.t);
-    fuzz_world_destroy(&f);
+    fuzz_finish(&f, &k.t, now);
     if (tally) *tally = k.t;
 }
 

@@ -145,6 +145,20 @@ static gs_result fuzz_send(void *user, uint32_t host, const void *data, size_t s
     return GS_OK;
 }
 
+/* Tallies a delivery of buf (size bytes): taken, or refused for why. */
+static void fuzz_count(fuzz_tally *t, gs_result r, gs_reject why, const unsigned char *buf,
+                       size_t size) {
+    if (r == GS_OK) {
+        t->accepted++;
+        t->bytes += size;
+        t->chunks += (uint64_t)(buf[6] | buf[7] << 8); /* taken: a whole header */
+    } else {
+        FUZZ_CHECK(why >= 0 && why < GS_REJECT_COUNT);
+        t->rejected++;
+        t->why[why]++;
+    }
+}
+
 /* Delivers one datagram from an exact-size copy and tallies the outcome. */
 static gs_reject fuzz_deliver(fuzz_world *f, fuzz_tally *t, const unsigned char *src,
                               size_t size, double now) {
@@ -157,18 +171,14 @@ static gs_reject fuzz_deliver(fuzz_world *f, fuzz_tally *t, const unsigned char 
     ok = fuzz_decode(buf, size, &dec_why);
     r = gs_net_deliver(f->net, buf, size, now, &why);
     FUZZ_CHECK(r == GS_OK || r == GS_ERR_REJECTED);
+    fuzz_count(t, r, why, buf, size);
     if (r == GS_OK) {
         FUZZ_CHECK(ok);
-        t->accepted++;
-        t->bytes += size;
-        t->chunks += (uint64_t)(size >= 8 ? (buf[6] | buf[7] << 8) : 0);
         why = GS_REJECT_COUNT;
+    } else if (!ok) {
+        FUZZ_CHECK(why == dec_why);
     } else {
-        FUZZ_CHECK(why >= 0 && why < GS_REJECT_COUNT);
-        if (!ok) FUZZ_CHECK(why == dec_why);
-        else FUZZ_CHECK(!fuzz_decode_reason(why) || (t->window && why == GS_REJECT_TIME));
-        t->rejected++;
-        t->why[why]++;
+        FUZZ_CHECK(!fuzz_decode_reason(why) || (t->window && why == GS_REJECT_TIME));
     }
     free(buf);
     return why;
@@ -238,6 +248,25 @@ static void fuzz_check_counters(const fuzz_world *f, const fuzz_tally *t) {
     for (r = 0; r < GS_REJECT_COUNT; ++r) FUZZ_CHECK(why[r] == t->why[r]);
 }
 
+/* After a datagram: the world steps FUZZ_STEP (ghosts blend what was
+   queued; it may report GS_ERR_UNSTABLE), the net sends what is due, and
+   every state is checked. */
+static void fuzz_step(fuzz_world *f, double now) {
+    gs_world_advance(f->w, FUZZ_STEP, NULL);
+    FUZZ_CHECK(gs_net_update(f->net, now) == GS_OK);
+    fuzz_check_states(f);
+}
+
+/* The end of an input: 50 ms more, the states, and the counters against
+   the tally; the world goes. */
+static void fuzz_finish(fuzz_world *f, const fuzz_tally *t, double now) {
+    gs_world_advance(f->w, 0.05, NULL);
+    FUZZ_CHECK(gs_net_update(f->net, now + 0.05) == GS_OK);
+    fuzz_check_states(f);
+    fuzz_check_counters(f, t);
+    fuzz_world_destroy(f);
+}
+
 /* The end of the datagram that starts at data[start]: the next magic. */
 static size_t fuzz_next_piece(const uint8_t *data, size_t size, size_t start) {
     size_t i;
@@ -265,16 +294,10 @@ int fuzz_wire_one(const uint8_t *data, size_t size) {
             fuzz_put32(fixed + n - 4, fuzz_crc32(fixed, n - 4));
             fuzz_deliver(&f, &t, fixed, n, now);
         }
-        gs_world_advance(f.w, FUZZ_STEP, NULL); /* may report GS_ERR_UNSTABLE */
-        FUZZ_CHECK(gs_net_update(f.net, now) == GS_OK);
-        fuzz_check_states(&f);
+        fuzz_step(&f, now);
         start = end;
     }
-    gs_world_advance(f.w, 0.05, NULL);
-    FUZZ_CHECK(gs_net_update(f.net, now + 0.05) == GS_OK);
-    fuzz_check_states(&f);
-    fuzz_check_counters(&f, &t);
-    fuzz_world_destroy(&f);
+    fuzz_finish(&f, &t, now);
     return 0;
 }
 
