@@ -361,26 +361,29 @@ def series(pa, pb, start=None, resolvable=True):
 
     def at(t):
         k = bisect.bisect_right(ts, t)
-        if k < 2 or k + 1 >= len(B):
-            return None
-        if resolvable and (B[k][1] - B[k - 1][1] > 2 * P.PAIR_WINDOW or
-                           max(_bend(B[k - 2], B[k - 1], B[k]),
-                               _bend(B[k - 1], B[k], B[k + 1])) > TOL):
-            return None
-        return P._interp(B, 1, t)
+        return P._interp(B, 1, t) if 2 <= k < len(B) - 1 else None
+
+    def tells(t):
+        k = bisect.bisect_right(ts, t)
+        return (B[k][1] - B[k - 1][1] <= 2 * P.PAIR_WINDOW and
+                max(_bend(B[k - 2], B[k - 1], B[k]), _bend(B[k - 1], B[k], B[k + 1])) <= TOL)
 
     for wall, t, da in A:
         if start is not None and wall < start:
             continue
-        best = _nearest_shift(lambda tau: at(t + tau), da)
-        if best is not None:
+        best, tau = _nearest_shift(lambda x: at(t + x), da)
+        if best is not None and (not resolvable or tells(t + tau)):
             out.append((wall, best))
     return out
 
 
 def _nearest_shift(at, da):
-    """The least distance from da to at(tau) over |tau| <= SHIFT (None when
-    at() can tell nowhere): a 2 ms grid, then 0.25 ms around its best."""
+    """(the least distance from da to at(tau) over |tau| <= SHIFT, that
+    tau), (None, 0) when at() has nothing there: a 2 ms grid, then 0.25 ms
+    around its best. The line is judged where it matches best, and skipped
+    if the other's lines cannot tell there. A minimum over only the times
+    they can tell inflates the figure: in a `cut` run it put the last second
+    at 2.48 mm while every line after the fault matched within 1.01 mm."""
     def dist(tau):
         db = at(tau)
         return None if db is None else P._maxdiff(da, db)
@@ -390,14 +393,13 @@ def _nearest_shift(at, da):
         if d is not None and (best is None or d < best):
             best, best_tau = d, tau
     if best is None or best == 0.0:
-        return best
+        return best, best_tau
     for k in range(-7, 8):
         tau = best_tau + k * 0.25e-3
-        if abs(tau) <= SHIFT:
-            d = dist(tau)
-            if d is not None and d < best:
-                best = d
-    return best
+        d = dist(tau) if abs(tau) <= SHIFT else None
+        if d is not None and d < best:
+            best, best_tau = d, tau
+    return best, best_tau
 
 
 def _bend(a, b, c):
