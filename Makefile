@@ -210,7 +210,7 @@ test-peers: $(BUILD)/ghostpeer
 # The fault suite (tests/faults.py, README "Faults and soak"): ghostpeer
 # processes behind a UDP proxy that drops, duplicates, reorders, delays,
 # corrupts and cuts; a peer SIGKILLed and restarted, a clock step, a wild
-# probe. faults: every scenario (about 4 min); faults-short: five of them
+# probe. faults: every scenario (about 3 min); faults-short: five of them
 # (about 55 s); soak: four peers under rolling faults for SOAK_SECONDS.
 SOAK_SECONDS ?= 600
 .PHONY: faults faults-short soak
