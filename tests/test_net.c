@@ -1480,11 +1480,9 @@ static void test_udp_scatter_sleeps(void **state) {
     assert_int_equal(gs_net_peer_stats(gs_udp_net(u), 2, &ps), GS_OK);
     s1 = (long)ps.snapshots_sent - s0;
     print_message("udp 20 Hz ghost, no poll: %ld snapshots sent in 0.5 s\n", s1);
-    /* 10, give or take one at either end of the window, and never more
-       than the rate allows. Fewer on a loaded machine: frames that run late
-       come in bursts, and a B published before the one held back by the
-       rate went out replaces it (under valgrind, most of them) */
-    assert_true(s1 <= 11 && s1 >= (UNDER_VALGRIND() ? 1 : 7));
+    /* 10, give or take one at either end of the window; under valgrind the
+       frames run late and fewer are due */
+    assert_true(s1 <= 11 && s1 >= (UNDER_VALGRIND() ? 1 : 9));
     assert_int_equal(gs_net_peer_stats(gs_udp_net(u2), 1, &ps), GS_OK);
     assert_true(ps.snapshots_received > 0);
     gs_udp_close(u);
