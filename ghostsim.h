@@ -5040,9 +5040,6 @@ struct gs_net {
     gs__peer peers[GS__MAX_PEERS];
     uint64_t unknown_rejected[GS_REJECT_COUNT];
     gs_net_lock lock;
-    int published;            /* a ghost published B since the lock's holder
-                                 last looked (gs_udp's scatter thread sleeps
-                                 until then) */
     double now;               /* s, wall time of the last update/deliver */
     unsigned char buf[GS_WIRE_MAX_DATAGRAM];
     gs_wire_view view;        /* decode scratch (too big for the stack) */
@@ -5275,7 +5272,6 @@ GS__PRIVATE void gs__ghost_publish(gs__ghost *g, gs_net *net) {
     gs__lock(net);
     gs_agent_get_state(g->agent, g->B, g->n);
     g->b_seq++;
-    if (net) net->published = 1;
     gs__unlock(net);
     g->next_publish = t + 1.0 / g->d.send_rate;
 }
@@ -6402,21 +6398,6 @@ GS__PRIVATE int gs__ghost_due(const gs__ghost *g, double now) {
     return g->b_seq != g->sent_seq && (now >= g->next_send || g->next_send - now > period);
 }
 
-/* The earliest wall time a B published but not sent yet is due (its
-   ghost's rate holds it back); HUGE_VAL when every B has been sent. Under
-   the lock. */
-GS__PRIVATE double gs__net_next_due(const gs_net *net, double now) {
-    const gs_world *w = net->world;
-    double due = HUGE_VAL;
-    int i;
-    for (i = 0; i < w->agent_count; ++i) {
-        const gs__ghost *g = gs__ghost_of(w->agents[i]);
-        if (!g || g->b_seq == g->sent_seq) continue;
-        due = fmin(due, gs__ghost_due(g, now) ? now : g->next_send);
-    }
-    return due;
-}
-
 /* Every due ghost is encoded once into datagrams that go to every peer
    (a peer whose budget is spent misses that datagram). */
 GS_API gs_result gs_net_update(gs_net *net, double now) {
@@ -7078,12 +7059,6 @@ typedef struct gs__udp_out {
 } gs__udp_out;
 #define GS__UDP_BATCH 16
 #define GS__UDP_WAIT 20000 /* us: how long gs_udp_close may wait for the gather thread */
-/* s: the scatter thread's wait after a publish, so that the ghosts one
-   world advance steps go out together (one datagram, not one each) */
-#define GS__UDP_GATHER 0.001
-/* s: its longest sleep with nothing to send (a ghost attached while it
-   sleeps has its first B sent within this) */
-#define GS__UDP_IDLE 0.02
 
 struct gs_udp {
     gs_world *world;
@@ -7095,7 +7070,6 @@ struct gs_udp {
     pthread_mutex_t mu;      /* the net lock: queues, peers, stats */
     pthread_mutex_t wake_mu; /* the scatter thread's wake-up */
     pthread_cond_t wake;
-    int kick;                /* under wake_mu: GS__KICK_* */
     pthread_mutex_t send_mu; /* out and out_n; taken after mu, or alone */
     gs__udp_peer peers[GS__MAX_PEERS];
     unsigned char rbuf[GS_WIRE_MAX_DATAGRAM + 64];
@@ -7120,32 +7094,17 @@ GS__PRIVATE void gs__udp_flush_out(gs_udp *u) {
 
 GS__PRIVATE void gs__udp_lock(void *user) { pthread_mutex_lock(&((gs_udp *)user)->mu); }
 
-/* Why the scatter thread was woken: a ghost published (send within
-   GS__UDP_GATHER), or gs_udp_poll (send now). */
-enum { GS__KICK_NONE, GS__KICK_PUBLISHED, GS__KICK_NOW };
-
-GS__PRIVATE void gs__udp_kick(gs_udp *u, int why) {
-    pthread_mutex_lock(&u->wake_mu);
-    if (why > u->kick) u->kick = why;
-    pthread_cond_signal(&u->wake);
-    pthread_mutex_unlock(&u->wake_mu);
-}
-
 /* The net lock's release; then what gs_net_update queued goes out, without
-   the lock, so that the gather thread never waits on a sendto, and a
-   publish wakes the scatter thread. */
+   the lock, so that the gather thread never waits on a sendto. */
 GS__PRIVATE void gs__udp_unlock(void *user) {
     gs_udp *u = (gs_udp *)user;
     int pending = __atomic_load_n(&u->out_n, __ATOMIC_RELAXED) > 0;
-    int published = u->threads && u->net->published;
-    if (published) u->net->published = 0;
     pthread_mutex_unlock(&u->mu);
     if (pending) {
         pthread_mutex_lock(&u->send_mu);
         gs__udp_flush_out(u);
         pthread_mutex_unlock(&u->send_mu);
     }
-    if (published) gs__udp_kick(u, GS__KICK_PUBLISHED);
 }
 
 /* "HOST:PORT" or "[IPV6]:PORT" to a socket address. */
@@ -7303,50 +7262,20 @@ GS__PRIVATE void *gs__udp_gather(void *arg) {
     return NULL;
 }
 
-/* Waits on the scatter thread's condition until `due` (gs_udp_now
-   seconds; the condition's clock is CLOCK_REALTIME) or a kick. Under
-   wake_mu. */
-GS__PRIVATE void gs__udp_wait(gs_udp *u, double due) {
-    double left = due - gs_udp_now();
-    struct timespec until;
-    if (left <= 0.0) return;
-    if (left > GS__UDP_IDLE) left = GS__UDP_IDLE;
-    clock_gettime(CLOCK_REALTIME, &until);
-    until.tv_sec += (time_t)left;
-    until.tv_nsec += (long)((left - (double)(time_t)left) * 1e9);
-    if (until.tv_nsec >= 1000000000) { until.tv_sec++; until.tv_nsec -= 1000000000; }
-    pthread_cond_timedwait(&u->wake, &u->wake_mu, &until);
-}
-
-/* The paper's scatter thread: sends what is due when it is due. It sleeps
-   until a ghost publishes (then waits GS__UDP_GATHER for the rest of the
-   advance), until a published B its rate held back is due, or until
-   gs_udp_poll; never longer than GS__UDP_IDLE. It used to wake every
-   millisecond whether or not anything was due: on this project's 2-core
-   machine those wake-ups (in bench/transport's receiving world, which
-   publishes nothing) held ghostsim at 0.73-0.76 of raw UDP's rate, and
-   0.83-0.90 without them. */
+/* The paper's scatter thread: sends what is due, every millisecond or when
+   woken by gs_udp_poll. */
 GS__PRIVATE void *gs__udp_scatter(void *arg) {
     gs_udp *u = (gs_udp *)arg;
-    double due = gs_udp_now();
     while (!__atomic_load_n(&u->stop, __ATOMIC_ACQUIRE)) {
-        double now;
-        int kick;
+        struct timespec until;
+        clock_gettime(CLOCK_REALTIME, &until);
+        until.tv_nsec += 1000000;
+        if (until.tv_nsec >= 1000000000) { until.tv_sec++; until.tv_nsec -= 1000000000; }
         pthread_mutex_lock(&u->wake_mu);
-        if (!u->kick && !__atomic_load_n(&u->stop, __ATOMIC_ACQUIRE)) gs__udp_wait(u, due);
-        kick = u->kick;
-        u->kick = GS__KICK_NONE;
+        if (!__atomic_load_n(&u->stop, __ATOMIC_ACQUIRE))
+            pthread_cond_timedwait(&u->wake, &u->wake_mu, &until);
         pthread_mutex_unlock(&u->wake_mu);
-        now = gs_udp_now();
-        if (kick == GS__KICK_PUBLISHED && now < due) {
-            due = fmin(due, now + GS__UDP_GATHER); /* the rest of the advance */
-            continue;
-        }
-        if (now < due && kick != GS__KICK_NOW) continue; /* woken early */
-        gs_net_update(u->net, now);
-        gs__lock(u->net);
-        due = fmin(gs__net_next_due(u->net, now), now + GS__UDP_IDLE);
-        gs__unlock(u->net);
+        gs_net_update(u->net, gs_udp_now());
     }
     return NULL;
 }
@@ -7444,7 +7373,9 @@ GS_API void gs_udp_close(gs_udp *u) {
     w = u->world;
     if (u->threads) {
         __atomic_store_n(&u->stop, 1, __ATOMIC_RELEASE);
-        gs__udp_kick(u, GS__KICK_NONE);
+        pthread_mutex_lock(&u->wake_mu);
+        pthread_cond_signal(&u->wake);
+        pthread_mutex_unlock(&u->wake_mu);
         pthread_join(u->gather, NULL);
         pthread_join(u->scatter, NULL);
     }
@@ -7510,7 +7441,9 @@ GS_API gs_result gs_udp_remove_peer(gs_udp *u, uint32_t host) {
 GS_API gs_result gs_udp_poll(gs_udp *u, double now) {
     if (!gs__finite(now)) return GS_ERR_NOT_FINITE;
     if (u->threads) {
-        gs__udp_kick(u, GS__KICK_NOW);
+        pthread_mutex_lock(&u->wake_mu);
+        pthread_cond_signal(&u->wake);
+        pthread_mutex_unlock(&u->wake_mu);
         return GS_OK;
     }
     gs__udp_drain(u, 4096);
