@@ -53,7 +53,6 @@ deadline, and every process started here is killed at the end whatever
 happens (finally, atexit, a watchdog).
 """
 import heapq
-import bisect
 import math
 import os
 import random
@@ -75,12 +74,7 @@ T0 = time.monotonic()
 STATS = 0.01                # s between a peer's JSON lines: a line every 2 steps, fine enough
                             # that a sphere bouncing at metres per second bends little between them
 HOLD = 1.0                  # s: converged means under TOL to the end, at least this long
-# s: how far apart two hosts in step may read their clocks: the ghosts' time
-# band with ghostpeer's defaults (the world's 10 ms tolerance plus one 60 Hz
-# send period, see gs_ghost_desc.time_deadband). series() compares a line
-# with the other host's scene at the nearest time within it.
-SHIFT = 0.01 + 1.0 / 60.0
-_SHIFT_GRID = [k * 2e-3 for k in range(-int(SHIFT / 2e-3), int(SHIFT / 2e-3) + 1)]
+SHIFT = P.SHIFT
 
 
 # ---- the proxy ----
@@ -333,95 +327,9 @@ class Proxy(threading.Thread):
             s.close()
 
 
-# ---- measuring ----
+# ---- measuring (series, final_figure: tests/peers.py) ----
 
-def series(pa, pb, start=None, resolvable=True):
-    """[(wall, |a-b|)] for each line of pa from `start` on: the distance from
-    its digest to pb's at the nearest simulation time within SHIFT of its
-    own t (pb's digest interpolated between its lines around that time).
-
-    Not at the same wall time: two hosts see a sliding sphere a few
-    millimetres apart at the same instant, and that is latency, not
-    divergence. Not exactly at the same t either: hosts in step read clocks
-    up to the ghosts' time band apart (corrections inside it are not made,
-    by design), and under the client/server rule the follower copies the
-    lead's snapshot of a few milliseconds ago and keeps its own clock. A
-    sphere rolling at 0.26 m/s was 1-5 mm apart at equal t in a run where
-    a shift of 2-10 ms brought every line under 0.5 mm (measured, the
-    wild-probe scenario); at rest the shift changes nothing. And only where
-    the lines can tell: a time is skipped when pb moved more than TOL off a
-    straight line around it, since a straight line through a sudden slide
-    is wrong by more than what is being measured. resolvable=False keeps
-    them (a bound on divergence, where a slide must count). Lines within
-    SHIFT of either end of pb's are not judged."""
-    A, B = pa.samples(), sorted(pb.samples(), key=lambda s: s[1])
-    out = []
-    if len(B) < 4:
-        return out
-    ts = [b[1] for b in B]
-
-    def at(t):
-        k = bisect.bisect_right(ts, t)
-        return P._interp(B, 1, t) if 2 <= k < len(B) - 1 else None
-
-    def tells(t):
-        k = bisect.bisect_right(ts, t)
-        return (B[k][1] - B[k - 1][1] <= 2 * P.PAIR_WINDOW and
-                max(_bend(B[k - 2], B[k - 1], B[k]), _bend(B[k - 1], B[k], B[k + 1])) <= TOL)
-
-    for wall, t, da in A:
-        # only where the other's lines span the whole window: at the ends a
-        # clipped window missed the match (a cut run's last line, 1.5 mm,
-        # where the line before matched within 0.2 mm)
-        if (start is not None and wall < start) or not ts[1] + SHIFT <= t <= ts[-2] - SHIFT:
-            continue
-        best, tau = _nearest_shift(lambda x: at(t + x), da)
-        if best is not None and (not resolvable or tells(t + tau)):
-            out.append((wall, best))
-    return out
-
-
-def _nearest_shift(at, da):
-    """(the least distance from da to at(tau) over |tau| <= SHIFT, that
-    tau), (None, 0) when at() has nothing there: a 2 ms grid, then 0.25 ms
-    around its best. The line is judged where it matches best, and skipped
-    if the other's lines cannot tell there. A minimum over only the times
-    they can tell inflates the figure: in a `cut` run it put the last second
-    at 2.48 mm while every line after the fault matched within 1.01 mm."""
-    def dist(tau):
-        db = at(tau)
-        return None if db is None else P._maxdiff(da, db)
-    best, best_tau = None, 0.0
-    for tau in _SHIFT_GRID:
-        d = dist(tau)
-        if d is not None and (best is None or d < best):
-            best, best_tau = d, tau
-    if best is None or best == 0.0:
-        return best, best_tau
-    for k in range(-7, 8):
-        tau = best_tau + k * 0.25e-3
-        d = dist(tau) if abs(tau) <= SHIFT else None
-        if d is not None and d < best:
-            best, best_tau = d, tau
-    return best, best_tau
-
-
-def _bend(a, b, c):
-    """How far b is off the straight line from a to c (m, the largest
-    entry): what a straight line between lines gets wrong there."""
-    f = (b[1] - a[1]) / (c[1] - a[1]) if c[1] > a[1] else 0.5
-    return max(abs(y - (x + f * (z - x))) for x, y, z in zip(a[2], b[2], c[2]))
-
-
-def final_figure(pa, pb, window=1.0):
-    """The largest series() figure over the last `window` s both printed,
-    and how many lines it judged (None when none could be)."""
-    A, B = pa.samples(), pb.samples()
-    if not A or not B:
-        return None, 0
-    end = min(A[-1][0], B[-1][0])
-    last = [d for w, d in series(pa, pb, end - window) if w <= end]
-    return (max(last), len(last)) if last else (None, 0)
+series, final_figure = P.series, P.final_figure
 
 
 def settle_time(ser, since):

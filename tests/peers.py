@@ -43,6 +43,7 @@ Tests (name: what it checks):
                 hears nothing; a bad key file is exit status 2
 """
 import atexit
+import bisect
 import json
 import os
 import random
@@ -59,7 +60,13 @@ HOST = "127.0.0.1"
 DEADLINE = 300.0          # s for the whole file
 TOL = 1e-3                # m: converged digests
 PAIR_WINDOW = 0.05        # s: the nearest line of the other peer, by "wall"
-STATS_EVERY = 0.05        # s between JSON lines
+STATS_EVERY = 0.01        # s between JSON lines (series() judges between them)
+# s: how far apart two hosts in step may read their clocks: the ghosts' time
+# band with ghostpeer's defaults (the world's 10 ms tolerance plus one 60 Hz
+# send period, see gs_ghost_desc.time_deadband). series() compares a line
+# with the other host's scene at the nearest time within it.
+SHIFT = 0.01 + 1.0 / 60.0
+_SHIFT_GRID = [k * 2e-3 for k in range(-int(SHIFT / 2e-3), int(SHIFT / 2e-3) + 1)]
 T0 = time.monotonic()
 
 _procs = []               # every Popen started here
@@ -330,8 +337,101 @@ def off_cloth(peers, below=-0.5):
     return out
 
 
+def series(pa, pb, start=None, resolvable=True):
+    """[(wall, |a-b|)] for each line of pa from `start` on: the distance from
+    its digest to pb's at the nearest simulation time within SHIFT of its
+    own t (pb's digest interpolated between its lines around that time).
+
+    Not at the same wall time: two hosts see a sliding sphere a few
+    millimetres apart at the same instant, and that is latency, not
+    divergence. Not exactly at the same t either: hosts in step read clocks
+    up to the ghosts' time band apart (corrections inside it are not made,
+    by design), and under the client/server rule the follower copies the
+    lead's snapshot of a few milliseconds ago and keeps its own clock. A
+    sphere rolling at 0.26 m/s was 1-5 mm apart at equal t in a run where
+    a shift of 2-10 ms brought every line under 0.5 mm (measured, the
+    wild-probe scenario); at rest the shift changes nothing. And only where
+    the lines can tell: a time is skipped when pb moved more than TOL off a
+    straight line around it, since a straight line through a sudden slide
+    is wrong by more than what is being measured. resolvable=False keeps
+    them (a bound on divergence, where a slide must count). Lines within
+    SHIFT of either end of pb's are not judged."""
+    A, B = pa.samples(), sorted(pb.samples(), key=lambda s: s[1])
+    out = []
+    if len(B) < 4:
+        return out
+    ts = [b[1] for b in B]
+
+    def at(t):
+        k = bisect.bisect_right(ts, t)
+        return _interp(B, 1, t) if 2 <= k < len(B) - 1 else None
+
+    def tells(t):
+        k = bisect.bisect_right(ts, t)
+        return (B[k][1] - B[k - 1][1] <= 2 * PAIR_WINDOW and
+                max(_bend(B[k - 2], B[k - 1], B[k]), _bend(B[k - 1], B[k], B[k + 1])) <= TOL)
+
+    for wall, t, da in A:
+        # only where the other's lines span the whole window: at the ends a
+        # clipped window missed the match (a cut run's last line, 1.5 mm,
+        # where the line before matched within 0.2 mm)
+        if (start is not None and wall < start) or not ts[1] + SHIFT <= t <= ts[-2] - SHIFT:
+            continue
+        best, tau = _nearest_shift(lambda x: at(t + x), da)
+        if best is not None and (not resolvable or tells(t + tau)):
+            out.append((wall, best))
+    return out
+
+
+def _nearest_shift(at, da):
+    """(the least distance from da to at(tau) over |tau| <= SHIFT, that
+    tau), (None, 0) when at() has nothing there: a 2 ms grid, then 0.25 ms
+    around its best. The line is judged where it matches best, and skipped
+    if the other's lines cannot tell there. A minimum over only the times
+    they can tell inflates the figure: in a `cut` run it put the last second
+    at 2.48 mm while every line after the fault matched within 1.01 mm."""
+    def dist(tau):
+        db = at(tau)
+        return None if db is None else _maxdiff(da, db)
+    best, best_tau = None, 0.0
+    for tau in _SHIFT_GRID:
+        d = dist(tau)
+        if d is not None and (best is None or d < best):
+            best, best_tau = d, tau
+    if best is None or best == 0.0:
+        return best, best_tau
+    for k in range(-7, 8):
+        tau = best_tau + k * 0.25e-3
+        d = dist(tau) if abs(tau) <= SHIFT else None
+        if d is not None and d < best:
+            best, best_tau = d, tau
+    return best, best_tau
+
+
+def _bend(a, b, c):
+    """How far b is off the straight line from a to c (m, the largest
+    entry): what a straight line between lines gets wrong there."""
+    f = (b[1] - a[1]) / (c[1] - a[1]) if c[1] > a[1] else 0.5
+    return max(abs(y - (x + f * (z - x))) for x, y, z in zip(a[2], b[2], c[2]))
+
+
+def final_figure(pa, pb, window=1.0):
+    """The largest series() figure over the last `window` s both printed,
+    and how many lines it judged (None when none could be)."""
+    A, B = pa.samples(), pb.samples()
+    if not A or not B:
+        return None, 0
+    end = min(A[-1][0], B[-1][0])
+    last = [d for w, d in series(pa, pb, end - window) if w <= end]
+    return (max(last), len(last)) if last else (None, 0)
+
+
 def converge_all(peers, what):
-    worst, detail = None, []
+    """Every pair within TOL over the last second, judged as the fault suite
+    does (series(): at the nearest t within SHIFT); the other figures say
+    more when it fails. Judged at equal wall time, a sphere sliding at the
+    end left peers 3-6 mm apart where they agreed a clock shift apart."""
+    worst, detail, fig, judged = None, [], 0.0, None
     for i in range(len(peers)):
         for k in range(i + 1, len(peers)):
             r = compare(peers[i], peers[k])
@@ -340,15 +440,19 @@ def converge_all(peers, what):
             detail.append(r)
             if worst is None or r["interp"] > worst["interp"]:
                 worst = r
-    nums = "max |a-b| %.3g m (%s, peers %d-%d, %d pairs), nearest-line %.3g m, at equal t %.3g m, " \
-           "t offset %+.3f s, fastest entry %.3g m/s" % (
-               worst["interp"], entry_name(worst["entry"]), worst["ab"][0], worst["ab"][1],
-               worst["pairs"], worst["nearest"], worst["same_t"], worst["dt"],
-               max(speed(p) for p in peers))
+            f, n = final_figure(peers[i], peers[k])
+            judged = n if judged is None else min(judged, n)
+            fig = max(fig, f) if f is not None else float("nan")
+    nums = "over the last second %.3g m (nearest t within %.1f ms, %d lines judged); " \
+           "at equal wall %.3g m (%s, peers %d-%d, %d pairs), nearest-line %.3g m, " \
+           "at equal t %.3g m, t offset %+.3f s, fastest entry %.3g m/s" % (
+               fig, 1e3 * SHIFT, judged, worst["interp"], entry_name(worst["entry"]),
+               worst["ab"][0], worst["ab"][1], worst["pairs"], worst["nearest"],
+               worst["same_t"], worst["dt"], max(speed(p) for p in peers))
     fallen = off_cloth(peers)
     if fallen:
         nums += "; off the cloth: " + ", ".join(fallen)
-    if worst["interp"] >= TOL:
+    if not fig < TOL:
         raise TestFailure("%s: digests not within %g m at the end: %s" % (what, TOL, nums))
     return nums
 
