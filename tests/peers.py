@@ -430,7 +430,7 @@ def converge_all(peers, what):
     """Every pair within TOL over the last second, judged as the fault suite
     does (series(): at the nearest t within SHIFT); the other figures say
     more when it fails. Judged at equal wall time, a sphere sliding at the
-    end left peers 3-6 mm apart where they agreed a clock shift apart."""
+    end failed 3 of 15 flood runs at 1.1-6.3 mm."""
     worst, detail, fig, judged = None, [], 0.0, None
     for i in range(len(peers)):
         for k in range(i + 1, len(peers)):
