@@ -7285,17 +7285,12 @@ GS__PRIVATE void *gs__udp_gather(void *arg) {
     return NULL;
 }
 
-/* Waits on the scatter thread's condition until `due` (gs_udp_now
-   seconds; the condition's clock is CLOCK_REALTIME) or a kick. Under
-   wake_mu. */
-GS__PRIVATE void gs__udp_wait(gs_udp *u, double due) {
-    double left = due - gs_udp_now();
+/* Waits on the scatter thread's condition for at most `seconds` (under a
+   second), or until a kick. Under wake_mu. */
+GS__PRIVATE void gs__udp_wait(gs_udp *u, double seconds) {
     struct timespec until;
-    if (left <= 0.0) return;
-    if (left > GS__UDP_IDLE) left = GS__UDP_IDLE;
-    clock_gettime(CLOCK_REALTIME, &until);
-    until.tv_sec += (time_t)left;
-    until.tv_nsec += (long)((left - (double)(time_t)left) * 1e9);
+    clock_gettime(CLOCK_REALTIME, &until); /* the condition's clock */
+    until.tv_nsec += (long)(seconds * 1e9);
     if (until.tv_nsec >= 1000000000) { until.tv_sec++; until.tv_nsec -= 1000000000; }
     pthread_cond_timedwait(&u->wake, &u->wake_mu, &until);
 }
@@ -7337,7 +7332,7 @@ GS__PRIVATE void *gs__udp_scatter(void *arg) {
         }
         pthread_mutex_lock(&u->wake_mu);
         if (!u->kick && !__atomic_load_n(&u->stop, __ATOMIC_ACQUIRE))
-            gs__udp_wait(u, now + (idle ? GS__UDP_IDLE : GS__UDP_TICK));
+            gs__udp_wait(u, idle ? GS__UDP_IDLE : GS__UDP_TICK);
         u->kick = 0;
         pthread_mutex_unlock(&u->wake_mu);
         __atomic_store_n(&u->idle, 0, __ATOMIC_RELAXED);
