@@ -160,6 +160,14 @@ typedef double (*gs_clock_fn)(void *user);
 typedef struct gs_vec3 { double x, y, z; } gs_vec3;
 typedef struct gs_quat { double x, y, z, w; } gs_quat; /* w is the scalar */
 
+/* The coordinate range, in metres: every position an agent holds (and every
+   size: a radius, a half extent, a cloth's width) lies within +-GS_MAX_COORD.
+   A double there still resolves 1.2e-7 m, and sums, differences and squared
+   distances of such numbers cannot overflow. A create call, set_state,
+   gs_mesh_move_pin or gs_probe_set_target outside it is GS_ERR_OUT_OF_RANGE;
+   a step that would leave it is undone (GS_ERR_UNSTABLE). */
+#define GS_MAX_COORD 1e9
+
 /* ========================================================================
    >>result
    Negative codes are errors. The list makes both the enum and the strings.
@@ -168,7 +176,8 @@ typedef struct gs_quat { double x, y, z, w; } gs_quat; /* w is the scalar */
     X(GS_OK, 0, "ok")                                                          \
     X(GS_ERR_INVALID_ARG, -1, "invalid argument")                              \
     X(GS_ERR_NOT_FINITE, -2, "a number is NaN or infinite")                    \
-    X(GS_ERR_OUT_OF_RANGE, -3, "an index or count is out of range")            \
+    X(GS_ERR_OUT_OF_RANGE, -3,                                                 \
+      "an index, count or coordinate is out of range")                         \
     X(GS_ERR_SIZE_MISMATCH, -4, "an array has the wrong length")               \
     X(GS_ERR_NO_MEMORY, -5, "out of memory")                                   \
     X(GS_ERR_UNSTABLE, -6,                                                     \
@@ -399,7 +408,10 @@ typedef struct gs_custom_desc {
     double dt;          /* s; required, > 0 */
     size_t state_size;  /* doubles, excluding time; may be 0 */
     /* Advances by dt seconds from time t. Returning an error leaves the
-       agent's time unchanged; the callback should leave its state too. */
+       agent's time unchanged; the callback should leave its state too.
+       A step that leaves a NaN or infinity in the state is undone: the
+       state read (get_state) before it is put back (set_state) and the
+       step returns GS_ERR_UNSTABLE. */
     gs_result (*step)(void *user, double t, double dt);
     void (*get_state)(const void *user, double *out);  /* state_size */
     gs_result (*set_state)(void *user, const double *in);
@@ -611,7 +623,9 @@ typedef struct gs_contact {
 /* The exact or libccd answer for two shapes at two poses: returns 1 and
    fills *c when they overlap, 0 when apart. Every output is finite: where
    libccd returns a non-finite direction (touching or coincident shapes) the
-   answer falls back to the direction between the centres. */
+   answer falls back to the direction between the centres, and coincident
+   centres to +y (a's normal). Shapes or positions outside GS_MAX_COORD (or
+   otherwise invalid) give 0. */
 GS_API int gs_collide_shapes(const gs_shape_desc *a, gs_vec3 pa, gs_quat qa,
                              const gs_shape_desc *b, gs_vec3 pb, gs_quat qb,
                              gs_contact *c);
@@ -771,7 +785,9 @@ typedef struct gs_ghost_desc {
 
 GS_API gs_ghost_desc gs_ghost_desc_default(void);
 /* Wraps an agent in a ghost. GS_ERR_INVALID_ARG for object id 0 or one
-   already used in this world, a bad rate, encoding or queue size. */
+   already used in this world, a bad rate, encoding or queue size;
+   GS_ERR_CAPACITY for a state too big for the wire: more than
+   GS_WIRE_MAX_OBJECT_CHUNKS chunks in the chosen encoding. */
 GS_API gs_result gs_ghost_attach(gs_agent *a, const gs_ghost_desc *desc);
 GS_API gs_result gs_ghost_detach(gs_agent *a);
 
@@ -840,6 +856,10 @@ GS_API gs_result gs_scene_attach_ghosts(gs_scene *sc, const gs_ghost_desc *share
 #define GS_WIRE_HEADER 48
 #define GS_WIRE_CHUNK_HEADER 32
 #define GS_WIRE_MAX_CHUNKS 64 /* chunks one datagram may carry */
+/* Chunks one snapshot may have (its chunk index and count are u16): a
+   state of at most 8 847 225 values in f64 (135 a chunk), 17 694 450 in
+   f32 (270), e.g. a cloth of up to 1214 x 1214 particles in f64. */
+#define GS_WIRE_MAX_OBJECT_CHUNKS 65535
 #define GS_WIRE_FLAG_SEALED 0x01
 /* The latest simulation time a chunk may carry (s; 31 years). A double
    there still resolves 1.2e-7 s, so a 1 ms step still moves a clock; a time
@@ -1261,6 +1281,25 @@ GS__PRIVATE int gs__finite3(gs_vec3 v) {
 GS__PRIVATE int gs__is_zero3(gs_vec3 v) {
     return v.x == 0.0 && v.y == 0.0 && v.z == 0.0;
 }
+GS__PRIVATE double gs__max_abs3(gs_vec3 v) {
+    return fmax(fabs(v.x), fmax(fabs(v.y), fabs(v.z)));
+}
+/* Within +-GS_MAX_COORD on every axis (so also finite, and not NaN). */
+GS__PRIVATE int gs__in_range3(gs_vec3 v) {
+    return fabs(v.x) <= GS_MAX_COORD && fabs(v.y) <= GS_MAX_COORD &&
+           fabs(v.z) <= GS_MAX_COORD;
+}
+/* d / |d| for any finite d, however small or large (scaled by its largest
+   component first, so that |d|^2 neither underflows nor overflows), or
+   `none` for d = 0. Exactly antisymmetric: -d gives -(the answer for d),
+   so two bodies that each ask about the other get opposite normals. */
+GS__PRIVATE gs_vec3 gs__unit_or(gs_vec3 d, gs_vec3 none) {
+    double m = gs__max_abs3(d);
+    gs_vec3 u;
+    if (!(m > 0.0) || !gs__finite(m)) return none;
+    u = gs__v3(d.x / m, d.y / m, d.z / m); /* |u| in [1, sqrt 3] */
+    return gs__scale(u, 1.0 / gs__len(u));
+}
 
 /* ========================================================================
    >>result
@@ -1325,6 +1364,24 @@ GS__PRIVATE void gs__check_vec(gs__check *c, const char *field, gs_vec3 v) {
         gs__check_fail(c, GS_ERR_NOT_FINITE,
                        "%s is (%g, %g, %g), must be finite", field, v.x, v.y,
                        v.z);
+}
+
+/* A position: finite and within +-GS_MAX_COORD. */
+GS__PRIVATE void gs__check_pos(gs__check *c, const char *field, gs_vec3 v) {
+    gs__check_vec(c, field, v);
+    if (c->r == GS_OK && !gs__in_range3(v))
+        gs__check_fail(c, GS_ERR_OUT_OF_RANGE,
+                       "%s is (%g, %g, %g) m, outside +-GS_MAX_COORD (%g m)",
+                       field, v.x, v.y, v.z, GS_MAX_COORD);
+}
+
+/* A size (m): > 0 and at most GS_MAX_COORD. */
+GS__PRIVATE void gs__check_size(gs__check *c, const char *field, double v) {
+    gs__check_positive(c, field, v);
+    if (c->r == GS_OK && v > GS_MAX_COORD)
+        gs__check_fail(c, GS_ERR_OUT_OF_RANGE,
+                       "%s is %g m, more than GS_MAX_COORD (%g m)", field, v,
+                       GS_MAX_COORD);
 }
 
 GS__PRIVATE void gs__check_int(gs__check *c, const char *field, long v,
@@ -2187,12 +2244,30 @@ GS_API gs_result gs_agent_destroy(gs_agent *a) {
 typedef struct gs__custom {
     gs_agent base;
     gs_custom_desc d;
-    double *scratch; /* state_size doubles, for hashing */
+    double *scratch; /* state_size doubles, for hashing and checking */
+    double *before;  /* state_size doubles: the state before a step */
 } gs__custom;
 
+/* The user's step, held to the NUMBERS promise like a built-in one: a
+   state with a NaN or infinity after it is replaced by the one before. */
 GS__PRIVATE gs_result gs__custom_step(gs_agent *a, double dt) {
     gs__custom *c = (gs__custom *)a;
-    return c->d.step(c->d.user, gs__agent_time(a), dt);
+    size_t n = c->d.state_size, i;
+    gs_result r;
+    if (n) c->d.get_state(c->d.user, c->before);
+    r = c->d.step(c->d.user, gs__agent_time(a), dt);
+    if (r != GS_OK || n == 0) return r;
+    c->d.get_state(c->d.user, c->scratch);
+    for (i = 0; i < n; ++i)
+        if (!gs__finite(c->scratch[i])) break;
+    if (i == n) return GS_OK;
+    r = c->d.set_state(c->d.user, c->before);
+    return gs__fail(a->world, GS_ERR_UNSTABLE,
+                    "custom agent %d: its step of %g s left element %lu at %g; "
+                    "%s", a->index, dt, (unsigned long)(i + 1), c->scratch[i],
+                    r == GS_OK ? "the state before the step was put back"
+                               : "and its set_state refused the state before "
+                                 "the step");
 }
 GS__PRIVATE size_t gs__custom_state_size(const gs_agent *a) {
     return ((const gs__custom *)a)->d.state_size;
@@ -2249,8 +2324,12 @@ GS_API gs_result gs_custom_create(gs_world *w, const gs_custom_desc *desc,
         gs__check_fail(&c, GS_ERR_INVALID_ARG,
                        "state_size is %lu but get_state or set_state is NULL",
                        (unsigned long)desc->state_size);
+    if (desc->state_size > (SIZE_MAX - sizeof *a) / (2 * sizeof(double)))
+        gs__check_fail(&c, GS_ERR_NO_MEMORY,
+                       "state_size is %lu doubles: more than memory holds",
+                       (unsigned long)desc->state_size);
     if (c.r != GS_OK) return c.r;
-    a = (gs__custom *)gs__alloc(w, sizeof *a + desc->state_size *
+    a = (gs__custom *)gs__alloc(w, sizeof *a + 2 * desc->state_size *
                                                       sizeof(double));
     if (!a)
         return gs__fail(w, GS_ERR_NO_MEMORY, "gs_custom_create: out of memory");
@@ -2261,6 +2340,7 @@ GS_API gs_result gs_custom_create(gs_world *w, const gs_custom_desc *desc,
     }
     a->d = *desc;
     a->scratch = (double *)(a + 1);
+    a->before = a->scratch + desc->state_size;
     *out = &a->base;
     return GS_OK;
 }
@@ -2592,14 +2672,15 @@ GS__PRIVATE void gs__int_implicit_euler(gs__mesh *m, double h) {
 
 /* Finite positions and no particle faster than max_speed: anything else
    means the step blew up. */
+/* Every new speed at most max_speed, every new position in range (which
+   also refuses NaN). */
 GS__PRIVATE int gs__mesh_sane(const gs__mesh *m) {
-    double vmax2 = m->solver.max_speed * m->solver.max_speed, sum = 0.0;
+    double vmax2 = m->solver.max_speed * m->solver.max_speed;
     int i;
-    for (i = 0; i < m->n; ++i) {
-        if (!(gs__dot(m->vn[i], m->vn[i]) <= vmax2)) return 0;
-        sum += m->xn[i].x + m->xn[i].y + m->xn[i].z;
-    }
-    return gs__finite(sum);
+    for (i = 0; i < m->n; ++i)
+        if (!(gs__dot(m->vn[i], m->vn[i]) <= vmax2) || !gs__in_range3(m->xn[i]))
+            return 0;
+    return 1;
 }
 
 GS__PRIVATE void gs__mesh_contacts(gs__mesh *m, double t);
@@ -2699,6 +2780,12 @@ GS__PRIVATE void gs__mesh_get_state(const gs_agent *a, double *out) {
 GS__PRIVATE gs_result gs__mesh_set_state(gs_agent *a, const double *in) {
     gs__mesh *m = (gs__mesh *)a;
     int i;
+    for (i = 0; i < m->n; ++i)
+        if (!gs__in_range3(gs__v3(in[3 * i], in[3 * i + 1], in[3 * i + 2])))
+            return gs__fail(a->world, GS_ERR_OUT_OF_RANGE,
+                            "gs_agent_set_state: particle %d at (%g, %g, %g) m "
+                            "is outside +-GS_MAX_COORD (%g m)", i, in[3 * i],
+                            in[3 * i + 1], in[3 * i + 2], GS_MAX_COORD);
     memcpy(m->x, in, (size_t)m->n * sizeof(gs_vec3));
     memcpy(m->v, in + 3 * m->n, (size_t)m->n * sizeof(gs_vec3));
     for (i = 0; i < m->npins; ++i) m->v[m->pins[i]] = gs__v3(0.0, 0.0, 0.0);
@@ -2898,6 +2985,10 @@ GS__PRIVATE void gs__check_mesh_particles(gs__check *c,
         if (!gs__finite3(d->positions[i]))
             gs__check_item(c, GS_ERR_NOT_FINITE, "positions", i, "", NAN,
                            "must be finite");
+        else if (!gs__in_range3(d->positions[i]))
+            gs__check_item(c, GS_ERR_OUT_OF_RANGE, "positions", i,
+                           " largest coordinate", gs__max_abs3(d->positions[i]),
+                           "must be within +-GS_MAX_COORD");
         if (d->velocities && !gs__finite3(d->velocities[i]))
             gs__check_item(c, GS_ERR_NOT_FINITE, "velocities", i, "", NAN,
                            "must be finite");
@@ -2907,6 +2998,9 @@ GS__PRIVATE void gs__check_mesh_particles(gs__check *c,
         if (d->masses && gs__finite(d->masses[i]) && d->masses[i] <= 0.0)
             gs__check_item(c, GS_ERR_INVALID_ARG, "masses", i, "", d->masses[i],
                            "must be > 0");
+        if (d->masses && !gs__finite(1.0 / d->masses[i]))
+            gs__check_item(c, GS_ERR_OUT_OF_RANGE, "masses", i, "", d->masses[i],
+                           "has no finite inverse");
     }
 }
 
@@ -2927,15 +3021,25 @@ GS__PRIVATE gs_mesh_desc gs__mesh_defaults(const gs_mesh_desc *in) {
     return d;
 }
 
+/* mass / count per particle: its inverse must be finite, or every step of
+   that particle is inf * 0. */
+GS__PRIVATE void gs__check_particle_mass(gs__check *c, double mass, int count) {
+    if (c->r == GS_OK && count > 0 && !gs__finite(1.0 / (mass / count)))
+        gs__check_fail(c, GS_ERR_OUT_OF_RANGE,
+                       "mass is %g kg over %d particles: each particle's mass "
+                       "has no finite inverse", mass, count);
+}
+
 GS__PRIVATE gs_result gs__mesh_check(gs_world *w, const gs_mesh_desc *d) {
     gs__check c = gs__check_begin(w, "gs_mesh_create");
     gs__check_mesh_particles(&c, d);
     gs__check_positive(&c, "mass", d->mass);
+    gs__check_particle_mass(&c, d->mass, d->particle_count);
     gs__check_int(&c, "spring_count", d->spring_count, 0, 1L << 26);
     if (c.r == GS_OK) gs__check_mesh_springs(&c, d);
     if (c.r == GS_OK) gs__check_pins(&c, d->pins, d->pin_count, d->particle_count);
     gs__check_nonneg(&c, "air_damping", d->air_damping);
-    gs__check_positive(&c, "particle_radius", d->particle_radius);
+    gs__check_size(&c, "particle_radius", d->particle_radius);
     gs__check_material(&c, &d->material);
     gs__check_solver(&c, &d->solver);
     return c.r;
@@ -3027,11 +3131,12 @@ GS__PRIVATE gs_result gs__cloth_check(gs_world *w, const gs_cloth_desc *d) {
     gs__check c = gs__check_begin(w, "gs_cloth_create");
     gs__check_int(&c, "nx", d->nx, 2, 4096);
     gs__check_int(&c, "ny", d->ny, 2, 4096);
-    gs__check_positive(&c, "width", d->width);
-    gs__check_positive(&c, "height", d->height);
-    gs__check_vec(&c, "origin", d->origin);
+    gs__check_size(&c, "width", d->width);
+    gs__check_size(&c, "height", d->height);
+    gs__check_pos(&c, "origin", d->origin);
     gs__check_axes(&c, d->axis_u, d->axis_v);
     gs__check_positive(&c, "mass", d->mass);
+    if (c.r == GS_OK) gs__check_particle_mass(&c, d->mass, d->nx * d->ny);
     gs__check_int(&c, "springs", d->springs, 1, 7);
     gs__check_positive(&c, "stretch_stiffness", d->stretch_stiffness);
     gs__check_positive(&c, "shear_stiffness", d->shear_stiffness);
@@ -3040,7 +3145,7 @@ GS__PRIVATE gs_result gs__cloth_check(gs_world *w, const gs_cloth_desc *d) {
     gs__check_nonneg(&c, "air_damping", d->air_damping);
     gs__check_int(&c, "pin_corners", d->pin_corners, 0, GS_CORNER_ALL);
     if (c.r == GS_OK) gs__check_pins(&c, d->pins, d->pin_count, d->nx * d->ny);
-    gs__check_positive(&c, "particle_radius", d->particle_radius);
+    gs__check_size(&c, "particle_radius", d->particle_radius);
     gs__check_material(&c, &d->material);
     gs__check_solver(&c, &d->solver);
     return c.r;
@@ -3101,6 +3206,26 @@ GS__PRIVATE void gs__cloth_fill(gs__mesh *m, const gs_cloth_desc *d) {
     m->mat = d->material;
 }
 
+/* Origin, width and height each in range can still put a particle outside
+   it (origin 9e8 m, width 5e8 m): every particle is checked once filled,
+   and the cloth, the last agent added, is let go again if one is out. */
+GS__PRIVATE gs_result gs__cloth_in_range(gs_world *w, gs__mesh *m) {
+    int i;
+    for (i = 0; i < m->n; ++i)
+        if (!gs__in_range3(m->x[i])) {
+            gs_vec3 x = m->x[i];
+            w->agent_count--;
+            w->nmeshes--;
+            gs__free(w, m);
+            return gs__fail(w, GS_ERR_OUT_OF_RANGE,
+                            "gs_cloth_create: particle %d would be at (%g, %g, "
+                            "%g) m, outside +-GS_MAX_COORD (%g m): origin, "
+                            "width and height put the cloth out of range",
+                            i, x.x, x.y, x.z, GS_MAX_COORD);
+        }
+    return GS_OK;
+}
+
 GS_API gs_result gs_cloth_create(gs_world *w, const gs_cloth_desc *desc,
                                  gs_agent **out) {
     gs_cloth_desc d;
@@ -3116,6 +3241,8 @@ GS_API gs_result gs_cloth_create(gs_world *w, const gs_cloth_desc *desc,
                      d.pin_count + 4, &d.solver, &m);
     if (r != GS_OK) return r;
     gs__cloth_fill(m, &d);
+    r = gs__cloth_in_range(w, m);
+    if (r != GS_OK) return r;
     for (corner = 0; corner < 4; ++corner)
         if (d.pin_corners & (1 << corner))
             pins[npins++] = (corner & 1 ? d.nx - 1 : 0) +
@@ -3203,6 +3330,11 @@ GS_API gs_result gs_mesh_move_pin(gs_agent *a, int particle, gs_vec3 pos) {
     if (!gs__finite3(pos))
         return gs__fail(a->world, GS_ERR_NOT_FINITE,
                         "gs_mesh_move_pin: position must be finite");
+    if (!gs__in_range3(pos))
+        return gs__fail(a->world, GS_ERR_OUT_OF_RANGE,
+                        "gs_mesh_move_pin: position (%g, %g, %g) m is outside "
+                        "+-GS_MAX_COORD (%g m)", pos.x, pos.y, pos.z,
+                        GS_MAX_COORD);
     m->x[particle] = pos;
     gs__mesh_update_bounds(m);
     return GS_OK;
@@ -3217,9 +3349,27 @@ GS__PRIVATE gs_quat gs__quat(double x, double y, double z, double w) {
     return q;
 }
 
+/* |q| for any finite q: scaled by its largest component first when the sum
+   of squares would overflow (a component over about 1e154) or underflow. */
+GS__PRIVATE double gs__quat_norm(gs_quat q) {
+    double n = sqrt(q.x * q.x + q.y * q.y + q.z * q.z + q.w * q.w), m;
+    if (n > 1e-150 && n < 1e150) return n;
+    m = fmax(fmax(fabs(q.x), fabs(q.y)), fmax(fabs(q.z), fabs(q.w)));
+    if (!(m > 0.0) || !gs__finite(m)) return m > 0.0 ? m : 0.0;
+    q = gs__quat(q.x / m, q.y / m, q.z / m, q.w / m);
+    return m * sqrt(q.x * q.x + q.y * q.y + q.z * q.z + q.w * q.w);
+}
+
+/* q / |q|; the identity for a zero (or non-finite) q, which callers refuse
+   or default before they get here. Unit quaternions take the first line,
+   bit for bit what they always did. */
 GS__PRIVATE gs_quat gs__quat_normalize(gs_quat q) {
-    double n = sqrt(q.x * q.x + q.y * q.y + q.z * q.z + q.w * q.w);
-    if (!(n > 0.0)) return gs__quat(0.0, 0.0, 0.0, 1.0);
+    double n = sqrt(q.x * q.x + q.y * q.y + q.z * q.z + q.w * q.w), m;
+    if (n > 1e-150 && n < 1e150) return gs__quat(q.x / n, q.y / n, q.z / n, q.w / n);
+    m = fmax(fmax(fabs(q.x), fabs(q.y)), fmax(fabs(q.z), fabs(q.w)));
+    if (!(m > 0.0) || !gs__finite(m)) return gs__quat(0.0, 0.0, 0.0, 1.0);
+    q = gs__quat(q.x / m, q.y / m, q.z / m, q.w / m); /* |q| in [1, 2] */
+    n = sqrt(q.x * q.x + q.y * q.y + q.z * q.z + q.w * q.w);
     return gs__quat(q.x / n, q.y / n, q.z / n, q.w / n);
 }
 
@@ -3485,7 +3635,7 @@ GS__PRIVATE void gs__shape_build(gs__check *c, const gs_shape_desc *d,
     memset(s, 0, sizeof *s);
     s->type = d->type;
     if (d->type == GS_SHAPE_SPHERE) {
-        gs__check_positive(c, "shape.radius", d->radius);
+        gs__check_size(c, "shape.radius", d->radius);
         if (c->r != GS_OK) return;
         s->radius = s->bound = d->radius;
         s->size = 2.0 * d->radius;
@@ -3493,9 +3643,9 @@ GS__PRIVATE void gs__shape_build(gs__check *c, const gs_shape_desc *d,
         s->inertia.xx = s->inertia.yy = s->inertia.zz =
             0.4 * s->volume * d->radius * d->radius;
     } else if (d->type == GS_SHAPE_BOX) {
-        gs__check_positive(c, "shape.half_extents.x", d->half_extents.x);
-        gs__check_positive(c, "shape.half_extents.y", d->half_extents.y);
-        gs__check_positive(c, "shape.half_extents.z", d->half_extents.z);
+        gs__check_size(c, "shape.half_extents.x", d->half_extents.x);
+        gs__check_size(c, "shape.half_extents.y", d->half_extents.y);
+        gs__check_size(c, "shape.half_extents.z", d->half_extents.z);
         if (c->r != GS_OK) return;
         s->half = d->half_extents;
         gs__box_build(s, d->half_extents);
@@ -3507,6 +3657,10 @@ GS__PRIVATE void gs__shape_build(gs__check *c, const gs_shape_desc *d,
             if (!gs__finite3(d->points[i]))
                 gs__check_item(c, GS_ERR_NOT_FINITE, "shape.points", i, "", NAN,
                                "must be finite");
+            else if (!gs__in_range3(d->points[i]))
+                gs__check_item(c, GS_ERR_OUT_OF_RANGE, "shape.points", i,
+                               " largest coordinate", gs__max_abs3(d->points[i]),
+                               "must be within +-GS_MAX_COORD");
         if (c->r != GS_OK) return;
         if (!gs__hull_build(s, d->points, d->point_count))
             gs__check_fail(c, GS_ERR_INVALID_ARG,
@@ -3627,7 +3781,7 @@ GS__PRIVATE void gs__rigid_check(gs__check *c, const gs_rigid_desc *d,
     if (c->r == GS_OK && (d->inertia.x < 0.0 || d->inertia.y < 0.0 ||
                           d->inertia.z < 0.0))
         gs__check_fail(c, GS_ERR_INVALID_ARG, "inertia must be >= 0");
-    gs__check_vec(c, "position", d->position);
+    gs__check_pos(c, "position", d->position);
     gs__check_quat(c, "orientation", d->orientation);
     gs__check_vec(c, "velocity", d->velocity);
     gs__check_vec(c, "angular_velocity", d->angular_velocity);
@@ -3658,6 +3812,24 @@ GS__PRIVATE void gs__rigid_mass(gs__rigid *r, const gs_rigid_desc *d) {
     r->inv_mass = 1.0 / r->mass;
     if (!gs__sym3_inverse(&r->inertia_body, &r->inv_inertia_body))
         memset(&r->inv_inertia_body, 0, sizeof r->inv_inertia_body);
+}
+
+/* Mass and inertia, then that they can move the body: a mass or moment
+   that overflows (density * volume) or whose inverse does (a mass under
+   about 1e-308 kg) would turn every step into NaN. */
+GS__PRIVATE void gs__rigid_mass_check(gs__check *c, gs__rigid *r,
+                                      const gs_rigid_desc *d) {
+    const gs__sym3 *I = &r->inertia_body, *J = &r->inv_inertia_body;
+    gs__rigid_mass(r, d);
+    if (!gs__finite(r->mass) || !gs__finite(r->inv_mass))
+        gs__check_fail(c, GS_ERR_OUT_OF_RANGE,
+                       "mass is %g kg (from mass, or density * volume): it "
+                       "and its inverse must be finite", r->mass);
+    else if (!gs__finite(I->xx + I->yy + I->zz + I->xy + I->xz + I->yz) ||
+             !gs__finite(J->xx + J->yy + J->zz + J->xy + J->xz + J->yz))
+        gs__check_fail(c, GS_ERR_OUT_OF_RANGE,
+                       "inertia (%g, %g, %g) kg m^2: it and its inverse must "
+                       "be finite", I->xx, I->yy, I->zz);
 }
 
 GS__PRIVATE gs_rigid_desc gs__rigid_defaults(const gs_rigid_desc *in) {
@@ -3747,7 +3919,7 @@ GS__PRIVATE gs_result gs__rigid_plan(gs__rigid *r, double dt, int *n_sub) {
 
 GS__PRIVATE int gs__rigid_sane(const gs__rigid *r) {
     double vmax = r->solver.max_speed;
-    return gs__finite3(r->x) && gs__finite(r->q.x + r->q.y + r->q.z + r->q.w) &&
+    return gs__in_range3(r->x) && gs__finite(r->q.x + r->q.y + r->q.z + r->q.w) &&
            gs__dot(r->v, r->v) <= vmax * vmax &&
            gs__dot(r->w, r->w) * r->shape.bound * r->shape.bound <= vmax * vmax;
 }
@@ -3779,14 +3951,24 @@ GS__PRIVATE gs_result gs__rigid_step(gs_agent *a, double dt) {
     return GS_OK;
 }
 
-/* A probe moves toward its target at no more than max_speed. */
+/* A probe moves toward its target at no more than max_speed. Target and
+   position are in range, so their difference is finite; its velocity d / dt
+   may still not be (a tiny dt), and then the step is refused. */
 GS__PRIVATE gs_result gs__probe_step(gs_agent *a, double dt) {
     gs__rigid *r = (gs__rigid *)a;
-    gs_vec3 d = gs__sub(r->target, r->x);
+    gs_vec3 d = gs__sub(r->target, r->x), x, v;
     double dist = gs__len(d), reach = r->max_speed * dt;
     if (dist > reach) d = gs__scale(d, reach / dist);
-    r->v = gs__scale(d, 1.0 / dt);
-    r->x = gs__add(r->x, d);
+    v = gs__scale(d, 1.0 / dt);
+    x = gs__add(r->x, d);
+    if (!gs__in_range3(x) || !gs__finite3(v))
+        return gs__fail(a->world, GS_ERR_UNSTABLE,
+                        "probe agent %d: a step of %g s toward (%g, %g, %g) "
+                        "gives a non-finite velocity or leaves "
+                        "+-GS_MAX_COORD; state kept",
+                        a->index, dt, r->target.x, r->target.y, r->target.z);
+    r->v = v;
+    r->x = x;
     r->q = r->target_q;
     r->w = gs__v3(0.0, 0.0, 0.0);
     a->stats.substeps++;
@@ -3811,10 +3993,19 @@ GS__PRIVATE void gs__rigid_get_state(const gs_agent *a, double *o) {
 GS__PRIVATE gs_result gs__rigid_set_state(gs_agent *a, const double *in) {
     gs__rigid *r = (gs__rigid *)a;
     gs_quat q = gs__quat(in[3], in[4], in[5], in[6]);
-    if (!(q.x * q.x + q.y * q.y + q.z * q.z + q.w * q.w > 1e-12))
+    gs_vec3 x = gs__v3(in[0], in[1], in[2]);
+    /* a near-zero quaternion (a blend of q and -q) has no direction left */
+    if (!(gs__quat_norm(q) > 1e-6))
         return gs__fail(a->world, GS_ERR_INVALID_ARG,
-                        "gs_agent_set_state: the orientation quaternion is zero");
-    r->x = gs__v3(in[0], in[1], in[2]);
+                        "gs_agent_set_state: the orientation quaternion "
+                        "(%g, %g, %g, %g) is zero (norm under 1e-6)",
+                        q.x, q.y, q.z, q.w);
+    if (!gs__in_range3(x))
+        return gs__fail(a->world, GS_ERR_OUT_OF_RANGE,
+                        "gs_agent_set_state: the position (%g, %g, %g) m is "
+                        "outside +-GS_MAX_COORD (%g m)", x.x, x.y, x.z,
+                        GS_MAX_COORD);
+    r->x = x;
     r->q = gs__quat_normalize(q);
     r->v = r->v_prev = gs__v3(in[7], in[8], in[9]);
     r->w = r->w_prev = gs__v3(in[10], in[11], in[12]);
@@ -3886,12 +4077,12 @@ GS_API gs_result gs_rigid_create(gs_world *w, const gs_rigid_desc *desc,
     memset(r, 0, sizeof *r);
     c = gs__check_begin(w, "gs_rigid_create");
     gs__rigid_check(&c, &d, &r->shape);
+    if (c.r == GS_OK) gs__rigid_mass_check(&c, r, &d);
     if (c.r == GS_OK) c.r = gs__agent_init(w, &r->base, &gs__rigid_kind, d.solver.dt);
     if (c.r != GS_OK) {
         gs__free(w, r);
         return c.r;
     }
-    gs__rigid_mass(r, &d);
     r->x = d.position;
     r->q = gs__quat_normalize(d.orientation);
     r->v = r->v_prev = d.velocity;
@@ -3927,7 +4118,7 @@ GS_API gs_result gs_probe_create(gs_world *w, const gs_probe_desc *desc,
     memset(r, 0, sizeof *r);
     c = gs__check_begin(w, "gs_probe_create");
     gs__shape_build(&c, &d.shape, &r->shape);
-    gs__check_vec(&c, "position", d.position);
+    gs__check_pos(&c, "position", d.position);
     gs__check_quat(&c, "orientation", d.orientation);
     gs__check_material(&c, &d.material);
     gs__check_positive(&c, "dt", d.dt);
@@ -3960,6 +4151,11 @@ GS_API gs_result gs_probe_set_target(gs_agent *a, gs_vec3 position,
         !gs__finite(orientation.w))
         return gs__fail(a->world, GS_ERR_NOT_FINITE,
                         "gs_probe_set_target: the pose must be finite");
+    if (!gs__in_range3(position))
+        return gs__fail(a->world, GS_ERR_OUT_OF_RANGE,
+                        "gs_probe_set_target: position (%g, %g, %g) m is "
+                        "outside +-GS_MAX_COORD (%g m)", position.x,
+                        position.y, position.z, GS_MAX_COORD);
     r->target = position;
     r->target_q = gs__quat_normalize(gs__orientation_default(orientation));
     return GS_OK;
@@ -4288,12 +4484,15 @@ typedef struct gs__body {
     gs_quat q;
 } gs__body;
 
+/* `none` is the normal (b to a) when the centres coincide: the caller
+   makes it antisymmetric, so that the two bodies of a pair are pushed
+   apart, never together the same way (which made energy from nothing). */
 GS__PRIVATE int gs__sphere_sphere(gs_vec3 ca, double ra, gs_vec3 cb, double rb,
-                                  gs_contact *c) {
+                                  gs_vec3 none, gs_contact *c) {
     gs_vec3 d = gs__sub(ca, cb);
     double l = gs__len(d), depth = ra + rb - l;
     if (!(depth > 0.0)) return 0;
-    c->normal = l > 1e-12 * (ra + rb) ? gs__scale(d, 1.0 / l) : gs__v3(0.0, 1.0, 0.0);
+    c->normal = l > 1e-12 * (ra + rb) ? gs__scale(d, 1.0 / l) : gs__unit_or(d, none);
     c->depth = depth;
     c->point = gs__madd(cb, c->normal, rb - 0.5 * depth);
     return 1;
@@ -4357,8 +4556,10 @@ GS__PRIVATE void gs__ccd_center(const void *obj, ccd_vec3_t *out) {
 
 /* MPR through libccd, every output checked: a non-finite or zero direction
    (touching or coincident centres) falls back to the line between centres,
-   then to +y; a non-finite depth counts as touching. */
-GS__PRIVATE int gs__mpr(const gs__body *a, const gs__body *b, gs_contact *c) {
+   then to `none` (see gs__sphere_sphere); a non-finite depth counts as
+   touching. */
+GS__PRIVATE int gs__mpr(const gs__body *a, const gs__body *b, gs_vec3 none,
+                        gs_contact *c) {
     ccd_t ccd;
     ccd_real_t depth = 0;
     ccd_vec3_t dir, pos;
@@ -4377,7 +4578,7 @@ GS__PRIVATE int gs__mpr(const gs__body *a, const gs__body *b, gs_contact *c) {
     if (!gs__finite(ln) || !(ln > 1e-12)) {
         n = gs__sub(a->p, b->p);
         ln = gs__len(n);
-        if (!(ln > 1e-12)) { n = gs__v3(0.0, 1.0, 0.0); ln = 1.0; }
+        if (!(ln > 1e-12)) { n = gs__unit_or(n, none); ln = 1.0; }
     }
     c->normal = gs__scale(n, 1.0 / ln);
     c->depth = gs__finite((double)depth) && depth > 0 ? (double)depth : 0.0;
@@ -4407,11 +4608,11 @@ GS__PRIVATE int gs__inside(const gs__body *b, gs_vec3 p, double eps) {
    face gets four points and no torque from a single off-centre one. Edge
    against edge has no vertex inside: the MPR point stands alone. */
 GS__PRIVATE int gs__poly_poly(const gs__body *a, const gs__body *b,
-                              gs_contact *out, int max) {
+                              gs_vec3 none, gs_contact *out, int max) {
     gs_contact m;
     double eps, top_b, bottom_a;
     int i, n = 0;
-    if (!gs__mpr(a, b, &m)) return 0;
+    if (!gs__mpr(a, b, none, &m)) return 0;
     eps = 1e-6 * fmin(a->s->size, b->s->size);
     top_b = gs__support_along(b, m.normal);                      /* b's far side */
     bottom_a = -gs__support_along(a, gs__scale(m.normal, -1.0)); /* a's near side */
@@ -4435,13 +4636,14 @@ GS__PRIVATE int gs__poly_poly(const gs__body *a, const gs__body *b,
     return n;
 }
 
-/* All contacts between two bodies, normals from b to a. */
-GS__PRIVATE int gs__collide(const gs__body *a, const gs__body *b,
+/* All contacts between two bodies, normals from b to a; `none` where the
+   shapes give no direction (see gs__sphere_sphere). */
+GS__PRIVATE int gs__collide(const gs__body *a, const gs__body *b, gs_vec3 none,
                             gs_contact *out, int max) {
     gs_shape_type ta = a->s->type, tb = b->s->type;
     int n;
     if (ta == GS_SHAPE_SPHERE && tb == GS_SHAPE_SPHERE)
-        return gs__sphere_sphere(a->p, a->s->radius, b->p, b->s->radius, out);
+        return gs__sphere_sphere(a->p, a->s->radius, b->p, b->s->radius, none, out);
     if (ta == GS_SHAPE_SPHERE && tb == GS_SHAPE_BOX)
         return gs__sphere_box(a->p, a->s->radius, b, out);
     if (ta == GS_SHAPE_BOX && tb == GS_SHAPE_SPHERE) {
@@ -4449,8 +4651,8 @@ GS__PRIVATE int gs__collide(const gs__body *a, const gs__body *b,
         if (n) out->normal = gs__scale(out->normal, -1.0);
         return n;
     }
-    if (ta == GS_SHAPE_SPHERE || tb == GS_SHAPE_SPHERE) return gs__mpr(a, b, out);
-    return gs__poly_poly(a, b, out, max);
+    if (ta == GS_SHAPE_SPHERE || tb == GS_SHAPE_SPHERE) return gs__mpr(a, b, none, out);
+    return gs__poly_poly(a, b, none, out, max);
 }
 
 GS__PRIVATE gs__body gs__body_of(const gs__rigid *r) {
@@ -4471,10 +4673,10 @@ GS_API int gs_collide_shapes(const gs_shape_desc *a, gs_vec3 pa, gs_quat qa,
     int n, i, deepest = 0;
     gs__shape_build(&chk, a, &sa);
     gs__shape_build(&chk, b, &sb);
-    if (chk.r != GS_OK || !c || !gs__finite3(pa) || !gs__finite3(pb)) return 0;
+    if (chk.r != GS_OK || !c || !gs__in_range3(pa) || !gs__in_range3(pb)) return 0;
     ba.s = &sa; ba.p = pa; ba.q = gs__quat_normalize(gs__orientation_default(qa));
     bb.s = &sb; bb.p = pb; bb.q = gs__quat_normalize(gs__orientation_default(qb));
-    n = gs__collide(&ba, &bb, all, 2 * GS_MAX_HULL_POINTS);
+    n = gs__collide(&ba, &bb, gs__v3(0.0, 1.0, 0.0), all, 2 * GS_MAX_HULL_POINTS);
     for (i = 1; i < n; ++i)
         if (all[i].depth > all[deepest].depth) deepest = i;
     if (n) *c = all[deepest];
@@ -4515,7 +4717,9 @@ GS__PRIVATE gs_vec3 gs__point_velocity(const gs__rigid *r, gs_vec3 p) {
 }
 
 /* A particle (a small sphere) against a body whose centre is taken at
-   `centre`; normal from body to particle. */
+   `centre`; normal from body to particle. Both sides of such a contact ask
+   with the particle as a (the body takes minus the particle's force), so
+   a fixed normal for coincident centres pushes them apart. */
 GS__PRIVATE int gs__particle_contact(gs_vec3 x, double rp, const gs__rigid *r,
                                      gs_vec3 centre, gs_contact *c) {
     gs__body b = gs__body_of(r), pb;
@@ -4525,12 +4729,12 @@ GS__PRIVATE int gs__particle_contact(gs_vec3 x, double rp, const gs__rigid *r,
         (rp + r->shape.bound) * (rp + r->shape.bound))
         return 0;
     if (r->shape.type == GS_SHAPE_SPHERE)
-        return gs__sphere_sphere(x, rp, centre, r->shape.radius, c);
+        return gs__sphere_sphere(x, rp, centre, r->shape.radius, gs__v3(0.0, 1.0, 0.0), c);
     if (r->shape.type == GS_SHAPE_BOX) return gs__sphere_box(x, rp, &b, c);
     ps.type = GS_SHAPE_SPHERE; /* only type and radius are read */
     ps.radius = rp;
     pb.s = &ps; pb.p = x; pb.q = gs__quat(0.0, 0.0, 0.0, 1.0);
-    return gs__mpr(&pb, &b, c);
+    return gs__mpr(&pb, &b, gs__v3(0.0, 1.0, 0.0), c);
 }
 
 GS__PRIVATE int gs__is_collider(const gs_agent *a) { return gs__as_rigid(a) != NULL; }
@@ -4610,7 +4814,10 @@ GS__PRIVATE void gs__rigid_vs_rigid(gs__rigid *r, const gs__rigid *o, double t) 
     f = o->probe ? 0.0 : fmax(-1.0, fmin(1.0, lag / o->base.dt));
     ov = gs__madd(o->v, gs__sub(o->v, o->v_prev), f);
     ow = gs__madd(o->w, gs__sub(o->w, o->w_prev), f);
-    n = gs__collide(&a, &b, cs, 2 * GS_MAX_HULL_POINTS);
+    /* coincident shapes: the lower agent index is pushed along -y, the
+       higher along +y, so each pair's forces cancel */
+    n = gs__collide(&a, &b, gs__v3(0.0, r->base.index < o->base.index ? -1.0 : 1.0, 0.0),
+                    cs, 2 * GS_MAX_HULL_POINTS);
     for (i = 0; i < n; ++i) {
         gs_vec3 vo = gs__add(ov, gs__cross(ow, gs__sub(cs[i].point, b.p)));
         gs__rigid_apply(r, &cs[i], gs__sub(gs__point_velocity(r, cs[i].point), vo), ow,
@@ -4672,6 +4879,10 @@ GS_API gs_result gs_world_set_ground(gs_world *w, int enabled, double height,
     gs__check c = gs__check_begin(w, "gs_world_set_ground");
     material = gs__material_defaults(material);
     gs__check_finite(&c, "height", height);
+    if (c.r == GS_OK && fabs(height) > GS_MAX_COORD)
+        gs__check_fail(&c, GS_ERR_OUT_OF_RANGE,
+                       "height is %g m, outside +-GS_MAX_COORD (%g m)", height,
+                       GS_MAX_COORD);
     gs__check_material(&c, &material);
     if (c.r != GS_OK) return c.r;
     w->ground = enabled != 0;
@@ -5145,6 +5356,24 @@ GS__PRIVATE gs_result gs__ghost_check(gs_world *w, const gs_ghost_desc *d) {
 
 GS__PRIVATE gs_result gs__ghost_queues(gs__ghost *g);
 
+/* A snapshot's chunk index and count are u16 on the wire: a state that
+   needs more chunks could never be sent whole (the indices would wrap and
+   every peer refuse them). Counted without (vars + per - 1), which could
+   wrap for a custom agent's state_size. */
+GS__PRIVATE gs_result gs__ghost_chunks_fit(gs_world *w, size_t vars, gs_encoding e) {
+    size_t per = GS_WIRE_CHUNK_ROOM / gs__value_size(e);
+    size_t chunks = vars / per + (vars % per != 0);
+    if (chunks <= GS_WIRE_MAX_OBJECT_CHUNKS) return GS_OK;
+    return gs__fail(w, GS_ERR_CAPACITY,
+                    "gs_ghost_attach: the state has %lu values, %lu chunks of "
+                    "%lu in %s; a snapshot may have at most %d chunks "
+                    "(GS_WIRE_MAX_OBJECT_CHUNKS, %lu values)",
+                    (unsigned long)vars, (unsigned long)chunks,
+                    (unsigned long)per, e == GS_ENCODING_F32 ? "f32" : "f64",
+                    GS_WIRE_MAX_OBJECT_CHUNKS,
+                    (unsigned long)(per * GS_WIRE_MAX_OBJECT_CHUNKS));
+}
+
 GS_API gs_result gs_ghost_attach(gs_agent *a, const gs_ghost_desc *desc) {
     gs_world *w = a->world;
     gs_ghost_desc d;
@@ -5157,6 +5386,8 @@ GS_API gs_result gs_ghost_attach(gs_agent *a, const gs_ghost_desc *desc) {
     if (a->ghost) return gs__fail(w, GS_ERR_INVALID_ARG, "gs_ghost_attach: the agent has a ghost");
     d = gs__ghost_defaults(desc);
     r = gs__ghost_check(w, &d);
+    if (r != GS_OK) return r;
+    r = gs__ghost_chunks_fit(w, vars, d.encoding);
     if (r != GS_OK) return r;
     bytes = sizeof *g + (size_t)GS__MAX_PEERS * (size_t)d.queue_size * sizeof(gs__src) +
             (5 * n + (size_t)GS__MAX_PEERS * (size_t)d.queue_size) * sizeof(double);
