@@ -1289,17 +1289,6 @@ GS__PRIVATE int gs__in_range3(gs_vec3 v) {
     return fabs(v.x) <= GS_MAX_COORD && fabs(v.y) <= GS_MAX_COORD &&
            fabs(v.z) <= GS_MAX_COORD;
 }
-/* d / |d| for any finite d, however small or large (scaled by its largest
-   component first, so that |d|^2 neither underflows nor overflows), or
-   `none` for d = 0. Exactly antisymmetric: -d gives -(the answer for d),
-   so two bodies that each ask about the other get opposite normals. */
-GS__PRIVATE gs_vec3 gs__unit_or(gs_vec3 d, gs_vec3 none) {
-    double m = gs__max_abs3(d);
-    gs_vec3 u;
-    if (!(m > 0.0) || !gs__finite(m)) return none;
-    u = gs__v3(d.x / m, d.y / m, d.z / m); /* |u| in [1, sqrt 3] */
-    return gs__scale(u, 1.0 / gs__len(u));
-}
 
 /* ========================================================================
    >>result
@@ -4484,15 +4473,18 @@ typedef struct gs__body {
     gs_quat q;
 } gs__body;
 
-/* `none` is the normal (b to a) when the centres coincide: the caller
-   makes it antisymmetric, so that the two bodies of a pair are pushed
-   apart, never together the same way (which made energy from nothing). */
+/* `none` is the normal (b to a) when the centres coincide (closer than
+   1e-12 of the radii, where the line between them is rounding noise: a
+   body sees the other carried back along its velocity to nearly where it
+   was). The caller makes it antisymmetric, so that the two bodies of a
+   pair are pushed apart, never the same way together (which made energy
+   from nothing). */
 GS__PRIVATE int gs__sphere_sphere(gs_vec3 ca, double ra, gs_vec3 cb, double rb,
                                   gs_vec3 none, gs_contact *c) {
     gs_vec3 d = gs__sub(ca, cb);
     double l = gs__len(d), depth = ra + rb - l;
     if (!(depth > 0.0)) return 0;
-    c->normal = l > 1e-12 * (ra + rb) ? gs__scale(d, 1.0 / l) : gs__unit_or(d, none);
+    c->normal = l > 1e-12 * (ra + rb) ? gs__scale(d, 1.0 / l) : none;
     c->depth = depth;
     c->point = gs__madd(cb, c->normal, rb - 0.5 * depth);
     return 1;
@@ -4578,7 +4570,7 @@ GS__PRIVATE int gs__mpr(const gs__body *a, const gs__body *b, gs_vec3 none,
     if (!gs__finite(ln) || !(ln > 1e-12)) {
         n = gs__sub(a->p, b->p);
         ln = gs__len(n);
-        if (!(ln > 1e-12)) { n = gs__unit_or(n, none); ln = 1.0; }
+        if (!(ln > 1e-12)) { n = none; ln = 1.0; }
     }
     c->normal = gs__scale(n, 1.0 / ln);
     c->depth = gs__finite((double)depth) && depth > 0 ? (double)depth : 0.0;
