@@ -86,10 +86,20 @@
        Out of memory is GS_ERR_NO_MEMORY, never abort().
 
    NUMBERS
-       SI units throughout: seconds, metres, kilograms, newtons. No NaN or
-       infinity ever leaves an agent: a step that would produce one (or a
-       speed above solver.max_speed) is undone and reported as
-       GS_ERR_UNSTABLE; the agent keeps its last finite state.
+       SI units throughout: seconds, metres, kilograms, newtons. Positions
+       and sizes lie within +-GS_MAX_COORD (1e9 m): a create call,
+       gs_agent_set_state (and so a snapshot blended in), gs_mesh_move_pin,
+       gs_probe_set_target or gs_world_set_ground outside it is refused
+       with GS_ERR_OUT_OF_RANGE, as is a mass or inertia whose inverse is
+       not finite. No NaN or infinity ever leaves an agent, built-in or
+       custom: a step that would produce one, leave the range, or move
+       faster than solver.max_speed is undone and reported as
+       GS_ERR_UNSTABLE; the agent keeps its last finite state (a custom
+       agent's is read before each step and put back through its
+       set_state). A quaternion of any finite size is normalized;
+       set_state refuses one of norm under 1e-6. Bodies whose centres
+       coincide (closer than 1e-12 of their size) are pushed apart along
+       y, the lower agent index down, so that a pair's forces cancel.
 
    THREADS
        A world and everything in it belongs to the thread that calls into
@@ -164,8 +174,9 @@ typedef struct gs_quat { double x, y, z, w; } gs_quat; /* w is the scalar */
    size: a radius, a half extent, a cloth's width) lies within +-GS_MAX_COORD.
    A double there still resolves 1.2e-7 m, and sums, differences and squared
    distances of such numbers cannot overflow. A create call, set_state,
-   gs_mesh_move_pin or gs_probe_set_target outside it is GS_ERR_OUT_OF_RANGE;
-   a step that would leave it is undone (GS_ERR_UNSTABLE). */
+   gs_mesh_move_pin, gs_probe_set_target or gs_world_set_ground outside it
+   is GS_ERR_OUT_OF_RANGE; a step that would leave it is undone
+   (GS_ERR_UNSTABLE). */
 #define GS_MAX_COORD 1e9
 
 /* ========================================================================
@@ -379,7 +390,10 @@ GS_API size_t gs_agent_state_size(const gs_agent *a);
 /* Writes [t, variables...] into out, which holds n doubles.
    GS_ERR_SIZE_MISMATCH unless n == gs_agent_state_size(a). */
 GS_API gs_result gs_agent_get_state(const gs_agent *a, double *out, size_t n);
-/* Sets the state, time included. Every number must be finite; on error
+/* Sets the state, time included. Every number must be finite
+   (GS_ERR_NOT_FINITE), every position within +-GS_MAX_COORD
+   (GS_ERR_OUT_OF_RANGE), a rigid body's quaternion of norm at least 1e-6
+   (GS_ERR_INVALID_ARG; of any finite size, it is normalized); on error
    nothing changes. */
 GS_API gs_result gs_agent_set_state(gs_agent *a, const double *in, size_t n);
 
@@ -435,7 +449,8 @@ typedef struct gs_spring {
 
 typedef struct gs_mesh_desc {
     int particle_count;        /* >= 1 */
-    const gs_vec3 *positions;  /* m; particle_count of them, required */
+    const gs_vec3 *positions;  /* m, within +-GS_MAX_COORD; particle_count
+                                  of them, required */
     const gs_vec3 *velocities; /* m/s; NULL = at rest */
     const double *masses;      /* kg each, > 0; NULL = mass / count */
     double mass;               /* kg in all when masses is NULL; default 1 */
@@ -468,8 +483,10 @@ enum {
 
 typedef struct gs_cloth_desc {
     int nx, ny;          /* particles along u and v; each >= 2 */
-    double width, height; /* m along u and v; default 1 x 1 */
-    gs_vec3 origin;      /* m; where particle (0,0) is; default 0 */
+    double width, height; /* m along u and v, at most GS_MAX_COORD;
+                             default 1 x 1 */
+    gs_vec3 origin;      /* m; where particle (0,0) is; default 0. Every
+                            particle must lie within +-GS_MAX_COORD */
     gs_vec3 axis_u;      /* direction of rows; default +x */
     gs_vec3 axis_v;      /* direction of columns; default +z (the cloth
                             lies flat under y-up gravity) */
@@ -517,8 +534,9 @@ GS_API gs_result gs_mesh_energy(const gs_agent *a, double *kinetic,
 GS_API double gs_mesh_stable_dt(const gs_agent *a);
 /* Moves a pinned particle (the application drags a corner) to pos, in
    metres. GS_ERR_INVALID_ARG if the agent is not a spring-mass agent or the
-   particle is not pinned, GS_ERR_OUT_OF_RANGE for a bad index,
-   GS_ERR_NOT_FINITE for a non-finite position; the mesh is unchanged then. */
+   particle is not pinned, GS_ERR_OUT_OF_RANGE for a bad index or a
+   position outside +-GS_MAX_COORD, GS_ERR_NOT_FINITE for a non-finite
+   position; the mesh is unchanged then. */
 GS_API gs_result gs_mesh_move_pin(gs_agent *a, int particle, gs_vec3 pos);
 
 /* ========================================================================
@@ -539,10 +557,11 @@ typedef enum gs_shape_type {
 
 typedef struct gs_shape_desc {
     gs_shape_type type;
-    double radius;          /* m, sphere */
+    double radius;          /* m, sphere; sizes at most GS_MAX_COORD */
     gs_vec3 half_extents;   /* m, box */
-    const gs_vec3 *points;  /* m, hull, in body coordinates; the body's
-                               origin becomes the hull's centre of mass */
+    const gs_vec3 *points;  /* m, hull, in body coordinates (within
+                               +-GS_MAX_COORD); the body's origin becomes
+                               the hull's centre of mass */
     int point_count;
 } gs_shape_desc;
 
@@ -552,8 +571,9 @@ typedef struct gs_rigid_desc {
     double mass;           /* kg; > 0 overrides density */
     gs_vec3 inertia;       /* kg m^2, principal moments in body axes;
                               default from shape and mass */
-    gs_vec3 position;      /* m */
-    gs_quat orientation;   /* default identity; normalized on create */
+    gs_vec3 position;      /* m, within +-GS_MAX_COORD */
+    gs_quat orientation;   /* default identity (all zero); normalized on
+                              create, whatever its finite size */
     gs_vec3 velocity;      /* m/s */
     gs_vec3 angular_velocity; /* rad/s, world frame */
     gs_material material;
@@ -574,7 +594,7 @@ typedef struct gs_rigid_desc {
 /* A kinematic body the application moves: nothing pushes it back. */
 typedef struct gs_probe_desc {
     gs_shape_desc shape;
-    gs_vec3 position;      /* m */
+    gs_vec3 position;      /* m, within +-GS_MAX_COORD */
     gs_quat orientation;   /* default identity */
     gs_material material;
     double dt;             /* s; default 0.001 */
@@ -589,14 +609,18 @@ GS_API gs_material gs_material_default(void);
 
 /* Creates a rigid body. Errors name the field: a degenerate hull (fewer
    than 4 points, all in one plane), a size <= 0, a negative density (0 is
-   the default 1000 kg/m^3), NaN. */
+   the default 1000 kg/m^3), NaN (GS_ERR_NOT_FINITE); a size or position
+   past GS_MAX_COORD, a mass or inertia (given, or density * volume) that
+   or whose inverse is not finite (GS_ERR_OUT_OF_RANGE). */
 GS_API gs_result gs_rigid_create(gs_world *w, const gs_rigid_desc *desc,
                                  gs_agent **out);
 GS_API gs_result gs_probe_create(gs_world *w, const gs_probe_desc *desc,
                                  gs_agent **out);
 
 /* Where the probe should be; it moves there over its next steps at no more
-   than max_speed. */
+   than max_speed. GS_ERR_NOT_FINITE for a NaN, GS_ERR_OUT_OF_RANGE for a
+   position outside +-GS_MAX_COORD; an all-zero orientation is the
+   identity, any other finite one is normalized. */
 GS_API gs_result gs_probe_set_target(gs_agent *probe, gs_vec3 position,
                                      gs_quat orientation);
 
@@ -630,7 +654,8 @@ GS_API int gs_collide_shapes(const gs_shape_desc *a, gs_vec3 pa, gs_quat qa,
                              const gs_shape_desc *b, gs_vec3 pb, gs_quat qb,
                              gs_contact *c);
 
-/* A ground plane y = height that every body meets. */
+/* A ground plane y = height (within +-GS_MAX_COORD) that every body
+   meets. */
 GS_API gs_result gs_world_set_ground(gs_world *w, int enabled, double height,
                                      gs_material material);
 
