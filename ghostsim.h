@@ -2969,6 +2969,10 @@ GS__PRIVATE void gs__check_mesh_springs(gs__check *c, const gs_mesh_desc *d) {
                            s->damping < 0.0 ? "damping" : "rest_length",
                            s->damping < 0.0 ? s->damping : s->rest_length,
                            "must be >= 0");
+        /* two points in range are at most 2 sqrt(3) GS_MAX_COORD apart */
+        if (c->r == GS_OK && s->rest_length > 4.0 * GS_MAX_COORD)
+            gs__check_item(c, GS_ERR_OUT_OF_RANGE, "springs", i, "rest_length",
+                           s->rest_length, "must be at most 4 GS_MAX_COORD");
         if (c->r == GS_OK && s->rest_length == 0.0 &&
             gs__len(gs__sub(d->positions[s->a], d->positions[s->b])) == 0.0)
             gs__check_item(c, GS_ERR_INVALID_ARG, "springs", i, "rest_length",

@@ -177,6 +177,19 @@ static void test_create_ranges(void **state) {
     md.mass = 1e-320;
     assert_int_equal(gs_mesh_create(w, &md, &a), GS_ERR_OUT_OF_RANGE);
     assert_error_has(w, "mass");
+    {
+        gs_spring sp; /* a rest length no two points in range can have */
+        sp.a = 0;
+        sp.b = 1;
+        sp.rest_length = 1e300;
+        sp.stiffness = 10.0;
+        sp.damping = 0.0;
+        md.mass = 1.0;
+        md.spring_count = 1;
+        md.springs = &sp;
+        assert_int_equal(gs_mesh_create(w, &md, &a), GS_ERR_OUT_OF_RANGE);
+        assert_error_has(w, "rest_length");
+    }
     assert_null(a);
     assert_int_equal(gs_world_agent_count(w), 0);
 
