@@ -467,6 +467,80 @@ static void test_coincident_sphere_particle(void **state) {
     gs_world_destroy(w);
 }
 
+/* ---- a forged snapshot: host 2 sends a sphere's whole state ---- */
+static gs_result drop_send(void *user, uint32_t to, const void *data, size_t size) {
+    (void)user; (void)to; (void)data; (void)size;
+    return GS_OK;
+}
+
+/* Host 1 holds sphere `a` under a ghost owned by host 2 (owner authority:
+   host 2's snapshot is the whole of the blend); host 2 sends `vals` (the
+   13 numbers after the time) at the sphere's own time; one step blends it. */
+static void forge_blend(gs_net *net, gs_agent *a, uint32_t seq,
+                        const double *vals) {
+    unsigned char buf[GS_WIRE_MAX_DATAGRAM];
+    gs_wire_header h;
+    gs_wire_chunk c;
+    gs_reject why = GS_REJECT_COUNT;
+    size_t size = 0;
+    memset(&h, 0, sizeof h);
+    memset(&c, 0, sizeof c);
+    h.session = 1;
+    h.sender = 2;
+    h.sequence = seq;
+    h.send_time = 1.0;
+    c.object_id = 100;
+    c.sequence = seq;
+    c.time = gs_agent_time(a);
+    c.count = 1;
+    c.elements = 13;
+    c.encoding = GS_ENCODING_F64;
+    assert_int_equal(gs_wire_begin(buf, sizeof buf, &h, &size), GS_OK);
+    assert_int_equal(gs_wire_add(buf, sizeof buf, &size, &c, vals), GS_OK);
+    size = gs_wire_end(buf, size);
+    assert_int_equal(gs_net_deliver(net, buf, size, 1.0, &why), GS_OK);
+    assert_int_equal(gs_agent_step(a), GS_OK);
+}
+
+/* The forged snapshot's way in: a quaternion of 1e200 used to blend into
+   (0, 0, 0, 0), and a position of 1e300 went in as it was. */
+static void test_forged_snapshot(void **state) {
+    gs_world *w = zero_g_world();
+    gs_net_desc nd;
+    gs_ghost_desc gd = gs_ghost_desc_default();
+    gs_net *net = NULL;
+    gs_agent *a = sphere(w, v3(0.0, 0.0, 0.0), 0.1);
+    double vals[13], s[14];
+    gs_quat q;
+    (void)state;
+    memset(&nd, 0, sizeof nd);
+    nd.send = drop_send;
+    assert_int_equal(gs_net_create(w, &nd, &net), GS_OK);
+    assert_int_equal(gs_net_add_peer(net, 2), GS_OK);
+    gd.object_id = 100;
+    gd.owner = 2;
+    gd.weight = gs_weight_owner;
+    assert_int_equal(gs_ghost_attach(a, &gd), GS_OK);
+    memset(vals, 0, sizeof vals);
+    vals[3] = 1e200; /* orientation x y z w */
+    vals[6] = 1e200;
+    forge_blend(net, a, 1, vals);
+    q = gs_rigid_orientation(a);
+    assert_true(fabs(q.x - sqrt(0.5)) < 1e-15 && fabs(q.w - sqrt(0.5)) < 1e-15);
+    assert_int_equal(gs_agent_get_state(a, s, 14), GS_OK);
+    assert_int_equal(gs_agent_set_state(a, s, 14), GS_OK);
+
+    vals[0] = 1e300; /* position x: refused, the blend is not applied */
+    vals[3] = 0.0;
+    vals[6] = 1.0;
+    forge_blend(net, a, 2, vals);
+    assert_true(gs_rigid_position(a).x == 0.0);
+    q = gs_rigid_orientation(a);
+    assert_true(fabs(q.x - sqrt(0.5)) < 1e-15);
+    assert_world_finite(w);
+    gs_world_destroy(w);
+}
+
 /* ========================================================================
    finding 7: more chunks than the wire counts
    ======================================================================== */
@@ -579,6 +653,7 @@ int main(void) {
         cmocka_unit_test(test_coincident_sphere_particle),
         cmocka_unit_test(test_ghost_too_many_chunks),
         cmocka_unit_test(test_huge_quaternion),
+        cmocka_unit_test(test_forged_snapshot),
     };
     return cmocka_run_group_tests_name("hostile_numbers", tests, NULL, NULL);
 }
