@@ -487,7 +487,8 @@ typedef struct gs_cloth_desc {
                              default 1 x 1 */
     gs_vec3 origin;      /* m; where particle (0,0) is; default 0. Every
                             particle must lie within +-GS_MAX_COORD */
-    gs_vec3 axis_u;      /* direction of rows; default +x */
+    gs_vec3 axis_u;      /* direction of rows, of length in (1e-100,
+                            1e100); default +x */
     gs_vec3 axis_v;      /* direction of columns; default +z (the cloth
                             lies flat under y-up gravity) */
     double mass;         /* kg in all; default 1 */
@@ -511,10 +512,14 @@ GS_API gs_cloth_desc gs_cloth_desc_default(void);
 
 /* Creates a spring-mass agent. Errors name the bad field in
    gs_world_error(w): GS_ERR_INVALID_ARG, GS_ERR_NOT_FINITE,
-   GS_ERR_OUT_OF_RANGE (a spring or pin index), GS_ERR_NO_MEMORY. */
+   GS_ERR_OUT_OF_RANGE (a spring or pin index; a position, size or rest
+   length past GS_MAX_COORD; a particle mass without a finite inverse),
+   GS_ERR_NO_MEMORY. */
 GS_API gs_result gs_mesh_create(gs_world *w, const gs_mesh_desc *desc,
                                 gs_agent **out);
-/* Creates a cloth: an nx x ny grid of particles, mass spread evenly. */
+/* Creates a cloth: an nx x ny grid of particles, mass spread evenly.
+   GS_ERR_OUT_OF_RANGE also when origin, width and height put a particle
+   outside +-GS_MAX_COORD. */
 GS_API gs_result gs_cloth_create(gs_world *w, const gs_cloth_desc *desc,
                                  gs_agent **out);
 
@@ -3138,6 +3143,13 @@ GS__PRIVATE gs_cloth_desc gs__cloth_defaults(const gs_cloth_desc *in) {
 GS__PRIVATE void gs__check_axes(gs__check *c, gs_vec3 u, gs_vec3 v) {
     gs__check_vec(c, "axis_u", u);
     gs__check_vec(c, "axis_v", v);
+    /* the cloth divides by their lengths and tests their cross product */
+    if (c->r == GS_OK && !(gs__len(u) > 1e-100 && gs__len(u) < 1e100))
+        gs__check_fail(c, GS_ERR_OUT_OF_RANGE, "axis_u has length %g, must "
+                       "be in (1e-100, 1e100)", gs__len(u));
+    if (c->r == GS_OK && !(gs__len(v) > 1e-100 && gs__len(v) < 1e100))
+        gs__check_fail(c, GS_ERR_OUT_OF_RANGE, "axis_v has length %g, must "
+                       "be in (1e-100, 1e100)", gs__len(v));
     if (c->r == GS_OK &&
         !(gs__len(gs__cross(u, v)) > 1e-9 * gs__len(u) * gs__len(v)))
         gs__check_fail(c, GS_ERR_INVALID_ARG,

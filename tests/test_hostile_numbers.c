@@ -126,6 +126,11 @@ static void test_cloth_out_of_range(void **state) {
     assert_int_equal(gs_cloth_create(w, &cd, &c), GS_ERR_OUT_OF_RANGE);
     assert_null(c);
     assert_error_has(w, "particle 1 ");
+    cd.origin = v3(0.0, 0.0, 0.0);
+    cd.axis_u = v3(1e200, 0.0, 0.0); /* its cross product with v overflows */
+    assert_int_equal(gs_cloth_create(w, &cd, &c), GS_ERR_OUT_OF_RANGE);
+    assert_error_has(w, "axis_u has length");
+    cd.axis_u = v3(0.0, 0.0, 0.0);
     assert_int_equal(gs_world_agent_count(w), 0);
     /* the world is whole: a cloth in range goes in and steps */
     cd.origin = v3(0.0, 0.0, 0.0);
