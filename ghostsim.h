@@ -2689,10 +2689,8 @@ GS__PRIVATE void gs__int_implicit_euler(gs__mesh *m, double h) {
 
 /* ---- stepping ---- */
 
-/* Finite positions and no particle faster than max_speed: anything else
-   means the step blew up. */
-/* Every new speed at most max_speed, every new position in range (which
-   also refuses NaN). */
+/* Every new speed at most max_speed and every new position in range
+   (which also refuses NaN): anything else means the step blew up. */
 GS__PRIVATE int gs__mesh_sane(const gs__mesh *m) {
     double vmax2 = m->solver.max_speed * m->solver.max_speed;
     int i;
