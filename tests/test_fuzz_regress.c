@@ -72,25 +72,41 @@ static gs_result keep_last(void *user, uint32_t host, const void *data, size_t s
 
 static void test_encoder_datagram(void **state) {
     static unsigned char buf[2 + GS_WIRE_MAX_DATAGRAM];
+    unsigned char *d = buf + 2;
     fuzz_world f;
     fuzz_tally t;
+    size_t n;
     (void)state;
     memset(buf, 0, sizeof buf);
     assert_int_equal(fuzz_world_create(&f, FUZZ_PEER_A, 0.0, keep_last, buf), GS_OK);
     assert_int_equal(gs_world_advance(f.w, 0.02, NULL), GS_OK);
     assert_int_equal(gs_net_update(f.net, 10.0), GS_OK);
     fuzz_world_destroy(&f);
-    assert_true(buf[0] | buf[1]); /* the packed small objects, sent last */
-    fuzz_wire_one(buf + 2, (size_t)(buf[0] | buf[1] << 8));
+    n = (size_t)(buf[0] | buf[1] << 8);
+    assert_true(n > GS_WIRE_HEADER + 4); /* the packed small objects, sent last */
+    /* the sender's run number is random per start, and the harnesses read
+       the header's run word (the sealed one's nonce) and the last bytes
+       (the CRC: which bit it flips): a fixed run (top bits 0: the next
+       counter) and its CRC make the datagram the same at every start */
+    fuzz_put32(d + 20, 0x2badcafeu);
+    fuzz_put32(d + n - 4, fuzz_crc32(d, n - 4));
+    fuzz_wire_one(d, n);
     /* sealed right, it is taken; again, a replay; with one bit flipped,
-       forged (refused by authentication, or, a bit of the nonce's counter,
-       by the replay window before any decryption) */
-    fuzz_sealed_run(buf + 2, (size_t)(buf[0] | buf[1] << 8), &t);
+       forged. The last 3 bytes pick the bit (fuzz_sealed_piece): bit 0 of
+       the nonce's counter (sealed bytes n - 4 + 16 on), a counter not seen
+       yet, so that authentication refuses it. (A bit of the chunks or the
+       tag keeps the nonce of the datagram taken: a replay; one of a header
+       field is refused for that field before any decryption: the flaky
+       failure, AUTH + REPLAY == 1.) */
+    d[n - 1] = (unsigned char)(n + 12);
+    d[n - 2] = (unsigned char)((n + 12) >> 8);
+    d[n - 3] = 0;
+    fuzz_sealed_run(d, n, &t);
     assert_int_equal(t.accepted, 1);
     assert_int_equal(t.why[GS_REJECT_KEY], 1);    /* as it was, in clear */
-    assert_true(t.why[GS_REJECT_REPLAY] >= 1);    /* the same sealed bytes */
-    assert_int_equal(t.rejected, 3);              /* and the flipped bit */
-    assert_int_equal(t.why[GS_REJECT_AUTH] + t.why[GS_REJECT_REPLAY], 2);
+    assert_int_equal(t.why[GS_REJECT_REPLAY], 1); /* the same sealed bytes */
+    assert_int_equal(t.why[GS_REJECT_AUTH], 1);   /* the flipped bit */
+    assert_int_equal(t.rejected, 3);
 }
 
 static int by_name(const void *a, const void *b) {
