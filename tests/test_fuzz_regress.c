@@ -29,12 +29,13 @@ static void fuzz_fail(const char *what, const char *file, int line) {
 #define FUZZ_FAIL(what) fuzz_fail(what, __FILE__, __LINE__)
 #define FUZZ_NO_ENTRY
 #include "fuzz_sealed.c"
+#include "fuzz_clock.c"
 
 #define MAX_FILES 512
 
 static char dir[1024];
 static char *names[MAX_FILES];
-static struct CMUnitTest tests[MAX_FILES + 1];
+static struct CMUnitTest tests[MAX_FILES + 2];
 
 static void replay(void **state) {
     const char *name = (const char *)*state;
@@ -55,6 +56,7 @@ static void replay(void **state) {
     fclose(fp);
     fuzz_wire_one(data, (size_t)size);
     fuzz_sealed_one(data, (size_t)size);
+    fuzz_clock_one(data, (size_t)size);
     free(data);
 }
 
@@ -109,6 +111,35 @@ static void test_encoder_datagram(void **state) {
     assert_int_equal(t.rejected, 3);
 }
 
+/* Issue 14's remote freeze as a program of tests/fuzz_clock.c: 20 frames
+   of round trips, then a datagram from host 2 with no echo and the send
+   time -1e300 (then -1e12, then 0 an hour on), then snapshots that say
+   GS_WIRE_MAX_TIME, frames between. It took the host to t = 1e300 (the
+   harness's bounds check failed); now every time stays in bounds and no
+   advance blends more than GS_MAX_TIME_CORRECTION. */
+static void test_clock_attack(void **state) {
+    static const uint8_t frame[4] = {0, 0, 0, 0};
+    /* op 2: a datagram from host 2; b[1] its time (0: the local one, 14:
+       GS_WIRE_MAX_TIME); b[2] its send time (13: -1e12, 14: -1e300);
+       b[3]: no echo, no hold, objects 12, 14 and 15 */
+    static const uint8_t forged[4][4] = {
+        {2, 0, 14, 7 << 5}, {2, 0, 13, 7 << 5}, {2, 14, 2, 7 << 5}, {2, 14, 2, 7 << 5}};
+    static const uint8_t hop[4] = {5, 7, 0, 0}; /* wall time on 1000 s */
+    uint8_t prog[4 * FC_MAX_OPS];
+    size_t n = 0;
+    int i, k;
+    (void)state;
+    for (k = 0; k < 20; ++k) { memcpy(prog + n, frame, 4); n += 4; }
+    for (i = 0; i < 4; ++i) {
+        memcpy(prog + n, forged[i], 4);
+        n += 4;
+        for (k = 0; k < 3; ++k) { memcpy(prog + n, frame, 4); n += 4; }
+        if (i == 1) { memcpy(prog + n, hop, 4); n += 4; }
+    }
+    assert_true(n <= sizeof prog);
+    fuzz_clock_one(prog, n);
+}
+
 static int by_name(const void *a, const void *b) {
     return strcmp(*(char *const *)a, *(char *const *)b);
 }
@@ -147,12 +178,14 @@ int main(void) {
     memset(tests, 0, sizeof tests);
     tests[0].name = "test_encoder_datagram";
     tests[0].test_func = test_encoder_datagram;
+    tests[1].name = "test_clock_attack";
+    tests[1].test_func = test_clock_attack;
     for (i = 0; i < n; ++i) {
-        tests[i + 1].name = names[i];
-        tests[i + 1].test_func = replay;
-        tests[i + 1].initial_state = names[i];
+        tests[i + 2].name = names[i];
+        tests[i + 2].test_func = replay;
+        tests[i + 2].initial_state = names[i];
     }
-    failed = _cmocka_run_group_tests("test_fuzz_regress", tests, (size_t)n + 1, NULL, NULL);
+    failed = _cmocka_run_group_tests("test_fuzz_regress", tests, (size_t)n + 2, NULL, NULL);
     for (i = 0; i < n; ++i) free(names[i]);
     return failed;
 }
