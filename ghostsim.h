@@ -90,6 +90,15 @@
        infinity ever leaves an agent: a step that would produce one (or a
        speed above solver.max_speed) is undone and reported as
        GS_ERR_UNSTABLE; the agent keeps its last finite state.
+       Times: every agent's time, the world's and the simnet's clock, and
+       the `now` a net is given stay in [0, GS_WIRE_MAX_TIME] (1e9 s): a
+       state, an advance, a frame or a `now` that would leave it is
+       refused (GS_ERR_INVALID_ARG), a step that would pass it fails with
+       GS_ERR_OUT_OF_RANGE. Every dt is at least GS_MIN_DT (1e-6 s), so a
+       step always moves a clock, and one gs_world_advance runs at most
+       gs_world_desc.max_steps steps: every call that counts time returns.
+       What a peer can do to this host's clock is bounded too (see >>ghost:
+       GS_MAX_AGE, GS_MAX_TIME_CORRECTION): at most 10 s per advance.
 
    THREADS
        A world and everything in it belongs to the thread that calls into
