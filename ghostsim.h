@@ -402,7 +402,9 @@ GS_API gs_result gs_agent_get_state(const gs_agent *a, double *out, size_t n);
 GS_API gs_result gs_agent_set_state(gs_agent *a, const double *in, size_t n);
 
 /* Steps the agent once by its dt, outside the scheduler (for tools and
-   tests). GS_ERR_BUSY inside an advance. */
+   tests). GS_ERR_BUSY inside an advance; GS_ERR_OUT_OF_RANGE (and the time
+   stays) if the step would take its time past GS_WIRE_MAX_TIME. Each call
+   counts as an advance for GS_MAX_TIME_CORRECTION. */
 GS_API gs_result gs_agent_step(gs_agent *a);
 /* The result of the agent's last step. */
 GS_API gs_result gs_agent_result(const gs_agent *a);
@@ -1175,7 +1177,8 @@ GS_API gs_net *gs_udp_net(gs_udp *u);
 GS_API gs_result gs_udp_add_peer(gs_udp *u, uint32_t host, const char *addr);
 GS_API gs_result gs_udp_remove_peer(gs_udp *u, uint32_t host);
 /* Poll mode: receives every waiting datagram and sends what is due at wall
-   time now. In thread mode it only wakes the scatter thread. */
+   time now (refused as gs_net_update refuses it). In thread mode it only
+   wakes the scatter thread. */
 GS_API gs_result gs_udp_poll(gs_udp *u, double now);
 /* The wall clock gs_udp uses (CLOCK_MONOTONIC seconds). */
 GS_API double gs_udp_now(void);
