@@ -1,7 +1,8 @@
 /* test_fuzz_regress.c - replays every input of tests/fuzz-regressions/
    through the fuzz harnesses' checks (tests/fuzz_wire.c, datagrams in
-   clear, and tests/fuzz_sealed.c, the same sealed to a keyed net; both
-   included here).
+   clear; tests/fuzz_sealed.c, the same sealed to a keyed net; and
+   tests/fuzz_clock.c, the bytes as a program of datagrams, round trips and
+   clock jumps; all included here).
 
    Each file there is an input that once made the fuzzer fail: a crash, a
    sanitizer report, a hang or a broken check. Replayed here in the plain
