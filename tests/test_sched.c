@@ -169,7 +169,7 @@ static void test_sched_span_matches_scan(void **state) {
 /* The order of steps, failures and set-backs included, is the order the
    scan gave: hashes recorded with the scan, before the heaps. Case 1's was
    recorded again when set-backs stopped at time 0 (no agent time is
-   negative): its agents were set back below 0, case 0's never were. */
+   negative); case 0's did not change. */
 static void test_sched_order_pinned(void **state) {
     static const uint64_t want[2] = {0x1e794df3675f69d4ull, 0xf538ec9eb135c41full};
     int k;
