@@ -492,6 +492,8 @@ static void test_late_joiner_bounded(void **state) {
         t = gs_agent_time(h->a);
         assert_true(t - prev <= GS_MAX_TIME_CORRECTION + FRAME + 0.002 + 1e-9);
         prev = t;
+        /* within 0.1 s: the time band (tolerance + a send period, 27 ms)
+           under which no correction is made, and a step */
         if (caught < 0 && fabs(t - now) < 0.1) caught = k;
     }
     print_message("late joiner 100 s behind: within 0.1 s after %d advances\n", caught + 1);
