@@ -100,6 +100,15 @@
        set_state refuses one of norm under 1e-6. Bodies whose centres
        coincide (closer than 1e-12 of their size) are pushed apart along
        y, the lower agent index down, so that a pair's forces cancel.
+       Times: every agent's time, the world's and the simnet's clock, and
+       the `now` a net is given stay in [0, GS_WIRE_MAX_TIME] (1e9 s): a
+       state, an advance, a frame or a `now` that would leave it is
+       refused (GS_ERR_INVALID_ARG), a step that would pass it fails with
+       GS_ERR_OUT_OF_RANGE. Every dt is at least GS_MIN_DT (1e-6 s), so a
+       step always moves a clock, and one gs_world_advance runs at most
+       gs_world_desc.max_steps steps: every call that counts time returns.
+       What a peer can do to this host's clock is bounded too (see >>ghost:
+       GS_MAX_AGE, GS_MAX_TIME_CORRECTION): at most 10 s per advance.
 
    THREADS
        A world and everything in it belongs to the thread that calls into
@@ -233,7 +242,16 @@ typedef struct gs_world_desc {
     gs_clock_fn clock;     /* for the budget; default CLOCK_MONOTONIC */
     void *clock_user;
     gs_allocator allocator; /* default GS_MALLOC / GS_FREE */
+    uint64_t max_steps;    /* agent steps (all agents together) one
+                              gs_world_advance call runs at most, so that
+                              every call returns whatever it is asked;
+                              default GS_DEFAULT_MAX_STEPS */
 } gs_world_desc;
+
+/* The default of gs_world_desc.max_steps: 4 194 304 steps, about 70 minutes
+   of simulated time for one agent at dt = 1 ms, far more than a frame
+   needs; a call that reaches it returns with report->reached = 0. */
+#define GS_DEFAULT_MAX_STEPS ((uint64_t)1 << 22)
 
 /* What one gs_world_advance call did. */
 typedef struct gs_advance_report {
@@ -260,12 +278,15 @@ GS_API gs_result gs_world_create(const gs_world_desc *desc, gs_world **out);
 GS_API void gs_world_destroy(gs_world *w);
 
 /* Moves the target time on by `seconds` (>= 0) and runs agent steps, most
-   urgent first, until every agent is within half its dt of the target or the
-   wall-clock budget is spent. An agent whose step fails keeps its state and
-   stops advancing for the rest of this call; the others go on.
-   report may be NULL. Returns GS_OK, GS_ERR_INVALID_ARG (negative seconds),
-   GS_ERR_NOT_FINITE (NaN or infinite seconds), GS_ERR_BUSY (called from inside an advance), or the
-   first error an agent's step returned (every other agent still advanced). */
+   urgent first, until every agent is within half its dt of the target, the
+   wall-clock budget is spent or max_steps steps have run (then
+   report->reached is 0 and the next call goes on). An agent whose step
+   fails keeps its state and stops advancing for the rest of this call; the
+   others go on. report may be NULL. Returns GS_OK, GS_ERR_INVALID_ARG
+   (negative seconds, or a target past GS_WIRE_MAX_TIME: nothing changes),
+   GS_ERR_NOT_FINITE (NaN or infinite seconds), GS_ERR_BUSY (called from
+   inside an advance), or the first error an agent's step returned (every
+   other agent still advanced). */
 GS_API gs_result gs_world_advance(gs_world *w, double seconds,
                                   gs_advance_report *report);
 
@@ -349,9 +370,14 @@ typedef enum gs_stability {
     GS__STABILITY_COUNT
 } gs_stability;
 
+/* The smallest dt (s) of any agent, probe or scene: at GS_WIRE_MAX_TIME a
+   double still resolves 1.2e-7 s, so a step of GS_MIN_DT moves every clock
+   the library keeps, and 1 s of simulated time is at most 1e6 steps. */
+#define GS_MIN_DT 1e-6
+
 /* How an agent steps. Zero fields take the defaults written beside them. */
 typedef struct gs_solver_desc {
-    double dt;               /* s; default 0.001 */
+    double dt;               /* s, >= GS_MIN_DT; default 0.001 */
     gs_integrator integrator; /* default symplectic Euler */
     gs_stability stability;  /* default substep (ignored by implicit Euler) */
     int max_substeps;        /* default 64 */
@@ -391,14 +417,17 @@ GS_API size_t gs_agent_state_size(const gs_agent *a);
    GS_ERR_SIZE_MISMATCH unless n == gs_agent_state_size(a). */
 GS_API gs_result gs_agent_get_state(const gs_agent *a, double *out, size_t n);
 /* Sets the state, time included. Every number must be finite
-   (GS_ERR_NOT_FINITE), every position within +-GS_MAX_COORD
+   (GS_ERR_NOT_FINITE), the time in [0, GS_WIRE_MAX_TIME]
+   (GS_ERR_INVALID_ARG), every position within +-GS_MAX_COORD
    (GS_ERR_OUT_OF_RANGE), a rigid body's quaternion of norm at least 1e-6
    (GS_ERR_INVALID_ARG; of any finite size, it is normalized); on error
    nothing changes. */
 GS_API gs_result gs_agent_set_state(gs_agent *a, const double *in, size_t n);
 
 /* Steps the agent once by its dt, outside the scheduler (for tools and
-   tests). GS_ERR_BUSY inside an advance. */
+   tests). GS_ERR_BUSY inside an advance; GS_ERR_OUT_OF_RANGE (and the time
+   stays) if the step would take its time past GS_WIRE_MAX_TIME. Each call
+   counts as an advance for GS_MAX_TIME_CORRECTION. */
 GS_API gs_result gs_agent_step(gs_agent *a);
 /* The result of the agent's last step. */
 GS_API gs_result gs_agent_result(const gs_agent *a);
@@ -419,7 +448,7 @@ GS_API gs_result gs_agent_destroy(gs_agent *a);
 /* A user agent. Its variables live in user memory; ghostsim keeps its time
    and schedules it like any other. */
 typedef struct gs_custom_desc {
-    double dt;          /* s; required, > 0 */
+    double dt;          /* s; required, >= GS_MIN_DT */
     size_t state_size;  /* doubles, excluding time; may be 0 */
     /* Advances by dt seconds from time t. Returning an error leaves the
        agent's time unchanged; the callback should leave its state too.
@@ -602,7 +631,7 @@ typedef struct gs_probe_desc {
     gs_vec3 position;      /* m, within +-GS_MAX_COORD */
     gs_quat orientation;   /* default identity */
     gs_material material;
-    double dt;             /* s; default 0.001 */
+    double dt;             /* s, >= GS_MIN_DT; default 0.001 */
     double max_speed;      /* m/s it may move at to reach its target;
                               default 10 */
     uint32_t owner;        /* host that drives it; default this world's */
@@ -683,7 +712,7 @@ typedef struct gs_scene_desc {
                              gs_scene_desc_default() says 1 */
     uint32_t seed;        /* sphere placement; default 1 */
     gs_integrator cloth_integrator; /* default implicit Euler */
-    double dt;            /* s for every agent; default 0.002 */
+    double dt;            /* s for every agent, >= GS_MIN_DT; default 0.002 */
 } gs_scene_desc;
 
 typedef struct gs_scene {
@@ -694,10 +723,19 @@ typedef struct gs_scene {
     gs_scene_desc desc;   /* with defaults applied */
 } gs_scene;
 
+/* Settling the cloth (3 s of simulated time, below) costs cloth_n^2 *
+   3 s / dt particle steps; a scene that would need more is refused
+   (GS_ERR_INVALID_ARG). The bound admits the largest cloth ghostpeer takes
+   (256 x 256 at the default dt: 9.8e7) and refuses what would run for
+   hours (4096 x 4096 at the default dt; 16 x 16 at dt = 1e-6 s). */
+#define GS_SCENE_SETTLE_WORK 1e8
+
 GS_API gs_scene_desc gs_scene_desc_default(void);
 /* Builds the scene in w (ground on at y = -1.5 m): cloth in the plane
    y = 0 centred on the origin, spheres above it, probes above the cloth.
-   Probe i is owned by host i + 1. */
+   Probe i is owned by host i + 1. The cloth hangs for 3 s of simulated
+   time before its clock is set back to 0 (bounded by
+   GS_SCENE_SETTLE_WORK). */
 GS_API gs_result gs_scene_create(gs_world *w, const gs_scene_desc *desc,
                                  gs_scene *out);
 /* Where probe i should be at time t (s) on the scripted path the tests and
@@ -714,6 +752,18 @@ GS_API gs_vec3 gs_scene_probe_path(int i, double t);
    time is part of S and is blended too.
    ======================================================================== */
 
+/* What a peer can do to this host's clock is bounded:
+   - an age (a send time read against the peer's clock) is believed only
+     within GS_MAX_AGE seconds; past it the age is unknown (0, and the
+     snapshot may pull the local time on, never back);
+   - the blend moves an agent's simulation time by at most
+     GS_MAX_TIME_CORRECTION seconds in all per gs_world_advance (or
+     gs_agent_step) call, either way; a host that joins a session late
+     catches up that much per call;
+   - no agent's or world's time leaves [0, GS_WIRE_MAX_TIME]. */
+#define GS_MAX_AGE 2.0              /* s */
+#define GS_MAX_TIME_CORRECTION 10.0 /* s per advance, per agent */
+
 /* What a weight rule sees, for the local state or one received snapshot. */
 typedef struct gs_weight_in {
     double x;        /* s; t_j - t_i, the snapshot's simulation time minus the
@@ -726,7 +776,8 @@ typedef struct gs_weight_in {
     double age;      /* s of wall time since the snapshot was sent (an
                         estimate: its datagram's arrival less its send
                         time, less the hosts' clock offset, which the
-                        least-delayed round trip tells to half of it) */
+                        least-delayed round trip tells to half of it), in
+                        [0, GS_MAX_AGE]; 0 when unknown */
     uint32_t host;   /* the sending host (this host for the local state) */
     uint32_t lead;   /* the most advanced host among this one and the
                         peers heard in the last 0.5 s (their snapshots in
@@ -961,7 +1012,9 @@ typedef enum gs_reject {
 
 GS_API const char *gs_reject_str(gs_reject r);
 
-/* Starts a datagram in buf (cap >= GS_WIRE_HEADER + 4). */
+/* Starts a datagram in buf (cap >= GS_WIRE_HEADER + 4). The header's
+   times are written as given (tests forge datagrams with it); decode and
+   every net refuse a send or echo time outside [0, GS_WIRE_MAX_TIME]. */
 GS_API gs_result gs_wire_begin(unsigned char *buf, size_t cap,
                                const gs_wire_header *h, size_t *size);
 /* Appends a chunk of `c->elements` values. GS_ERR_CAPACITY if it does not
@@ -1045,11 +1098,21 @@ GS_API void gs_net_destroy(gs_net *net);
 GS_API gs_result gs_net_add_peer(gs_net *net, uint32_t host);
 GS_API gs_result gs_net_remove_peer(gs_net *net, uint32_t host);
 /* Sends what is due at wall time `now` (s): each ghost's latest state at its
-   rate, within each peer's bandwidth. */
+   rate, within each peer's bandwidth. `now` is a clock that only moves
+   forward, in [0, GS_WIRE_MAX_TIME] (GS_ERR_INVALID_ARG otherwise,
+   GS_ERR_NOT_FINITE for NaN or infinity): the same clock for
+   gs_net_deliver. */
 GS_API gs_result gs_net_update(gs_net *net, double now);
 /* Hands a received datagram to ghostsim. Returns GS_OK when it was queued,
    GS_ERR_REJECTED (reason in *why, may be NULL) when refused; refused
    datagrams are counted and never blended, and nothing is ever sent back.
+   GS_ERR_INVALID_ARG / GS_ERR_NOT_FINITE for a `now` as gs_net_update
+   refuses it (nothing is counted).
+   Time: a send or echo time outside [0, GS_WIRE_MAX_TIME] is refused
+   (GS_REJECT_TIME); a send time more than GS_MAX_AGE off the sender's
+   clock as the round trips measured it leaves the snapshot's age unknown
+   (it then may pull the local time on, never back); and the blend moves an
+   agent's time by at most GS_MAX_TIME_CORRECTION per advance.
    The checks, cheapest first: size, magic, version; without a key the CRC
    and the decode (as gs_wire_decode: a sealed datagram fails the CRC);
    the session and the sender (a peer: until here a refusal counts among
@@ -1123,7 +1186,8 @@ GS_API gs_result gs_simnet_link(gs_simnet *sim, uint32_t a, uint32_t b,
                                 const gs_link_desc *desc);
 /* Runs every world for `seconds` of virtual time in frames of `frame`
    seconds: each frame advances each world, sends what is due and delivers
-   what has arrived. */
+   what has arrived. GS_ERR_INVALID_ARG for a frame below GS_MIN_DT (it
+   would not move the clock) or a virtual time past GS_WIRE_MAX_TIME. */
 GS_API gs_result gs_simnet_run(gs_simnet *sim, double seconds, double frame);
 GS_API double gs_simnet_time(const gs_simnet *sim);
 /* Datagrams the simnet dropped (loss, outage, full), duplicated, delivered. */
@@ -1164,7 +1228,8 @@ GS_API gs_net *gs_udp_net(gs_udp *u);
 GS_API gs_result gs_udp_add_peer(gs_udp *u, uint32_t host, const char *addr);
 GS_API gs_result gs_udp_remove_peer(gs_udp *u, uint32_t host);
 /* Poll mode: receives every waiting datagram and sends what is due at wall
-   time now. In thread mode it only wakes the scatter thread. */
+   time now (refused as gs_net_update refuses it). In thread mode it only
+   wakes the scatter thread. */
 GS_API gs_result gs_udp_poll(gs_udp *u, double now);
 /* The wall clock gs_udp uses (CLOCK_MONOTONIC seconds). */
 GS_API double gs_udp_now(void);
@@ -1371,6 +1436,14 @@ GS__PRIVATE void gs__check_positive(gs__check *c, const char *field,
                        v);
 }
 
+/* A step: finite, and at least GS_MIN_DT so that it moves a clock. */
+GS__PRIVATE void gs__check_dt(gs__check *c, const char *field, double v) {
+    gs__check_finite(c, field, v);
+    if (gs__finite(v) && !(v >= GS_MIN_DT))
+        gs__check_fail(c, GS_ERR_INVALID_ARG, "%s is %g, must be >= GS_MIN_DT (%g s)", field,
+                       v, GS_MIN_DT);
+}
+
 GS__PRIVATE void gs__check_nonneg(gs__check *c, const char *field, double v) {
     gs__check_finite(c, field, v);
     if (gs__finite(v) && v < 0.0)
@@ -1471,6 +1544,9 @@ struct gs_world {
     double tolerance;
     int aging_limit;
     double budget;
+    uint64_t max_steps;  /* per advance */
+    uint64_t epoch;      /* advances and gs_agent_step calls so far: the
+                            sync layer bounds what it moves per epoch */
     gs_vec3 gravity;
     gs_clock_fn clock;
     void *clock_user;
@@ -1544,6 +1620,7 @@ GS_API gs_world_desc gs_world_desc_default(void) {
     d.tolerance = 0.01;
     d.aging_limit = 64;
     d.gravity = gs__v3(0.0, -9.81, 0.0);
+    d.max_steps = GS_DEFAULT_MAX_STEPS;
     return d;
 }
 
@@ -1556,6 +1633,7 @@ GS__PRIVATE gs_world_desc gs__world_defaults(const gs_world_desc *in) {
     if (d.tolerance == 0.0) d.tolerance = def.tolerance;
     if (d.aging_limit == 0) d.aging_limit = def.aging_limit;
     if (gs__is_zero3(d.gravity)) d.gravity = def.gravity;
+    if (d.max_steps == 0) d.max_steps = def.max_steps;
     return d;
 }
 
@@ -1596,6 +1674,7 @@ GS_API gs_result gs_world_create(const gs_world_desc *desc, gs_world **out) {
     w->tolerance = d.tolerance;
     w->aging_limit = d.aging_limit;
     w->budget = d.budget;
+    w->max_steps = d.max_steps;
     w->gravity = d.gravity;
     w->clock = d.clock ? d.clock : gs__default_clock;
     w->clock_user = d.clock ? d.clock_user : NULL;
@@ -1942,9 +2021,18 @@ GS__PRIVATE void gs__activate(gs_world *w, gs_agent *a, double t_min,
 GS__PRIVATE void gs__ghost_after_step(gs_agent *a);
 GS__PRIVATE void gs__world_blend(gs_world *w);
 
-/* One step; then the agent's ghost, if any, publishes and blends. */
+/* One step; then the agent's ghost, if any, publishes and blends. A step
+   that would take the agent's time past GS_WIRE_MAX_TIME is refused: no
+   clock leaves [0, GS_WIRE_MAX_TIME]. */
 GS__PRIVATE gs_result gs__agent_step(gs_agent *a) {
-    gs_result r = a->kind->step(a, a->dt);
+    gs_result r;
+    if (!(gs__agent_time(a) + a->dt <= GS_WIRE_MAX_TIME)) {
+        a->result = GS_ERR_OUT_OF_RANGE;
+        return gs__fail(a->world, GS_ERR_OUT_OF_RANGE,
+                        "agent step: its time %.17g s + dt would pass GS_WIRE_MAX_TIME",
+                        gs__agent_time(a));
+    }
+    r = a->kind->step(a, a->dt);
     a->result = r;
     if (r == GS_OK) {
         a->steps++;
@@ -2004,14 +2092,12 @@ GS__PRIVATE void gs__sap_refresh(gs_world *w);
 #ifndef GS__FOLLOW_STEPS
 #define GS__FOLLOW_STEPS 1000.0
 #endif
-GS__PRIVATE void gs__world_follow(gs_world *w) {
+GS__PRIVATE double gs__world_follow_target(const gs_world *w) {
     double dt_max = 0.0;
     int i;
-    for (i = 0; i < w->agent_count; ++i) {
-        w->agents[i]->failed = 0;
+    for (i = 0; i < w->agent_count; ++i)
         if (w->agents[i]->dt > dt_max) dt_max = w->agents[i]->dt;
-    }
-    if (w->agent_count == 0) return;
+    if (w->agent_count == 0) return w->target;
     /* agents stop up to half a step past the target: only a lead beyond
        that and the tolerance is a jump. The clock follows when most agents
        have jumped, to the slowest of those; the rest catch up by stepping.
@@ -2027,18 +2113,23 @@ GS__PRIVATE void gs__world_follow(gs_world *w) {
                 if (t < lead_min) lead_min = t;
             }
         }
-        if (2 * leading > w->agent_count) {
-            w->target = lead_min;
-            /* an agent left more than GS__FOLLOW_STEPS of its steps behind
-               takes the clock's time instead: a time from the network (a
-               late joiner an hour on, a datagram that says 1e6 s) must not
-               buy a step per dt of catching up */
-            for (i = 0; i < w->agent_count; ++i) {
-                gs_agent *a = w->agents[i];
-                double lag = w->target - gs__agent_time(a);
-                if (lag > GS__FOLLOW_STEPS * a->dt) a->t_offset += lag;
-            }
-        }
+        return 2 * leading > w->agent_count ? lead_min : w->target;
+    }
+}
+
+/* Applies the follow to `target` (from gs__world_follow_target): an agent
+   left more than GS__FOLLOW_STEPS of its steps behind takes the clock's
+   time instead: a time from the network (a late joiner an hour on, a
+   datagram that says 1e6 s) must not buy a step per dt of catching up. */
+GS__PRIVATE void gs__world_follow(gs_world *w, double target) {
+    int i;
+    for (i = 0; i < w->agent_count; ++i) w->agents[i]->failed = 0;
+    if (target == w->target) return;
+    w->target = target;
+    for (i = 0; i < w->agent_count; ++i) {
+        gs_agent *a = w->agents[i];
+        double lag = w->target - gs__agent_time(a);
+        if (lag > GS__FOLLOW_STEPS * a->dt) a->t_offset += lag;
     }
 }
 
@@ -2046,7 +2137,8 @@ GS_API gs_result gs_world_advance(gs_world *w, double seconds,
                                   gs_advance_report *report) {
     gs_advance_report rep;
     gs_result first_error = GS_OK;
-    double start = 0.0;
+    double start = 0.0, from;
+    uint64_t dispatched = 0;
     memset(&rep, 0, sizeof rep);
     if (w->busy)
         return gs__fail(w, GS_ERR_BUSY, "gs_world_advance: already advancing");
@@ -2055,8 +2147,14 @@ GS_API gs_result gs_world_advance(gs_world *w, double seconds,
                                                : GS_ERR_NOT_FINITE,
                         "gs_world_advance: seconds is %g, must be finite and "
                         ">= 0", seconds);
+    from = gs__world_follow_target(w);
+    if (seconds > GS_WIRE_MAX_TIME - from)
+        return gs__fail(w, GS_ERR_INVALID_ARG,
+                        "gs_world_advance: %g s on from %.17g s would pass "
+                        "GS_WIRE_MAX_TIME (%g s)", seconds, from, GS_WIRE_MAX_TIME);
     w->busy = 1;
-    gs__world_follow(w);
+    w->epoch++;
+    gs__world_follow(w, from);
     w->target += seconds;
     gs__sap_refresh(w);
     if (w->budget > 0.0) start = w->clock(w->clock_user);
@@ -2064,7 +2162,8 @@ GS_API gs_result gs_world_advance(gs_world *w, double seconds,
     gs__span_build(w);
     rep.reached = 1;
     for (;;) {
-        if (w->budget > 0.0 && w->clock(w->clock_user) - start >= w->budget) {
+        if ((w->budget > 0.0 && w->clock(w->clock_user) - start >= w->budget) ||
+            dispatched++ >= w->max_steps) {
             rep.reached = 0;
             break;
         }
@@ -2110,7 +2209,7 @@ GS__PRIVATE gs_solver_desc gs__solver_defaults(gs_solver_desc d) {
 }
 
 GS__PRIVATE void gs__check_solver(gs__check *c, const gs_solver_desc *d) {
-    gs__check_positive(c, "solver.dt", d->dt);
+    gs__check_dt(c, "solver.dt", d->dt);
     gs__check_int(c, "solver.integrator", (long)d->integrator, 1,
                   GS__INTEGRATOR_COUNT - 1);
     gs__check_int(c, "solver.stability", (long)d->stability, 1,
@@ -2213,6 +2312,10 @@ GS_API gs_result gs_agent_set_state(gs_agent *a, const double *in, size_t n) {
             return gs__fail(a->world, GS_ERR_NOT_FINITE,
                             "gs_agent_set_state: element %lu is %g",
                             (unsigned long)i, in[i]);
+    if (in[0] < 0.0 || in[0] > GS_WIRE_MAX_TIME)
+        return gs__fail(a->world, GS_ERR_INVALID_ARG,
+                        "gs_agent_set_state: time is %g s, must be in [0, "
+                        "GS_WIRE_MAX_TIME = %g]", in[0], GS_WIRE_MAX_TIME);
     return gs__agent_put_state(a, in);
 }
 
@@ -2220,6 +2323,7 @@ GS_API gs_result gs_agent_step(gs_agent *a) {
     if (a->world->busy)
         return gs__fail(a->world, GS_ERR_BUSY,
                         "gs_agent_step: the world is advancing");
+    a->world->epoch++;
     return gs__agent_step(a);
 }
 
@@ -2337,7 +2441,7 @@ GS_API gs_result gs_custom_create(gs_world *w, const gs_custom_desc *desc,
     gs_result r = gs__create_begin(w, desc, out, "gs_custom_create");
     if (r != GS_OK) return r;
     c = gs__check_begin(w, "gs_custom_create");
-    gs__check_positive(&c, "dt", desc->dt);
+    gs__check_dt(&c, "dt", desc->dt);
     if (!desc->step) gs__check_fail(&c, GS_ERR_INVALID_ARG, "step is NULL");
     if (desc->state_size && (!desc->get_state || !desc->set_state))
         gs__check_fail(&c, GS_ERR_INVALID_ARG,
@@ -4149,7 +4253,7 @@ GS_API gs_result gs_probe_create(gs_world *w, const gs_probe_desc *desc,
     gs__check_pos(&c, "position", d.position);
     gs__check_quat(&c, "orientation", d.orientation);
     gs__check_material(&c, &d.material);
-    gs__check_positive(&c, "dt", d.dt);
+    gs__check_dt(&c, "dt", d.dt);
     gs__check_positive(&c, "max_speed", d.max_speed);
     if (c.r == GS_OK) c.r = gs__agent_init(w, &r->base, &gs__probe_kind, d.dt);
     if (c.r != GS_OK) {
@@ -5127,8 +5231,9 @@ GS__PRIVATE gs_result gs__scene_bodies(gs_world *w, gs_scene *sc) {
    toss the spheres like a trampoline. It hangs for 3 s of simulated time
    first, then its clock is set back to 0: every host computes the same
    settled state. */
+#define GS__SCENE_SETTLE_TIME 3.0 /* s */
 GS__PRIVATE gs_result gs__scene_settle(gs_agent *cloth) {
-    int i, steps = (int)(3.0 / cloth->dt);
+    long i, steps = (long)(GS__SCENE_SETTLE_TIME / cloth->dt); /* dt >= GS_MIN_DT */
     for (i = 0; i < steps; ++i) {
         gs_result r = gs__agent_step(cloth);
         if (r != GS_OK) return r;
@@ -5152,7 +5257,16 @@ GS_API gs_result gs_scene_create(gs_world *w, const gs_scene_desc *desc,
     gs__check_int(&c, "sphere_count", out->desc.sphere_count, 0, GS_SCENE_MAX_SPHERES);
     gs__check_positive(&c, "sphere_radius", out->desc.sphere_radius);
     gs__check_int(&c, "probe_count", out->desc.probe_count, 0, GS_SCENE_MAX_PROBES);
-    gs__check_positive(&c, "dt", out->desc.dt);
+    gs__check_dt(&c, "dt", out->desc.dt);
+    if (c.r == GS_OK) {
+        double n = (double)out->desc.cloth_n,
+               work = n * n * floor(GS__SCENE_SETTLE_TIME / out->desc.dt);
+        if (work > GS_SCENE_SETTLE_WORK)
+            gs__check_fail(&c, GS_ERR_INVALID_ARG,
+                           "cloth_n %d at dt %g s needs %.3g particle steps to settle, "
+                           "more than GS_SCENE_SETTLE_WORK (%g): a smaller cloth or a larger dt",
+                           out->desc.cloth_n, out->desc.dt, work, GS_SCENE_SETTLE_WORK);
+    }
     if (c.r != GS_OK) return c.r;
     r = gs_world_set_ground(w, 1, -1.5, gs__scene_material());
     if (r != GS_OK) return r;
@@ -5241,6 +5355,9 @@ struct gs__ghost {
     double heard_at[GS__MAX_PEERS];/* s; local time of the last blend with
                                       a snapshot of the peer, -HUGE_VAL */
     double heard_x[GS__MAX_PEERS]; /* s; its x_comp then (the freshest) */
+    double moved;         /* s; |time| the blends moved the agent by in the
+                             world's epoch moved_epoch (one advance) */
+    uint64_t moved_epoch;
     gs_ghost_stats stats;
 };
 typedef struct gs__ghost gs__ghost;
@@ -5959,12 +6076,32 @@ GS__PRIVATE double gs__time_correction(const gs__ghost *g, double gap, double dt
     return fabs(gap) > gs__time_band(g) ? dt : 0.0;
 }
 
+/* The blended time from the local t_i and a correction, bounded: all the
+   blends of one advance move the agent by at most GS_MAX_TIME_CORRECTION,
+   and never out of [0, GS_WIRE_MAX_TIME]. Whatever the snapshots say (a
+   forged time, a peer a year on), the host keeps running; a late joiner
+   catches up over a few advances. A non-finite correction is passed on for
+   the pass to refuse. */
+GS__PRIVATE double gs__time_bound(gs__ghost *g, double t_i, double corr) {
+    double room, t;
+    if (g->moved_epoch != g->agent->world->epoch) {
+        g->moved_epoch = g->agent->world->epoch;
+        g->moved = 0.0;
+    }
+    if (!gs__finite(corr)) return t_i + corr;
+    room = GS_MAX_TIME_CORRECTION - g->moved;
+    if (room < 0.0) room = 0.0;
+    t = t_i + (corr > room ? room : corr < -room ? -room : corr);
+    return t < 0.0 ? 0.0 : t > GS_WIRE_MAX_TIME ? GS_WIRE_MAX_TIME : t;
+}
+
 /* Applies a blended state (scratch) that the pass found finite: the kind
    may still refuse it (a zero quaternion), and then nothing moves. */
 GS__PRIVATE int gs__blend_apply(gs__ghost *g, double t_i) {
     double *t;
     int e;
     if (gs__agent_put_state(g->agent, g->scratch) != GS_OK) return 0;
+    g->moved += fabs(g->scratch[0] - t_i);
     for (e = 0; e < GS__MAX_PEERS; ++e) g->lead[e] -= g->scratch[0] - t_i;
     t = g->offset; /* the next offsets are now the offsets */
     g->offset = g->offset_next;
@@ -5995,7 +6132,8 @@ GS__PRIVATE uint32_t gs__ghost_blend(gs__ghost *g, gs_net *net) {
            two hosts would settle up to (1 + w0 / w) bands apart */
         g->scratch[0] = t_i;
         if (den_t > 0.0)
-            g->scratch[0] += gs__time_correction(g, num_t / den_t, num_t / (ps.w0 + den_t));
+            g->scratch[0] = gs__time_bound(
+                g, t_i, gs__time_correction(g, num_t / den_t, num_t / (ps.w0 + den_t)));
         ps.fade = gs__offset_fade(g, g->scratch[0]);
         ps.finite = g->scratch[0] - g->scratch[0] == 0.0;
         ps.finite = gs__blend_pass(g, &ps);
@@ -6254,6 +6392,9 @@ GS__PRIVATE void gs__wire_get_values(const gs_wire_chunk *c, double *out) {
 #endif
 }
 
+/* A time the wire carries (s): in [0, GS_WIRE_MAX_TIME], NaN excluded. */
+GS__PRIVATE int gs__wire_time_ok(double t) { return t >= 0.0 && t <= GS_WIRE_MAX_TIME; }
+
 /* One chunk at *off: its header, its length, its values all finite. */
 GS__PRIVATE int gs__wire_chunk(const unsigned char *buf, size_t end, size_t *off,
                                gs_wire_chunk *c, gs_reject *why) {
@@ -6272,7 +6413,7 @@ GS__PRIVATE int gs__wire_chunk(const unsigned char *buf, size_t end, size_t *off
         c->count == 0 || c->index >= c->count) { *why = GS_REJECT_LAYOUT; return 0; }
     len = gs__value_size(c->encoding) * c->elements;
     if (*off + GS_WIRE_CHUNK_HEADER + len > end) { *why = GS_REJECT_SHORT; return 0; }
-    if (!(c->time >= 0.0 && c->time <= GS_WIRE_MAX_TIME)) { *why = GS_REJECT_TIME; return 0; }
+    if (!gs__wire_time_ok(c->time)) { *why = GS_REJECT_TIME; return 0; }
     c->payload = p + GS_WIRE_CHUNK_HEADER;
     if (!gs__wire_values_finite(c)) { *why = GS_REJECT_NOT_FINITE; return 0; }
     *off += GS_WIRE_CHUNK_HEADER + len;
@@ -6305,6 +6446,12 @@ GS__PRIVATE int gs__wire_parse(const unsigned char *buf, size_t end, gs_wire_vie
     out->header.echo_hold = gs__getf64(buf + 40);
     if (!gs__finite(out->header.send_time) || !gs__finite(out->header.echo_time) ||
         !gs__finite(out->header.echo_hold)) { *why = GS_REJECT_NOT_FINITE; return 0; }
+    /* both are clocks, which no host lets leave [0, GS_WIRE_MAX_TIME]: a
+       send time out there (-1e300) would make an age of any size */
+    if (!gs__wire_time_ok(out->header.send_time) || !gs__wire_time_ok(out->header.echo_time)) {
+        *why = GS_REJECT_TIME;
+        return 0;
+    }
     for (i = 0; i < n; ++i)
         if (!gs__wire_chunk(buf, end, &off, &out->chunks[i], why)) return 0;
     if (off != end) { *why = GS_REJECT_LAYOUT; return 0; }
@@ -6670,6 +6817,7 @@ GS_API gs_result gs_net_update(gs_net *net, double now) {
     int p, i, peers = 0;
     size_t size;
     if (!gs__finite(now)) return GS_ERR_NOT_FINITE;
+    if (!gs__wire_time_ok(now)) return GS_ERR_INVALID_ARG; /* a clock */
     gs__lock(net);
     net->now = now;
     for (p = 0; p < GS__MAX_PEERS; ++p) peers += net->peers[p].used;
@@ -6876,11 +7024,16 @@ GS__PRIVATE void gs__peer_clock(gs__peer *pe, const gs_wire_header *h, double no
 
 /* How long a datagram was on the way (s): its arrival less its send time
    less the clocks' offset. Per datagram, so one held back on the way is as
-   old as it is. -1 before the first round trip (unknown). */
+   old as it is. -1 (unknown) before the first round trip, and for a send
+   time more than GS_MAX_AGE off the peer's clock as we know it: a forged
+   one, or a clock that stepped and is not read again yet. Believed, it
+   would carry the snapshot's time that far (a send time of 0 an hour into
+   a session: an hour). */
 GS__PRIVATE double gs__datagram_age(const gs__peer *pe, const gs_wire_header *h, double now) {
     double age;
     if (!pe->clock_known) return -1.0;
     age = now - h->send_time - pe->clock_offset;
+    if (!(age <= GS_MAX_AGE && age >= -GS_MAX_AGE)) return -1.0;
     return age > 0.0 ? age : 0.0;
 }
 
@@ -7024,6 +7177,8 @@ GS__PRIVATE gs_result gs__deliver_locked(gs_net *net, const void *data, size_t s
 GS_API gs_result gs_net_deliver(gs_net *net, const void *data, size_t size,
                                 double now, gs_reject *why) {
     gs_result r;
+    if (!gs__wire_time_ok(now)) /* a clock; NaN included */
+        return gs__finite(now) ? GS_ERR_INVALID_ARG : GS_ERR_NOT_FINITE;
     gs__lock(net);
     r = gs__deliver_locked(net, data, size, now, why);
     gs__unlock(net);
@@ -7268,7 +7423,9 @@ GS_API gs_result gs_simnet_run(gs_simnet *s, double seconds, double frame) {
     double end;
     gs_result first = GS_OK;
     int i;
-    if (!s || !gs__finite(seconds) || seconds < 0.0 || !gs__finite(frame) || frame <= 0.0)
+    /* a frame under GS_MIN_DT could leave now + frame == now (no progress) */
+    if (!s || !gs__finite(seconds) || seconds < 0.0 || !gs__finite(frame) ||
+        !(frame >= GS_MIN_DT) || seconds > GS_WIRE_MAX_TIME - s->now)
         return GS_ERR_INVALID_ARG;
     end = s->now + seconds;
     while (s->now < end - 0.5 * frame) {
