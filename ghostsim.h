@@ -5174,6 +5174,7 @@ struct gs_net {
                                  under it (a weight rule in a blend, the
                                  send callback in gs_net_update), which
                                  must not re-enter the net */
+    int held;                 /* a gs_simnet_run is running it */
     int published;            /* a ghost published B since gs_udp's scatter
                                  thread last looked (it ticks while they do) */
     double now;               /* s, wall time of the last update/deliver */
@@ -6362,16 +6363,12 @@ GS_API gs_result gs_net_create(gs_world *w, const gs_net_desc *desc,
     return GS_OK;
 }
 
-GS__PRIVATE gs_result gs__sim_send(void *user, uint32_t host, const void *data, size_t size);
-GS__PRIVATE int gs__sim_running(const void *send_user);
-
 /* Is the net inside one of its own calls (user code under its lock), or
    is the simnet it joined running? Then it must not be freed. Read
    without the lock: destroying a net whose other threads still run is
    refused by its own contract already (close its gs_udp first). */
 GS__PRIVATE int gs__net_in_use(const gs_net *net) {
-    if (!net) return 0;
-    return net->inside || (net->d.send == gs__sim_send && gs__sim_running(net->d.send_user));
+    return net && (net->inside || net->held);
 }
 
 /* Refused from a callback, as gs_world_destroy. */
@@ -7047,10 +7044,6 @@ struct gs_simnet {
     int running;        /* inside gs_simnet_run: its hosts are in use */
 };
 
-GS__PRIVATE int gs__sim_running(const void *send_user) {
-    return ((const gs__sim_host *)send_user)->sim->running;
-}
-
 /* xorshift64*: one stream for the whole simnet, so a seed fixes the run. */
 GS__PRIVATE double gs__sim_rand(gs_simnet *s) {
     s->rng ^= s->rng >> 12;
@@ -7278,6 +7271,7 @@ GS_API gs_result gs_simnet_run(gs_simnet *s, double seconds, double frame) {
         return GS_ERR_INVALID_ARG;
     if (s->running) return GS_ERR_BUSY; /* from a callback of one of its worlds */
     s->running = 1;
+    for (i = 0; i < s->hosts; ++i) s->host[i].net->held = 1;
     end = s->now + seconds;
     while (s->now < end - 0.5 * frame) {
         s->now += frame;
@@ -7288,6 +7282,7 @@ GS_API gs_result gs_simnet_run(gs_simnet *s, double seconds, double frame) {
         }
         gs__sim_deliver_due(s);
     }
+    for (i = 0; i < s->hosts; ++i) s->host[i].net->held = 0;
     s->running = 0;
     return first;
 }
