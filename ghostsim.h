@@ -81,9 +81,33 @@
        code; gs_result_str() names it and gs_world_error() says what exactly
        was wrong with the last failed call on that world. Bad data from
        outside (a desc, a state vector) is an error code, never an assert;
-       a failed call changes nothing. Calling into a world from a callback
-       that runs inside its own gs_world_advance() returns GS_ERR_BUSY.
-       Out of memory is GS_ERR_NO_MEMORY, never abort().
+       a failed call changes nothing (a call that fails half way undoes
+       what it did). A NULL handle is GS_ERR_INVALID_ARG (no world to hold
+       a message then); a count whose bytes would not fit in size_t is
+       GS_ERR_OUT_OF_RANGE; out of memory is GS_ERR_NO_MEMORY, never
+       abort(); a fixed limit (max_peers, the simnet's hosts) is
+       GS_ERR_CAPACITY.
+       Callbacks: user code runs inside the library's calls: a custom
+       agent's step, get_state and set_state, behaviour rules and weight
+       rules run inside gs_world_advance, gs_agent_step, gs_world_hash,
+       gs_agent_get_state/set_state and gs_ghost_attach; the send callback
+       inside gs_net_update. From there, every call that would change the
+       world, an agent, a ghost, the net or the simnet returns GS_ERR_BUSY
+       (advance, create, destroy, set_state, step, set_gravity,
+       set_budget, set_ground, probe targets, pins, ghost attach and
+       detach, net create, peers added or removed, gs_udp_add_peer and
+       _remove_peer, gs_udp_poll in poll mode; while a gs_simnet_run
+       runs, gs_simnet_join, _link and _run); gs_world_destroy,
+       gs_net_destroy, gs_udp_close and gs_net_set_lock are refused
+       (nothing freed or changed, the reason in gs_world_error), and
+       gs_simnet_destroy is ignored while its run goes on. gs_net_update
+       and gs_net_deliver, which any thread may call, return GS_ERR_BUSY
+       from a weight rule or the send callback (the net's queues or its
+       datagram are in use then) and work from a custom step or a
+       behaviour rule. Reading is always allowed (getters,
+       gs_agent_get_state, gs_ghost_get_stats, gs_ghost_render_state,
+       gs_net_peer_stats, gs_net_unknown_stats), and so are
+       gs_agent_set_priority and gs_agent_set_behaviour.
 
    NUMBERS
        SI units throughout: seconds, metres, kilograms, newtons. No NaN or
@@ -101,6 +125,12 @@
        ghost publishes or blends. gs_net_deliver, gs_net_update and the
        stats calls are safe from any thread; everything else (adding and
        removing peers included) belongs to the world's thread.
+       Weight rules run with the net's lock held, and the send callback
+       too: gs_udp's mutex is recursive, so that a rule's calls into the
+       net take it again (stats answer; the calls that change the net
+       return GS_ERR_BUSY) and never deadlock. A lock of your own
+       (gs_net_set_lock) must be recursive as well if your weight rules
+       or send callback call into the net.
 
    REVISION HISTORY
        0.1.0 (2026-11-23)  world, scheduler, spring-mass agents, integrators,
@@ -236,16 +266,19 @@ GS_API gs_result gs_world_create(const gs_world_desc *desc, gs_world **out);
 
 /* Destroys the world, every agent and ghost in it, and its net. Close its
    gs_udp first (its threads use the net), and do not run a gs_simnet it
-   joined afterwards. NULL is ignored. */
+   joined afterwards. NULL is ignored. From a callback of the world or its
+   net, or while a gs_simnet_run runs it, it is refused: nothing is freed
+   and gs_world_error says so (destroy it once that call has returned). */
 GS_API void gs_world_destroy(gs_world *w);
 
 /* Moves the target time on by `seconds` (>= 0) and runs agent steps, most
    urgent first, until every agent is within half its dt of the target or the
    wall-clock budget is spent. An agent whose step fails keeps its state and
    stops advancing for the rest of this call; the others go on.
-   report may be NULL. Returns GS_OK, GS_ERR_INVALID_ARG (negative seconds),
-   GS_ERR_NOT_FINITE (NaN or infinite seconds), GS_ERR_BUSY (called from inside an advance), or the
-   first error an agent's step returned (every other agent still advanced). */
+   report may be NULL. Returns GS_OK, GS_ERR_INVALID_ARG (negative seconds,
+   NULL w), GS_ERR_NOT_FINITE (NaN or infinite seconds), GS_ERR_BUSY
+   (called from a callback: see ERRORS), or the first error an agent's
+   step returned (every other agent still advanced). */
 GS_API gs_result gs_world_advance(gs_world *w, double seconds,
                                   gs_advance_report *report);
 
@@ -264,7 +297,8 @@ GS_API int gs_world_agent_count(const gs_world *w);
 GS_API gs_agent *gs_world_agent(const gs_world *w, int i);
 
 GS_API gs_vec3 gs_world_gravity(const gs_world *w);
-/* Any finite vector, zero included. */
+/* Any finite vector, zero included. GS_ERR_BUSY from a callback (as every
+   setter of the world, the agents and the ghosts: see ERRORS). */
 GS_API gs_result gs_world_set_gravity(gs_world *w, gs_vec3 g);
 /* Wall seconds per advance call; 0 = unbounded. */
 GS_API gs_result gs_world_set_budget(gs_world *w, double seconds);
@@ -371,11 +405,13 @@ GS_API size_t gs_agent_state_size(const gs_agent *a);
    GS_ERR_SIZE_MISMATCH unless n == gs_agent_state_size(a). */
 GS_API gs_result gs_agent_get_state(const gs_agent *a, double *out, size_t n);
 /* Sets the state, time included. Every number must be finite; on error
-   nothing changes. */
+   nothing changes. GS_ERR_BUSY from a callback, even on the agent whose
+   own step it is: ghosts and the scheduler read the state meanwhile. */
 GS_API gs_result gs_agent_set_state(gs_agent *a, const double *in, size_t n);
 
 /* Steps the agent once by its dt, outside the scheduler (for tools and
-   tests). GS_ERR_BUSY inside an advance. */
+   tests). GS_ERR_BUSY from a callback (see ERRORS); its own step and
+   weight rules are callbacks too while it runs. */
 GS_API gs_result gs_agent_step(gs_agent *a);
 /* The result of the agent's last step. */
 GS_API gs_result gs_agent_result(const gs_agent *a);
@@ -389,8 +425,8 @@ GS_API void gs_agent_set_priority(gs_agent *a, int priority);
 GS_API void gs_agent_set_behaviour(gs_agent *a, gs_behaviour_fn fn,
                                    void *user);
 GS_API gs_agent_stats gs_agent_get_stats(const gs_agent *a);
-/* Removes the agent from its world and frees it. GS_ERR_BUSY inside an
-   advance. */
+/* Removes the agent from its world and frees it. GS_ERR_BUSY from a
+   callback (see ERRORS). */
 GS_API gs_result gs_agent_destroy(gs_agent *a);
 
 /* A user agent. Its variables live in user memory; ghostsim keeps its time
@@ -406,6 +442,8 @@ typedef struct gs_custom_desc {
     void *user;
 } gs_custom_desc;
 
+/* GS_ERR_OUT_OF_RANGE for a state_size whose bytes do not fit in size_t;
+   the callbacks run with the world's guard up (see ERRORS). */
 GS_API gs_result gs_custom_create(gs_world *w, const gs_custom_desc *desc,
                                   gs_agent **out);
 
@@ -506,7 +544,8 @@ GS_API double gs_mesh_stable_dt(const gs_agent *a);
 /* Moves a pinned particle (the application drags a corner) to pos, in
    metres. GS_ERR_INVALID_ARG if the agent is not a spring-mass agent or the
    particle is not pinned, GS_ERR_OUT_OF_RANGE for a bad index,
-   GS_ERR_NOT_FINITE for a non-finite position; the mesh is unchanged then. */
+   GS_ERR_NOT_FINITE for a non-finite position, GS_ERR_BUSY from a callback;
+   the mesh is unchanged then. */
 GS_API gs_result gs_mesh_move_pin(gs_agent *a, int particle, gs_vec3 pos);
 
 /* ========================================================================
@@ -584,7 +623,7 @@ GS_API gs_result gs_probe_create(gs_world *w, const gs_probe_desc *desc,
                                  gs_agent **out);
 
 /* Where the probe should be; it moves there over its next steps at no more
-   than max_speed. */
+   than max_speed. GS_ERR_BUSY from a callback (set it between advances). */
 GS_API gs_result gs_probe_set_target(gs_agent *probe, gs_vec3 position,
                                      gs_quat orientation);
 
@@ -616,7 +655,8 @@ GS_API int gs_collide_shapes(const gs_shape_desc *a, gs_vec3 pa, gs_quat qa,
                              const gs_shape_desc *b, gs_vec3 pb, gs_quat qb,
                              gs_contact *c);
 
-/* A ground plane y = height that every body meets. */
+/* A ground plane y = height that every body meets. GS_ERR_BUSY from a
+   callback. */
 GS_API gs_result gs_world_set_ground(gs_world *w, int enabled, double height,
                                      gs_material material);
 
@@ -771,7 +811,9 @@ typedef struct gs_ghost_desc {
 
 GS_API gs_ghost_desc gs_ghost_desc_default(void);
 /* Wraps an agent in a ghost. GS_ERR_INVALID_ARG for object id 0 or one
-   already used in this world, a bad rate, encoding or queue size. */
+   already used in this world, a bad rate, encoding or queue size;
+   GS_ERR_OUT_OF_RANGE for a state too big for the ghost's buffers to fit
+   in size_t (a custom agent's). */
 GS_API gs_result gs_ghost_attach(gs_agent *a, const gs_ghost_desc *desc);
 GS_API gs_result gs_ghost_detach(gs_agent *a);
 
@@ -917,7 +959,9 @@ GS_API gs_result gs_wire_begin(unsigned char *buf, size_t cap,
 /* Appends a chunk of `c->elements` values. GS_ERR_CAPACITY if it does not
    fit in cap (leave room for the 4-byte checksum), GS_ERR_NOT_FINITE for a
    NaN or infinite value, or one beyond float range in f32 (never sent),
-   GS_ERR_INVALID_ARG for a time negative or past GS_WIRE_MAX_TIME. */
+   GS_ERR_INVALID_ARG for a time negative or past GS_WIRE_MAX_TIME, or a
+   *size that gs_wire_begin and gs_wire_add cannot have left (under
+   GS_WIRE_HEADER, over cap or GS_WIRE_MAX_DATAGRAM): nothing is written. */
 GS_API gs_result gs_wire_add(unsigned char *buf, size_t cap, size_t *size,
                              const gs_wire_chunk *c, const double *values);
 /* Writes the chunk count and the checksum; returns the datagram size. */
@@ -991,15 +1035,23 @@ typedef struct gs_peer_stats {
 
 GS_API gs_result gs_net_create(gs_world *w, const gs_net_desc *desc,
                                gs_net **out);
+/* Refused from a callback or while a gs_simnet_run runs it, as
+   gs_world_destroy. */
 GS_API void gs_net_destroy(gs_net *net);
+/* GS_ERR_CAPACITY past max_peers, GS_ERR_NO_MEMORY for the ghosts' queues
+   (then no queue is kept), GS_ERR_BUSY from a callback. */
 GS_API gs_result gs_net_add_peer(gs_net *net, uint32_t host);
 GS_API gs_result gs_net_remove_peer(gs_net *net, uint32_t host);
 /* Sends what is due at wall time `now` (s): each ghost's latest state at its
-   rate, within each peer's bandwidth. */
+   rate, within each peer's bandwidth. GS_ERR_NOT_FINITE for a NaN or
+   infinite now; GS_ERR_BUSY from a weight rule or the send callback. */
 GS_API gs_result gs_net_update(gs_net *net, double now);
 /* Hands a received datagram to ghostsim. Returns GS_OK when it was queued,
    GS_ERR_REJECTED (reason in *why, may be NULL) when refused; refused
    datagrams are counted and never blended, and nothing is ever sent back.
+   A NaN or infinite now is GS_ERR_NOT_FINITE, and a call from a weight
+   rule or the send callback GS_ERR_BUSY (the queues are being read):
+   neither is counted.
    The checks, cheapest first: size, magic, version; without a key the CRC
    and the decode (as gs_wire_decode: a sealed datagram fails the CRC);
    the session and the sender (a peer: until here a refusal counts among
@@ -1026,7 +1078,9 @@ GS_API gs_result gs_net_unknown_stats(const gs_net *net,
 GS_API gs_net *gs_world_net(const gs_world *w);
 
 /* Optional lock around the queues, for transports that deliver from another
-   thread (the UDP gather thread sets it). */
+   thread (the UDP gather thread sets it). Weight rules and the send
+   callback run under it: make it recursive if they call into the net (see
+   THREADS). Refused from a callback (it may be held). */
 typedef struct gs_net_lock {
     void (*lock)(void *user);
     void (*unlock)(void *user);
@@ -1061,11 +1115,15 @@ typedef struct gs_simnet_desc {
 } gs_simnet_desc;
 
 GS_API gs_result gs_simnet_create(const gs_simnet_desc *desc, gs_simnet **out);
-/* Destroys the simnet (not the worlds or their nets). */
+/* Destroys the simnet (not the worlds or their nets). Ignored from a
+   callback inside its gs_simnet_run. */
 GS_API void gs_simnet_destroy(gs_simnet *sim);
 /* Joins a world: creates its net on the simnet's transport (desc.send is
    ignored) and links it both ways to every world joined so far with a
-   perfect link. */
+   perfect link. If a host cannot take it (GS_ERR_CAPACITY past its
+   max_peers) nothing is kept: no net, and no host keeps it as a peer.
+   GS_ERR_BUSY while the simnet runs (so are gs_simnet_link and
+   gs_simnet_run). */
 GS_API gs_result gs_simnet_join(gs_simnet *sim, gs_world *w,
                                 const gs_net_desc *desc, gs_net **out);
 /* Sets the link from host a to host b (one direction). */
@@ -1097,7 +1155,9 @@ GS_API void gs_simnet_counts(const gs_simnet *sim, uint64_t *dropped,
 typedef struct gs_udp gs_udp;
 
 typedef struct gs_udp_desc {
-    const char *bind;      /* "HOST:PORT", "[v6]:PORT"; required */
+    const char *bind;      /* "HOST:PORT", "[v6]:PORT"; required; a port
+                              outside 0..65535 is GS_ERR_INVALID_ARG (0:
+                              the kernel picks one) */
     int threads;           /* 1: gather and scatter threads; 0: poll mode */
     int rcvbuf;            /* bytes; default 4 MiB */
     gs_net_desc net;       /* session, bandwidth...; send is ignored */
@@ -1105,16 +1165,19 @@ typedef struct gs_udp_desc {
 
 GS_API gs_result gs_udp_open(gs_world *w, const gs_udp_desc *desc,
                              gs_udp **out);
-/* Joins the threads, closes the socket, frees everything. */
+/* Joins the threads, closes the socket, frees everything. Refused from a
+   callback of its world (the threads may wait on the lock it holds). */
 GS_API void gs_udp_close(gs_udp *u);
 GS_API gs_net *gs_udp_net(gs_udp *u);
-/* Adds or replaces a peer's address ("HOST:PORT", IPv4 or IPv6): from
+/* Adds or replaces a peer's address ("HOST:PORT", IPv4 or IPv6; a port
+   outside 0..65535 is GS_ERR_INVALID_ARG, as in gs_udp_desc.bind): from
    then on, datagrams that name this host as their sender are taken from
    this address only. */
 GS_API gs_result gs_udp_add_peer(gs_udp *u, uint32_t host, const char *addr);
 GS_API gs_result gs_udp_remove_peer(gs_udp *u, uint32_t host);
 /* Poll mode: receives every waiting datagram and sends what is due at wall
-   time now. In thread mode it only wakes the scatter thread. */
+   time now (GS_ERR_BUSY from a callback of the world). In thread mode it
+   only wakes the scatter thread. */
 GS_API gs_result gs_udp_poll(gs_udp *u, double now);
 /* The wall clock gs_udp uses (CLOCK_MONOTONIC seconds). */
 GS_API double gs_udp_now(void);

@@ -262,7 +262,7 @@ typedef struct step_probe {
     gs_agent *self, *other, *probe, *cloth;
     int done;
     gs_result set_other, set_self, gravity, budget, ground, target, pin, attach, detach,
-        add_peer, remove_peer, net_create, advance, destroy_other;
+        add_peer, remove_peer, net_create, advance, destroy_other, update;
     gs_vec3 gravity_after;
 } step_probe;
 
@@ -296,6 +296,7 @@ static gs_result meddling_step(void *user, double t, double dt) {
     p->net_create = gs_net_create(p->w, &nd, &net2);
     p->advance = gs_world_advance(p->w, 1.0, NULL);
     p->destroy_other = gs_agent_destroy(p->other);
+    p->update = gs_net_update(p->net, 1.0); /* any thread's call: it works */
     gs_net_destroy(p->net);   /* refused: frees nothing */
     gs_world_destroy(p->w);   /* refused: frees nothing */
     p->gravity_after = gs_world_gravity(p->w);
@@ -352,6 +353,8 @@ static void test_hostile_custom_step_calls(void **state) {
     assert_int_equal(sp.net_create, GS_ERR_BUSY);
     assert_int_equal(sp.advance, GS_ERR_BUSY);
     assert_int_equal(sp.destroy_other, GS_ERR_BUSY);
+    assert_int_equal(sp.update, GS_OK);
+    assert_true(sk.sent > 0);
     /* nothing changed, nothing was allocated or freed */
     assert_true(sp.gravity_after.x == g0.x && sp.gravity_after.y == g0.y);
     assert_true(gs_world_gravity(w).y == g0.y);
