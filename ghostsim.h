@@ -287,8 +287,8 @@ GS_API gs_result gs_world_advance(gs_world *w, double seconds,
    the others' time), the next advance starts from the slowest agent. */
 GS_API double gs_world_time(const gs_world *w);
 
-/* The detail of the last failed call on this world ("" if none). The text
-   stays valid until the next call on the world. */
+/* The detail of the last failed call on this world ("" if none, or for a
+   NULL w). The text stays valid until the next call on the world. */
 GS_API const char *gs_world_error(const gs_world *w);
 
 GS_API uint32_t gs_world_host_id(const gs_world *w);
@@ -964,7 +964,8 @@ GS_API gs_result gs_wire_begin(unsigned char *buf, size_t cap,
    GS_WIRE_HEADER, over cap or GS_WIRE_MAX_DATAGRAM): nothing is written. */
 GS_API gs_result gs_wire_add(unsigned char *buf, size_t cap, size_t *size,
                              const gs_wire_chunk *c, const double *values);
-/* Writes the chunk count and the checksum; returns the datagram size. */
+/* Writes the checksum after size bytes (buf holds size + 4); returns the
+   datagram size (0 for a NULL buf). */
 GS_API size_t gs_wire_end(unsigned char *buf, size_t size);
 /* Checks everything that needs no knowledge of the objects: size, magic,
    version, flags, checksum, chunk layout, encodings, finite numbers and
@@ -1677,7 +1678,7 @@ GS__PRIVATE gs_result gs__world_add(gs_world *w, gs_agent *a) {
 }
 
 GS_API double gs_world_time(const gs_world *w) { return w->target; }
-GS_API const char *gs_world_error(const gs_world *w) { return w->error; }
+GS_API const char *gs_world_error(const gs_world *w) { return w ? w->error : ""; }
 GS_API uint32_t gs_world_host_id(const gs_world *w) { return w->host_id; }
 GS_API int gs_world_agent_count(const gs_world *w) { return w->agent_count; }
 
@@ -6169,6 +6170,7 @@ GS_API gs_result gs_wire_add(unsigned char *buf, size_t cap, size_t *size,
 }
 
 GS_API size_t gs_wire_end(unsigned char *buf, size_t size) {
+    if (!buf) return 0;
     gs__put32(buf + size, gs__crc32(buf, size));
     return size + 4;
 }
@@ -6281,7 +6283,7 @@ GS_API int gs_wire_decode(const unsigned char *buf, size_t size,
     gs_reject dummy;
     size_t end;
     if (!why) why = &dummy;
-    if (!out) { *why = GS_REJECT_SHORT; return 0; }
+    if (!out || !buf) { *why = GS_REJECT_SHORT; return 0; }
     if (!gs__wire_front(buf, size, why)) return 0;
     end = size - 4;
     if (gs__crc32(buf, end) != gs__get32(buf + end)) { *why = GS_REJECT_CHECKSUM; return 0; }

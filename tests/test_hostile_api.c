@@ -902,6 +902,14 @@ static void test_hostile_null_handles(void **state) {
     gs_net_destroy(NULL);
     gs_world_destroy(NULL);
     gs_simnet_destroy(NULL);
+    assert_string_equal(gs_world_error(NULL), "");
+    {
+        gs_wire_view view;
+        gs_reject why;
+        assert_int_equal(gs_wire_decode(NULL, 100, &view, &why), 0);
+        assert_int_equal(why, GS_REJECT_SHORT);
+        assert_int_equal(gs_wire_end(NULL, 100), 0);
+    }
     /* NULL outputs on live handles */
     assert_int_equal(gs_world_create(NULL, &w), GS_OK);
     d = pend_desc(&v);
