@@ -1634,8 +1634,8 @@ GS_API void gs_world_destroy(gs_world *w) {
     if (!w) return;
     if (gs__world_locked(w) || gs__net_in_use(w->net)) {
         gs__fail(w, GS_ERR_BUSY, "gs_world_destroy: called from a callback of "
-                 "this world or its net; refused, nothing freed (destroy it "
-                 "once that call has returned)");
+                 "this world or its net, or while its simnet runs; refused, "
+                 "nothing freed (destroy it once that call has returned)");
         return;
     }
     gs_net_destroy(w->net);
@@ -4265,8 +4265,8 @@ GS__PRIVATE void gs__sap_update(gs__rigid *r) {
 
 /* A stable merge sort of list[0, n) by key (near: near_key) through tmp,
    then each body's index in it: the order that bubbling each new body in
-   from the end gives, in O(n log n) where that was O(n) per body (60 000
-   bodies created at unsorted x took 71 s). */
+   from the end gives, in O(n log n) for all of them where bubbling was
+   O(n) for each one. */
 GS__PRIVATE void gs__sap_sort_list(gs__rigid **list, gs__rigid **tmp, int n, int near) {
     gs__rigid **src = list, **dst = tmp, **t;
     int width, i;
