@@ -2444,6 +2444,12 @@ typedef struct gs__carver {
     size_t used;
 } gs__carver;
 
+/* count * size, or SIZE_MAX when that does not fit (32-bit size_t: a
+   4096 x 4096 cloth's spring Jacobians alone are 4.8 GB). */
+GS__PRIVATE size_t gs__mul_sat(size_t count, size_t size) {
+    return size && count > SIZE_MAX / size ? SIZE_MAX : count * size;
+}
+
 /* A layout that would not fit in size_t saturates at SIZE_MAX, which no
    allocator gives: the create call fails as out of memory. */
 GS__PRIVATE void *gs__carve(gs__carver *cv, size_t bytes) {
@@ -2466,7 +2472,7 @@ GS__PRIVATE void gs__mesh_layout(gs__mesh *m, gs__carver *cv) {
     m->ext = (gs_vec3 *)gs__carve(cv, v3);
     m->mass = (double *)gs__carve(cv, n * sizeof(double));
     m->inv_mass = (double *)gs__carve(cv, n * sizeof(double));
-    m->springs = (gs__spring *)gs__carve(cv, (size_t)m->ns * sizeof(gs__spring));
+    m->springs = (gs__spring *)gs__carve(cv, gs__mul_sat((size_t)m->ns, sizeof(gs__spring)));
     m->pins = (int *)gs__carve(cv, (size_t)m->npins * sizeof(int));
     m->pinned = (unsigned char *)gs__carve(cv, n);
     if (it != GS_INTEGRATOR_IMPLICIT_EULER &&
@@ -2482,7 +2488,7 @@ GS__PRIVATE void gs__mesh_layout(gs__mesh *m, gs__carver *cv) {
         m->sv = (gs_vec3 *)gs__carve(cv, v3);
     }
     if (it == GS_INTEGRATOR_IMPLICIT_EULER) {
-        m->jac = (double *)gs__carve(cv, (size_t)m->ns * 6 * sizeof(double));
+        m->jac = (double *)gs__carve(cv, gs__mul_sat((size_t)m->ns, 6 * sizeof(double)));
         m->cn = (gs_vec3 *)gs__carve(cv, v3);
         m->ck = (double *)gs__carve(cv, n * sizeof(double));
         m->cc = (double *)gs__carve(cv, n * sizeof(double));
