@@ -445,7 +445,10 @@ typedef struct rule_probe {
         peer_stats, unknown_stats, detach, destroy_agent;
     long allocs_inside;
     counter *cnt;
+    long lock_calls; /* of the lock the rule tried to set: it must not be */
 } rule_probe;
+
+static void probe_lock(void *user) { ((rule_probe *)user)->lock_calls++; }
 
 static double meddling_rule(const gs_weight_in *in, void *user) {
     rule_probe *p = (rule_probe *)user;
@@ -475,6 +478,13 @@ static double meddling_rule(const gs_weight_in *in, void *user) {
     p->unknown_stats = gs_net_unknown_stats(p->net, rej);
     p->detach = gs_ghost_detach(p->agent);
     p->destroy_agent = gs_agent_destroy(p->agent);
+    {
+        gs_net_lock lk;
+        lk.lock = probe_lock;
+        lk.unlock = probe_lock;
+        lk.user = p;
+        gs_net_set_lock(p->net, lk); /* refused: the blend holds the old one */
+    }
     p->allocs_inside = p->cnt->allocs;
     return 1.0;
 }
@@ -540,6 +550,7 @@ static void test_hostile_weight_rule_calls(void **state) {
     /* and the net works once the advance is over */
     assert_int_equal(gs_net_update(rp.net, 2.0), GS_OK);
     assert_true(sk.sent > 0);
+    assert_int_equal(rp.lock_calls, 0);
     gs_world_destroy(w);
     assert_int_equal(cnt.allocs, cnt.frees);
 }
