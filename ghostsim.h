@@ -81,9 +81,33 @@
        code; gs_result_str() names it and gs_world_error() says what exactly
        was wrong with the last failed call on that world. Bad data from
        outside (a desc, a state vector) is an error code, never an assert;
-       a failed call changes nothing. Calling into a world from a callback
-       that runs inside its own gs_world_advance() returns GS_ERR_BUSY.
-       Out of memory is GS_ERR_NO_MEMORY, never abort().
+       a failed call changes nothing (a call that fails half way undoes
+       what it did). A NULL handle is GS_ERR_INVALID_ARG (no world to hold
+       a message then); a count whose bytes would not fit in size_t is
+       GS_ERR_OUT_OF_RANGE; out of memory is GS_ERR_NO_MEMORY, never
+       abort(); a fixed limit (max_peers, the simnet's hosts) is
+       GS_ERR_CAPACITY.
+       Callbacks: user code runs inside the library's calls: a custom
+       agent's step, get_state and set_state, behaviour rules and weight
+       rules run inside gs_world_advance, gs_agent_step, gs_world_hash,
+       gs_agent_get_state/set_state and gs_ghost_attach; the send callback
+       inside gs_net_update. From there, every call that would change the
+       world, an agent, a ghost, the net or the simnet returns GS_ERR_BUSY
+       (advance, create, destroy, set_state, step, set_gravity,
+       set_budget, set_ground, probe targets, pins, ghost attach and
+       detach, net create, peers added or removed, gs_udp_add_peer and
+       _remove_peer, gs_udp_poll in poll mode; while a gs_simnet_run
+       runs, gs_simnet_join, _link and _run); gs_world_destroy,
+       gs_net_destroy, gs_udp_close and gs_net_set_lock are refused
+       (nothing freed or changed, the reason in gs_world_error), and
+       gs_simnet_destroy is ignored while its run goes on. gs_net_update
+       and gs_net_deliver, which any thread may call, return GS_ERR_BUSY
+       from a weight rule or the send callback (the net's queues or its
+       datagram are in use then) and work from a custom step or a
+       behaviour rule. Reading is always allowed (getters,
+       gs_agent_get_state, gs_ghost_get_stats, gs_ghost_render_state,
+       gs_net_peer_stats, gs_net_unknown_stats), and so are
+       gs_agent_set_priority and gs_agent_set_behaviour.
 
    NUMBERS
        SI units throughout: seconds, metres, kilograms, newtons. Positions
@@ -120,6 +144,12 @@
        ghost publishes or blends. gs_net_deliver, gs_net_update and the
        stats calls are safe from any thread; everything else (adding and
        removing peers included) belongs to the world's thread.
+       Weight rules run with the net's lock held, and the send callback
+       too: gs_udp's mutex is recursive, so that a rule's calls into the
+       net take it again (stats answer; the calls that change the net
+       return GS_ERR_BUSY) and never deadlock. A lock of your own
+       (gs_net_set_lock) must be recursive as well if your weight rules
+       or send callback call into the net.
 
    REVISION HISTORY
        0.1.0 (2026-11-23)  world, scheduler, spring-mass agents, integrators,
@@ -274,7 +304,9 @@ GS_API gs_result gs_world_create(const gs_world_desc *desc, gs_world **out);
 
 /* Destroys the world, every agent and ghost in it, and its net. Close its
    gs_udp first (its threads use the net), and do not run a gs_simnet it
-   joined afterwards. NULL is ignored. */
+   joined afterwards. NULL is ignored. From a callback of the world or its
+   net, or while a gs_simnet_run runs it, it is refused: nothing is freed
+   and gs_world_error says so (destroy it once that call has returned). */
 GS_API void gs_world_destroy(gs_world *w);
 
 /* Moves the target time on by `seconds` (>= 0) and runs agent steps, most
@@ -283,10 +315,10 @@ GS_API void gs_world_destroy(gs_world *w);
    report->reached is 0 and the next call goes on). An agent whose step
    fails keeps its state and stops advancing for the rest of this call; the
    others go on. report may be NULL. Returns GS_OK, GS_ERR_INVALID_ARG
-   (negative seconds, or a target past GS_WIRE_MAX_TIME: nothing changes),
-   GS_ERR_NOT_FINITE (NaN or infinite seconds), GS_ERR_BUSY (called from
-   inside an advance), or the first error an agent's step returned (every
-   other agent still advanced). */
+   (negative seconds, NULL w, or a target past GS_WIRE_MAX_TIME: nothing
+   changes), GS_ERR_NOT_FINITE (NaN or infinite seconds), GS_ERR_BUSY
+   (called from a callback: see ERRORS), or the first error an agent's
+   step returned (every other agent still advanced). */
 GS_API gs_result gs_world_advance(gs_world *w, double seconds,
                                   gs_advance_report *report);
 
@@ -295,8 +327,8 @@ GS_API gs_result gs_world_advance(gs_world *w, double seconds,
    the others' time), the next advance starts from the slowest agent. */
 GS_API double gs_world_time(const gs_world *w);
 
-/* The detail of the last failed call on this world ("" if none). The text
-   stays valid until the next call on the world. */
+/* The detail of the last failed call on this world ("" if none, or for a
+   NULL w). The text stays valid until the next call on the world. */
 GS_API const char *gs_world_error(const gs_world *w);
 
 GS_API uint32_t gs_world_host_id(const gs_world *w);
@@ -305,7 +337,8 @@ GS_API int gs_world_agent_count(const gs_world *w);
 GS_API gs_agent *gs_world_agent(const gs_world *w, int i);
 
 GS_API gs_vec3 gs_world_gravity(const gs_world *w);
-/* Any finite vector, zero included. */
+/* Any finite vector, zero included. GS_ERR_BUSY from a callback (as every
+   setter of the world, the agents and the ghosts: see ERRORS). */
 GS_API gs_result gs_world_set_gravity(gs_world *w, gs_vec3 g);
 /* Wall seconds per advance call; 0 = unbounded. */
 GS_API gs_result gs_world_set_budget(gs_world *w, double seconds);
@@ -421,13 +454,15 @@ GS_API gs_result gs_agent_get_state(const gs_agent *a, double *out, size_t n);
    (GS_ERR_INVALID_ARG), every position within +-GS_MAX_COORD
    (GS_ERR_OUT_OF_RANGE), a rigid body's quaternion of norm at least 1e-6
    (GS_ERR_INVALID_ARG; of any finite size, it is normalized); on error
-   nothing changes. */
+   nothing changes. GS_ERR_BUSY from a callback, even on the agent whose
+   own step it is: ghosts and the scheduler read the state meanwhile. */
 GS_API gs_result gs_agent_set_state(gs_agent *a, const double *in, size_t n);
 
 /* Steps the agent once by its dt, outside the scheduler (for tools and
-   tests). GS_ERR_BUSY inside an advance; GS_ERR_OUT_OF_RANGE (and the time
-   stays) if the step would take its time past GS_WIRE_MAX_TIME. Each call
-   counts as an advance for GS_MAX_TIME_CORRECTION. */
+   tests). GS_ERR_BUSY from a callback (see ERRORS); its own step and
+   weight rules are callbacks too while it runs. GS_ERR_OUT_OF_RANGE (and
+   the time stays) if the step would take its time past GS_WIRE_MAX_TIME.
+   Each call counts as an advance for GS_MAX_TIME_CORRECTION. */
 GS_API gs_result gs_agent_step(gs_agent *a);
 /* The result of the agent's last step. */
 GS_API gs_result gs_agent_result(const gs_agent *a);
@@ -441,8 +476,8 @@ GS_API void gs_agent_set_priority(gs_agent *a, int priority);
 GS_API void gs_agent_set_behaviour(gs_agent *a, gs_behaviour_fn fn,
                                    void *user);
 GS_API gs_agent_stats gs_agent_get_stats(const gs_agent *a);
-/* Removes the agent from its world and frees it. GS_ERR_BUSY inside an
-   advance. */
+/* Removes the agent from its world and frees it. GS_ERR_BUSY from a
+   callback (see ERRORS). */
 GS_API gs_result gs_agent_destroy(gs_agent *a);
 
 /* A user agent. Its variables live in user memory; ghostsim keeps its time
@@ -461,6 +496,8 @@ typedef struct gs_custom_desc {
     void *user;
 } gs_custom_desc;
 
+/* GS_ERR_OUT_OF_RANGE for a state_size whose bytes do not fit in size_t;
+   the callbacks run with the world's guard up (see ERRORS). */
 GS_API gs_result gs_custom_create(gs_world *w, const gs_custom_desc *desc,
                                   gs_agent **out);
 
@@ -570,7 +607,7 @@ GS_API double gs_mesh_stable_dt(const gs_agent *a);
    metres. GS_ERR_INVALID_ARG if the agent is not a spring-mass agent or the
    particle is not pinned, GS_ERR_OUT_OF_RANGE for a bad index or a
    position outside +-GS_MAX_COORD, GS_ERR_NOT_FINITE for a non-finite
-   position; the mesh is unchanged then. */
+   position, GS_ERR_BUSY from a callback; the mesh is unchanged then. */
 GS_API gs_result gs_mesh_move_pin(gs_agent *a, int particle, gs_vec3 pos);
 
 /* ========================================================================
@@ -654,7 +691,8 @@ GS_API gs_result gs_probe_create(gs_world *w, const gs_probe_desc *desc,
 /* Where the probe should be; it moves there over its next steps at no more
    than max_speed. GS_ERR_NOT_FINITE for a NaN, GS_ERR_OUT_OF_RANGE for a
    position outside +-GS_MAX_COORD; an all-zero orientation is the
-   identity, any other finite one is normalized. */
+   identity, any other finite one is normalized. GS_ERR_BUSY from a
+   callback (set it between advances). */
 GS_API gs_result gs_probe_set_target(gs_agent *probe, gs_vec3 position,
                                      gs_quat orientation);
 
@@ -689,7 +727,7 @@ GS_API int gs_collide_shapes(const gs_shape_desc *a, gs_vec3 pa, gs_quat qa,
                              gs_contact *c);
 
 /* A ground plane y = height (within +-GS_MAX_COORD) that every body
-   meets. */
+   meets. GS_ERR_BUSY from a callback. */
 GS_API gs_result gs_world_set_ground(gs_world *w, int enabled, double height,
                                      gs_material material);
 
@@ -868,7 +906,9 @@ GS_API gs_ghost_desc gs_ghost_desc_default(void);
 /* Wraps an agent in a ghost. GS_ERR_INVALID_ARG for object id 0 or one
    already used in this world, a bad rate, encoding or queue size;
    GS_ERR_CAPACITY for a state too big for the wire: more than
-   GS_WIRE_MAX_OBJECT_CHUNKS chunks in the chosen encoding. */
+   GS_WIRE_MAX_OBJECT_CHUNKS chunks in the chosen encoding;
+   GS_ERR_OUT_OF_RANGE for a state too big for the ghost's buffers to fit
+   in size_t (a custom agent's). */
 GS_API gs_result gs_ghost_attach(gs_agent *a, const gs_ghost_desc *desc);
 GS_API gs_result gs_ghost_detach(gs_agent *a);
 
@@ -1020,10 +1060,13 @@ GS_API gs_result gs_wire_begin(unsigned char *buf, size_t cap,
 /* Appends a chunk of `c->elements` values. GS_ERR_CAPACITY if it does not
    fit in cap (leave room for the 4-byte checksum), GS_ERR_NOT_FINITE for a
    NaN or infinite value, or one beyond float range in f32 (never sent),
-   GS_ERR_INVALID_ARG for a time negative or past GS_WIRE_MAX_TIME. */
+   GS_ERR_INVALID_ARG for a time negative or past GS_WIRE_MAX_TIME, or a
+   *size that gs_wire_begin and gs_wire_add cannot have left (under
+   GS_WIRE_HEADER, over cap or GS_WIRE_MAX_DATAGRAM): nothing is written. */
 GS_API gs_result gs_wire_add(unsigned char *buf, size_t cap, size_t *size,
                              const gs_wire_chunk *c, const double *values);
-/* Writes the chunk count and the checksum; returns the datagram size. */
+/* Writes the checksum after size bytes (buf holds size + 4); returns the
+   datagram size (0 for a NULL buf). */
 GS_API size_t gs_wire_end(unsigned char *buf, size_t size);
 /* Checks everything that needs no knowledge of the objects: size, magic,
    version, flags, checksum, chunk layout, encodings, finite numbers and
@@ -1094,20 +1137,25 @@ typedef struct gs_peer_stats {
 
 GS_API gs_result gs_net_create(gs_world *w, const gs_net_desc *desc,
                                gs_net **out);
+/* Refused from a callback or while a gs_simnet_run runs it, as
+   gs_world_destroy. */
 GS_API void gs_net_destroy(gs_net *net);
+/* GS_ERR_CAPACITY past max_peers, GS_ERR_NO_MEMORY for the ghosts' queues
+   (then no queue is kept), GS_ERR_BUSY from a callback. */
 GS_API gs_result gs_net_add_peer(gs_net *net, uint32_t host);
 GS_API gs_result gs_net_remove_peer(gs_net *net, uint32_t host);
 /* Sends what is due at wall time `now` (s): each ghost's latest state at its
    rate, within each peer's bandwidth. `now` is a clock that only moves
    forward, in [0, GS_WIRE_MAX_TIME] (GS_ERR_INVALID_ARG otherwise,
    GS_ERR_NOT_FINITE for NaN or infinity): the same clock for
-   gs_net_deliver. */
+   gs_net_deliver. GS_ERR_BUSY from a weight rule or the send callback. */
 GS_API gs_result gs_net_update(gs_net *net, double now);
 /* Hands a received datagram to ghostsim. Returns GS_OK when it was queued,
    GS_ERR_REJECTED (reason in *why, may be NULL) when refused; refused
    datagrams are counted and never blended, and nothing is ever sent back.
    GS_ERR_INVALID_ARG / GS_ERR_NOT_FINITE for a `now` as gs_net_update
-   refuses it (nothing is counted).
+   refuses it, and GS_ERR_BUSY for a call from a weight rule or the send
+   callback (the queues are being read): neither is counted.
    Time: a send or echo time outside [0, GS_WIRE_MAX_TIME] is refused
    (GS_REJECT_TIME); a send time more than GS_MAX_AGE off the sender's
    clock as the round trips measured it leaves the snapshot's age unknown
@@ -1139,7 +1187,9 @@ GS_API gs_result gs_net_unknown_stats(const gs_net *net,
 GS_API gs_net *gs_world_net(const gs_world *w);
 
 /* Optional lock around the queues, for transports that deliver from another
-   thread (the UDP gather thread sets it). */
+   thread (the UDP gather thread sets it). Weight rules and the send
+   callback run under it: make it recursive if they call into the net (see
+   THREADS). Refused from a callback (it may be held). */
 typedef struct gs_net_lock {
     void (*lock)(void *user);
     void (*unlock)(void *user);
@@ -1174,11 +1224,15 @@ typedef struct gs_simnet_desc {
 } gs_simnet_desc;
 
 GS_API gs_result gs_simnet_create(const gs_simnet_desc *desc, gs_simnet **out);
-/* Destroys the simnet (not the worlds or their nets). */
+/* Destroys the simnet (not the worlds or their nets). Ignored from a
+   callback inside its gs_simnet_run. */
 GS_API void gs_simnet_destroy(gs_simnet *sim);
 /* Joins a world: creates its net on the simnet's transport (desc.send is
    ignored) and links it both ways to every world joined so far with a
-   perfect link. */
+   perfect link. If a host cannot take it (GS_ERR_CAPACITY past its
+   max_peers) nothing is kept: no net, and no host keeps it as a peer.
+   GS_ERR_BUSY while the simnet runs (so are gs_simnet_link and
+   gs_simnet_run). */
 GS_API gs_result gs_simnet_join(gs_simnet *sim, gs_world *w,
                                 const gs_net_desc *desc, gs_net **out);
 /* Sets the link from host a to host b (one direction). */
@@ -1211,7 +1265,9 @@ GS_API void gs_simnet_counts(const gs_simnet *sim, uint64_t *dropped,
 typedef struct gs_udp gs_udp;
 
 typedef struct gs_udp_desc {
-    const char *bind;      /* "HOST:PORT", "[v6]:PORT"; required */
+    const char *bind;      /* "HOST:PORT", "[v6]:PORT"; required; a port
+                              outside 0..65535 is GS_ERR_INVALID_ARG (0:
+                              the kernel picks one) */
     int threads;           /* 1: gather and scatter threads; 0: poll mode */
     int rcvbuf;            /* bytes; default 4 MiB */
     gs_net_desc net;       /* session, bandwidth...; send is ignored */
@@ -1219,17 +1275,20 @@ typedef struct gs_udp_desc {
 
 GS_API gs_result gs_udp_open(gs_world *w, const gs_udp_desc *desc,
                              gs_udp **out);
-/* Joins the threads, closes the socket, frees everything. */
+/* Joins the threads, closes the socket, frees everything. Refused from a
+   callback of its world (the threads may wait on the lock it holds). */
 GS_API void gs_udp_close(gs_udp *u);
 GS_API gs_net *gs_udp_net(gs_udp *u);
-/* Adds or replaces a peer's address ("HOST:PORT", IPv4 or IPv6): from
+/* Adds or replaces a peer's address ("HOST:PORT", IPv4 or IPv6; a port
+   outside 0..65535 is GS_ERR_INVALID_ARG, as in gs_udp_desc.bind): from
    then on, datagrams that name this host as their sender are taken from
    this address only. */
 GS_API gs_result gs_udp_add_peer(gs_udp *u, uint32_t host, const char *addr);
 GS_API gs_result gs_udp_remove_peer(gs_udp *u, uint32_t host);
 /* Poll mode: receives every waiting datagram and sends what is due at wall
-   time now (refused as gs_net_update refuses it). In thread mode it only
-   wakes the scatter thread. */
+   time now (refused as gs_net_update refuses it; GS_ERR_BUSY from a
+   callback of the world). In thread mode it only wakes the scatter
+   thread. */
 GS_API gs_result gs_udp_poll(gs_udp *u, double now);
 /* The wall clock gs_udp uses (CLOCK_MONOTONIC seconds). */
 GS_API double gs_udp_now(void);
@@ -1248,6 +1307,7 @@ GS_API double gs_udp_now(void);
 #define GHOSTSIM_IMPLEMENTATION_DONE
 
 #include <ccd/ccd.h>
+#include <limits.h>
 #include <math.h>
 #include <stdarg.h>
 #include <stdio.h>
@@ -1552,6 +1612,9 @@ struct gs_world {
     void *clock_user;
     double target;       /* s */
     int busy;            /* inside gs_world_advance */
+    int inside;          /* depth of the other calls that run user code on
+                            this world: gs_agent_step, a custom agent's
+                            callbacks (see gs__world_unlocked) */
     gs_agent **agents;
     int agent_count, agent_cap;
     /* During an advance, the live agents in a min-heap and a max-heap on
@@ -1566,6 +1629,8 @@ struct gs_world {
                                   sorted by the low end of their sweep on x
                                   (the order contacts are summed in) */
     int nbodies, bodies_cap;
+    int sap_dirty;       /* bodies and near are not sorted yet: creation
+                            appends, the next query or advance sorts */
     struct gs__rigid **near;   /* the same sorted by x - bound (searched) */
     struct gs__rigid **wide;   /* bodies with a sweep over wide_at */
     int nwide;
@@ -1610,6 +1675,32 @@ GS__PRIVATE GS__PRINTF(3, 4) gs_result gs__fail(gs_world *w, gs_result r,
     vsnprintf(w->error, sizeof w->error, fmt, ap);
     va_end(ap);
     return r;
+}
+
+/* The re-entrancy guard. User code runs inside the world's own calls: a
+   custom agent's step and state callbacks, behaviour and weight rules,
+   the budget clock. While it does (an advance, gs_agent_step, a custom
+   callback), every call that would change the world, an agent, a ghost or
+   the net is refused with GS_ERR_BUSY: the call that runs the callback
+   walks those structures and would find them changed or freed. */
+GS__PRIVATE int gs__world_locked(const gs_world *w) {
+    return w->busy || w->inside;
+}
+
+GS__PRIVATE gs_result gs__world_unlocked(gs_world *w, const char *who) {
+    if (!w) return GS_ERR_INVALID_ARG;
+    if (gs__world_locked(w))
+        return gs__fail(w, GS_ERR_BUSY, "%s: the world is advancing or runs a "
+                        "callback; not allowed from inside it", who);
+    return GS_OK;
+}
+
+/* a * b + c bytes into *out; 0 if that does not fit in size_t (a count in
+   a desc that no allocator could give: callers say GS_ERR_OUT_OF_RANGE). */
+GS__PRIVATE int gs__size(size_t a, size_t b, size_t c, size_t *out) {
+    if (b != 0 && a > (SIZE_MAX - c) / b) return 0;
+    *out = a * b + c;
+    return 1;
 }
 
 GS_API gs_world_desc gs_world_desc_default(void) {
@@ -1684,11 +1775,19 @@ GS_API gs_result gs_world_create(const gs_world_desc *desc, gs_world **out) {
 
 struct gs__ghost;
 GS__PRIVATE void gs__ghost_free(struct gs__ghost *g);
+GS__PRIVATE int gs__net_in_use(const gs_net *net);
 
+/* From a callback (see gs__world_unlocked) it frees nothing: the call
+   that runs the callback would go on in freed memory. */
 GS_API void gs_world_destroy(gs_world *w) {
     int i;
     if (!w) return;
-    GS_ASSERT(!w->busy && "gs_world_destroy inside gs_world_advance");
+    if (gs__world_locked(w) || gs__net_in_use(w->net)) {
+        gs__fail(w, GS_ERR_BUSY, "gs_world_destroy: called from a callback of "
+                 "this world or its net, or while its simnet runs; refused, "
+                 "nothing freed (destroy it once that call has returned)");
+        return;
+    }
     gs_net_destroy(w->net);
     for (i = 0; i < w->agent_count; ++i) {
         if (w->agents[i]->ghost) gs__ghost_free((struct gs__ghost *)w->agents[i]->ghost);
@@ -1705,6 +1804,8 @@ GS_API void gs_world_destroy(gs_world *w) {
 GS__PRIVATE gs_result gs__world_add(gs_world *w, gs_agent *a) {
     if (w->agent_count == w->agent_cap) {
         int cap = w->agent_cap ? 2 * w->agent_cap : 8;
+        if (w->agent_cap > INT_MAX / 2 || (size_t)cap > SIZE_MAX / (2 * sizeof(gs_agent *)))
+            return gs__fail(w, GS_ERR_CAPACITY, "agent list: too many agents");
         gs_agent **list = (gs_agent **)gs__alloc(w, (size_t)cap * sizeof *list);
         gs_agent **heaps = (gs_agent **)gs__alloc(w, 2 * (size_t)cap * sizeof *heaps);
         if (!list || !heaps) {
@@ -1727,7 +1828,7 @@ GS__PRIVATE gs_result gs__world_add(gs_world *w, gs_agent *a) {
 }
 
 GS_API double gs_world_time(const gs_world *w) { return w->target; }
-GS_API const char *gs_world_error(const gs_world *w) { return w->error; }
+GS_API const char *gs_world_error(const gs_world *w) { return w ? w->error : ""; }
 GS_API uint32_t gs_world_host_id(const gs_world *w) { return w->host_id; }
 GS_API int gs_world_agent_count(const gs_world *w) { return w->agent_count; }
 
@@ -1738,6 +1839,8 @@ GS_API gs_agent *gs_world_agent(const gs_world *w, int i) {
 GS_API gs_vec3 gs_world_gravity(const gs_world *w) { return w->gravity; }
 
 GS_API gs_result gs_world_set_gravity(gs_world *w, gs_vec3 g) {
+    gs_result r = gs__world_unlocked(w, "gs_world_set_gravity");
+    if (r != GS_OK) return r;
     if (!gs__finite3(g))
         return gs__fail(w, GS_ERR_NOT_FINITE,
                         "gs_world_set_gravity: gravity must be finite");
@@ -1747,6 +1850,8 @@ GS_API gs_result gs_world_set_gravity(gs_world *w, gs_vec3 g) {
 
 GS_API gs_result gs_world_set_budget(gs_world *w, double seconds) {
     gs__check c = gs__check_begin(w, "gs_world_set_budget");
+    gs_result r = gs__world_unlocked(w, "gs_world_set_budget");
+    if (r != GS_OK) return r;
     gs__check_nonneg(&c, "budget", seconds);
     if (c.r == GS_OK) w->budget = seconds;
     return c.r;
@@ -2140,8 +2245,10 @@ GS_API gs_result gs_world_advance(gs_world *w, double seconds,
     double start = 0.0, from;
     uint64_t dispatched = 0;
     memset(&rep, 0, sizeof rep);
-    if (w->busy)
-        return gs__fail(w, GS_ERR_BUSY, "gs_world_advance: already advancing");
+    if (!w) return GS_ERR_INVALID_ARG;
+    if (gs__world_locked(w))
+        return gs__fail(w, GS_ERR_BUSY, "gs_world_advance: already advancing, "
+                        "or called from a callback of this world");
     if (!gs__finite(seconds) || seconds < 0.0)
         return gs__fail(w, gs__finite(seconds) ? GS_ERR_INVALID_ARG
                                                : GS_ERR_NOT_FINITE,
@@ -2275,6 +2382,7 @@ GS_API size_t gs_agent_state_size(const gs_agent *a) {
 
 GS_API gs_result gs_agent_get_state(const gs_agent *a, double *out,
                                     size_t n) {
+    if (!a) return GS_ERR_INVALID_ARG;
     if (n != gs_agent_state_size(a))
         return gs__fail(a->world, GS_ERR_SIZE_MISMATCH,
                         "gs_agent_get_state: n is %lu, the state has %lu",
@@ -2299,6 +2407,8 @@ GS__PRIVATE gs_result gs__agent_put_state(gs_agent *a, const double *in) {
 
 GS_API gs_result gs_agent_set_state(gs_agent *a, const double *in, size_t n) {
     size_t i;
+    gs_result r = gs__world_unlocked(a ? a->world : NULL, "gs_agent_set_state");
+    if (r != GS_OK) return r;
     if (n != gs_agent_state_size(a))
         return gs__fail(a->world, GS_ERR_SIZE_MISMATCH,
                         "gs_agent_set_state: n is %lu, the state has %lu",
@@ -2320,11 +2430,13 @@ GS_API gs_result gs_agent_set_state(gs_agent *a, const double *in, size_t n) {
 }
 
 GS_API gs_result gs_agent_step(gs_agent *a) {
-    if (a->world->busy)
-        return gs__fail(a->world, GS_ERR_BUSY,
-                        "gs_agent_step: the world is advancing");
-    a->world->epoch++;
-    return gs__agent_step(a);
+    gs_result r = gs__world_unlocked(a ? a->world : NULL, "gs_agent_step");
+    if (r != GS_OK) return r;
+    a->world->epoch++; /* one call is one advance for the correction bound */
+    a->world->inside++; /* its step, ghost and weight rules are user code */
+    r = gs__agent_step(a);
+    a->world->inside--;
+    return r;
 }
 
 GS_API void gs_agent_set_priority(gs_agent *a, int priority) {
@@ -2347,11 +2459,10 @@ GS_API void gs_agent_set_behaviour(gs_agent *a, gs_behaviour_fn fn,
 GS__PRIVATE void gs__agent_unlink(gs_agent *a);
 
 GS_API gs_result gs_agent_destroy(gs_agent *a) {
-    gs_world *w = a->world;
+    gs_world *w = a ? a->world : NULL;
     int i;
-    if (w->busy)
-        return gs__fail(w, GS_ERR_BUSY,
-                        "gs_agent_destroy: the world is advancing");
+    gs_result r = gs__world_unlocked(w, "gs_agent_destroy");
+    if (r != GS_OK) return r;
     if (a->ghost) gs_ghost_detach(a);
     gs__agent_unlink(a);
     for (i = a->index + 1; i < w->agent_count; ++i) {
@@ -2377,14 +2488,18 @@ GS__PRIVATE gs_result gs__custom_step(gs_agent *a, double dt) {
     gs__custom *c = (gs__custom *)a;
     size_t n = c->d.state_size, i;
     gs_result r;
+    a->world->inside++; /* the user's callbacks run inside */
     if (n) c->d.get_state(c->d.user, c->before);
     r = c->d.step(c->d.user, gs__agent_time(a), dt);
+    if (r == GS_OK && n) c->d.get_state(c->d.user, c->scratch);
+    a->world->inside--;
     if (r != GS_OK || n == 0) return r;
-    c->d.get_state(c->d.user, c->scratch);
     for (i = 0; i < n; ++i)
         if (!gs__finite(c->scratch[i])) break;
     if (i == n) return GS_OK;
+    a->world->inside++;
     r = c->d.set_state(c->d.user, c->before);
+    a->world->inside--;
     return gs__fail(a->world, GS_ERR_UNSTABLE,
                     "custom agent %d: its step of %g s left element %lu at %g; "
                     "%s", a->index, dt, (unsigned long)(i + 1), c->scratch[i],
@@ -2395,32 +2510,38 @@ GS__PRIVATE gs_result gs__custom_step(gs_agent *a, double dt) {
 GS__PRIVATE size_t gs__custom_state_size(const gs_agent *a) {
     return ((const gs__custom *)a)->d.state_size;
 }
+/* The user's get_state, with the world's guard up (a const agent: the
+   world is the agent's, never const). */
+GS__PRIVATE void gs__custom_get(const gs__custom *c, double *out) {
+    gs_world *w = c->base.world;
+    w->inside++;
+    c->d.get_state(c->d.user, out);
+    w->inside--;
+}
 GS__PRIVATE void gs__custom_get_state(const gs_agent *a, double *out) {
     const gs__custom *c = (const gs__custom *)a;
-    if (c->d.state_size) c->d.get_state(c->d.user, out);
+    if (c->d.state_size) gs__custom_get(c, out);
 }
 GS__PRIVATE gs_result gs__custom_set_state(gs_agent *a, const double *in) {
     gs__custom *c = (gs__custom *)a;
-    return c->d.state_size ? c->d.set_state(c->d.user, in) : GS_OK;
+    gs_result r;
+    if (!c->d.state_size) return GS_OK;
+    a->world->inside++;
+    r = c->d.set_state(c->d.user, in);
+    a->world->inside--;
+    return r;
 }
 /* Hashes the user's state through a scratch copy made at create time. */
 GS__PRIVATE uint64_t gs__custom_hash(const gs_agent *a, uint64_t h) {
     const gs__custom *c = (const gs__custom *)a;
     if (c->d.state_size == 0) return h;
-    c->d.get_state(c->d.user, c->scratch);
+    gs__custom_get(c, c->scratch);
     return gs__fnv(h, c->scratch, c->d.state_size * sizeof(double));
 }
 
 static const gs__kind gs__custom_kind = {
     "custom", gs__custom_step, gs__custom_state_size, gs__custom_get_state,
     gs__custom_set_state, gs__custom_hash, NULL, NULL};
-
-GS__PRIVATE gs_result gs__world_unlocked(gs_world *w, const char *who) {
-    if (!w) return GS_ERR_INVALID_ARG;
-    if (w->busy)
-        return gs__fail(w, GS_ERR_BUSY, "%s: the world is advancing", who);
-    return GS_OK;
-}
 
 /* Refuses a NULL world or out, and any call while the world advances. */
 GS__PRIVATE gs_result gs__create_begin(gs_world *w, const void *desc,
@@ -2438,6 +2559,7 @@ GS_API gs_result gs_custom_create(gs_world *w, const gs_custom_desc *desc,
                                   gs_agent **out) {
     gs__check c;
     gs__custom *a;
+    size_t bytes = 0;
     gs_result r = gs__create_begin(w, desc, out, "gs_custom_create");
     if (r != GS_OK) return r;
     c = gs__check_begin(w, "gs_custom_create");
@@ -2447,13 +2569,15 @@ GS_API gs_result gs_custom_create(gs_world *w, const gs_custom_desc *desc,
         gs__check_fail(&c, GS_ERR_INVALID_ARG,
                        "state_size is %lu but get_state or set_state is NULL",
                        (unsigned long)desc->state_size);
-    if (desc->state_size > (SIZE_MAX - sizeof *a) / (2 * sizeof(double)))
-        gs__check_fail(&c, GS_ERR_NO_MEMORY,
-                       "state_size is %lu doubles: more than memory holds",
+    /* bytes = sizeof *a + 16 * state_size (the state and the copy a step
+       is checked against); the state with its time, 1 + state_size
+       doubles, fits in size_t then too */
+    if (c.r == GS_OK && !gs__size(desc->state_size, 2 * sizeof(double), sizeof *a, &bytes))
+        gs__check_fail(&c, GS_ERR_OUT_OF_RANGE,
+                       "state_size is %lu: its bytes do not fit in size_t",
                        (unsigned long)desc->state_size);
     if (c.r != GS_OK) return c.r;
-    a = (gs__custom *)gs__alloc(w, sizeof *a + 2 * desc->state_size *
-                                                      sizeof(double));
+    a = (gs__custom *)gs__alloc(w, bytes);
     if (!a)
         return gs__fail(w, GS_ERR_NO_MEMORY, "gs_custom_create: out of memory");
     r = gs__agent_init(w, &a->base, &gs__custom_kind, desc->dt);
@@ -2515,9 +2639,20 @@ typedef struct gs__carver {
     size_t used;
 } gs__carver;
 
+/* count * size, or SIZE_MAX when that does not fit (32-bit size_t: a
+   4096 x 4096 cloth's spring Jacobians alone are 4.8 GB). */
+GS__PRIVATE size_t gs__mul_sat(size_t count, size_t size) {
+    return size && count > SIZE_MAX / size ? SIZE_MAX : count * size;
+}
+
+/* A layout that would not fit in size_t saturates at SIZE_MAX, which no
+   allocator gives: the create call fails as out of memory. */
 GS__PRIVATE void *gs__carve(gs__carver *cv, size_t bytes) {
     void *p = cv->base ? (void *)(cv->base + cv->used) : NULL;
-    cv->used += (bytes + 15) & ~(size_t)15;
+    if (bytes > SIZE_MAX - 15 || cv->used > SIZE_MAX - ((bytes + 15) & ~(size_t)15))
+        cv->used = SIZE_MAX;
+    else
+        cv->used += (bytes + 15) & ~(size_t)15;
     return p;
 }
 
@@ -2532,7 +2667,7 @@ GS__PRIVATE void gs__mesh_layout(gs__mesh *m, gs__carver *cv) {
     m->ext = (gs_vec3 *)gs__carve(cv, v3);
     m->mass = (double *)gs__carve(cv, n * sizeof(double));
     m->inv_mass = (double *)gs__carve(cv, n * sizeof(double));
-    m->springs = (gs__spring *)gs__carve(cv, (size_t)m->ns * sizeof(gs__spring));
+    m->springs = (gs__spring *)gs__carve(cv, gs__mul_sat((size_t)m->ns, sizeof(gs__spring)));
     m->pins = (int *)gs__carve(cv, (size_t)m->npins * sizeof(int));
     m->pinned = (unsigned char *)gs__carve(cv, n);
     if (it != GS_INTEGRATOR_IMPLICIT_EULER &&
@@ -2548,7 +2683,7 @@ GS__PRIVATE void gs__mesh_layout(gs__mesh *m, gs__carver *cv) {
         m->sv = (gs_vec3 *)gs__carve(cv, v3);
     }
     if (it == GS_INTEGRATOR_IMPLICIT_EULER) {
-        m->jac = (double *)gs__carve(cv, (size_t)m->ns * 6 * sizeof(double));
+        m->jac = (double *)gs__carve(cv, gs__mul_sat((size_t)m->ns, 6 * sizeof(double)));
         m->cn = (gs_vec3 *)gs__carve(cv, v3);
         m->ck = (double *)gs__carve(cv, n * sizeof(double));
         m->cc = (double *)gs__carve(cv, n * sizeof(double));
@@ -3446,7 +3581,8 @@ GS_API gs_result gs_mesh_energy(const gs_agent *a, double *kinetic,
 
 GS_API gs_result gs_mesh_move_pin(gs_agent *a, int particle, gs_vec3 pos) {
     gs__mesh *m = gs__as_mesh(a);
-    if (!a) return GS_ERR_INVALID_ARG;
+    gs_result r = gs__world_unlocked(a ? a->world : NULL, "gs_mesh_move_pin");
+    if (r != GS_OK) return r;
     if (!m)
         return gs__fail(a->world, GS_ERR_INVALID_ARG,
                         "gs_mesh_move_pin: agent %d is a %s, not a spring-mass agent",
@@ -4273,7 +4409,8 @@ GS_API gs_result gs_probe_create(gs_world *w, const gs_probe_desc *desc,
 GS_API gs_result gs_probe_set_target(gs_agent *a, gs_vec3 position,
                                      gs_quat orientation) {
     gs__rigid *r = gs__as_rigid(a);
-    if (!a) return GS_ERR_INVALID_ARG;
+    gs_result res = gs__world_unlocked(a ? a->world : NULL, "gs_probe_set_target");
+    if (res != GS_OK) return res;
     if (!r || !r->probe)
         return gs__fail(a->world, GS_ERR_INVALID_ARG,
                         "gs_probe_set_target: agent %d is a %s, not a probe", a->index,
@@ -4359,10 +4496,12 @@ GS__PRIVATE double gs__sap_key(const gs__rigid *b, int near) {
     return near ? b->near_key : b->key;
 }
 
-/* Moves r to its place in one list (near: by near_key, else by key). */
+/* Moves r to its place in one list (near: by near_key, else by key).
+   Lists not sorted yet wait for gs__sap_sort. */
 GS__PRIVATE void gs__sap_bubble(gs__rigid **list, int n, gs__rigid *r, int near) {
     int i = near ? r->near : r->sap;
     double k = gs__sap_key(r, near);
+    if (r->base.world->sap_dirty) return;
     while (i > 0 && gs__sap_key(list[i - 1], near) > k) { gs__sap_swap(list, i - 1, i, near); --i; }
     while (i + 1 < n && gs__sap_key(list[i + 1], near) < k) { gs__sap_swap(list, i, i + 1, near); ++i; }
 }
@@ -4450,9 +4589,43 @@ GS__PRIVATE void gs__sap_update(gs__rigid *r) {
     gs__grid_place(w, r);
 }
 
+/* A stable merge sort of list[0, n) by key (near: near_key) through tmp,
+   then each body's index in it: the order that bubbling each new body in
+   from the end gives, in O(n log n) for all of them where bubbling was
+   O(n) for each one. */
+GS__PRIVATE void gs__sap_sort_list(gs__rigid **list, gs__rigid **tmp, int n, int near) {
+    gs__rigid **src = list, **dst = tmp, **t;
+    int width, i;
+    for (width = 1; width < n; width *= 2) {
+        for (i = 0; i < n; i += 2 * width) {
+            int a = i, m = n - i > width ? i + width : n, b = m, k = i;
+            int e = n - i > 2 * width ? i + 2 * width : n;
+            while (a < m && b < e)
+                dst[k++] = gs__sap_key(src[b], near) < gs__sap_key(src[a], near) ? src[b++] : src[a++];
+            while (a < m) dst[k++] = src[a++];
+            while (b < e) dst[k++] = src[b++];
+        }
+        t = src; src = dst; dst = t;
+    }
+    if (src != list) memcpy(list, src, (size_t)n * sizeof *list);
+    for (i = 0; i < n; ++i) *(near ? &list[i]->near : &list[i]->sap) = i;
+}
+
+/* Sorts both lists if bodies were appended since (cand is the scratch:
+   nothing is being asked then). */
+GS__PRIVATE void gs__sap_sort(gs_world *w) {
+    if (!w->sap_dirty) return;
+    gs__sap_sort_list(w->bodies, w->cand, w->nbodies, 0);
+    gs__sap_sort_list(w->near, w->cand, w->nbodies, 1);
+    w->sap_dirty = 0;
+}
+
 GS__PRIVATE gs_result gs__sap_add(gs_world *w, gs__rigid *r) {
+    int sorted;
     if (w->nbodies == w->bodies_cap) {
         int cap = w->bodies_cap ? 2 * w->bodies_cap : 16;
+        if (w->bodies_cap > INT_MAX / 2 || (size_t)cap > SIZE_MAX / (6 * sizeof(struct gs__rigid *)))
+            return gs__fail(w, GS_ERR_CAPACITY, "broad phase: too many bodies");
         struct gs__rigid **list = (struct gs__rigid **)gs__alloc(w, 6 * (size_t)cap * sizeof *list);
         if (!list) return gs__fail(w, GS_ERR_NO_MEMORY, "broad phase: out of memory");
         if (w->nbodies) {
@@ -4474,7 +4647,12 @@ GS__PRIVATE gs_result gs__sap_add(gs_world *w, gs__rigid *r) {
     r->in_grid = 0;
     w->bodies[w->nbodies] = w->near[w->nbodies] = r;
     w->nbodies++;
+    sorted = !w->sap_dirty;
+    w->sap_dirty = 1; /* appended, not bubbled in: gs__sap_sort will */
     gs__sap_update(r);
+    if (sorted && (r->sap == 0 || (gs__sap_key(w->bodies[r->sap - 1], 0) <= r->key &&
+                                   gs__sap_key(w->near[r->near - 1], 1) <= r->near_key)))
+        w->sap_dirty = 0; /* it belongs at the end of both */
     return GS_OK;
 }
 
@@ -4509,6 +4687,7 @@ GS__PRIVATE void gs__agent_unlink(gs_agent *a) {
 GS__PRIVATE void gs__sap_refresh(gs_world *w) {
     double mean = 0.0;
     int i;
+    gs__sap_sort(w);
     for (i = 0; i < w->nbodies; ++i) mean += w->bodies[i]->shape.bound;
     w->wide_at = w->nbodies ? 4.0 * mean / (double)w->nbodies : 0.0;
     w->bound_max = w->speed_max = 0.0;
@@ -4560,6 +4739,7 @@ GS__PRIVATE void gs__sap_order(gs_world *w, int n) {
 GS__PRIVATE int gs__sap_query(gs_world *w, double lo, double hi, double lag) {
     double top = hi + w->speed_max * lag;
     int n = 0, i;
+    gs__sap_sort(w);
     top += 1e-9 * (1.0 + fabs(top));
     for (i = 0; i < w->nwide; ++i)
         if (gs__sap_meets(w->wide[i], lo, hi, lag)) w->cand[n++] = w->wide[i];
@@ -4580,6 +4760,7 @@ GS__PRIVATE int gs__sap_query_near(gs_world *w, const gs__rigid *r, double lag) 
     double reach = (r->shape.bound + w->bound_max + w->speed_max * lag) * (1.0 + 1e-9) + 1e-12;
     int64_t a[3], b[3], c[3];
     int n = 0, i;
+    gs__sap_sort(w); /* the candidates go in the order of bodies */
     if (w->cell <= 0.0 || !(reach < 0.5 * GS__GRID_MAX_CELLS * w->cell))
         return gs__sap_query(w, lo, hi, lag);
     a[0] = gs__grid_coord(w, r->x.x - reach); b[0] = gs__grid_coord(w, r->x.x + reach);
@@ -4806,6 +4987,7 @@ GS_API int gs_collide_shapes(const gs_shape_desc *a, gs_vec3 pa, gs_quat qa,
     gs_contact all[2 * GS_MAX_HULL_POINTS];
     gs__check chk = gs__check_begin(NULL, "gs_collide_shapes");
     int n, i, deepest = 0;
+    if (!a || !b || !c) return 0;
     gs__shape_build(&chk, a, &sa);
     gs__shape_build(&chk, b, &sb);
     if (chk.r != GS_OK || !c || !gs__in_range3(pa) || !gs__in_range3(pb)) return 0;
@@ -5012,6 +5194,8 @@ GS__PRIVATE void gs__rigid_contacts(gs__rigid *r, double t) {
 GS_API gs_result gs_world_set_ground(gs_world *w, int enabled, double height,
                                      gs_material material) {
     gs__check c = gs__check_begin(w, "gs_world_set_ground");
+    gs_result r = gs__world_unlocked(w, "gs_world_set_ground");
+    if (r != GS_OK) return r;
     material = gs__material_defaults(material);
     gs__check_finite(&c, "height", height);
     if (c.r == GS_OK && fabs(height) > GS_MAX_COORD)
@@ -5248,7 +5432,9 @@ GS_API gs_result gs_scene_create(gs_world *w, const gs_scene_desc *desc,
     gs_cloth_desc cd = gs_cloth_desc_default();
     gs__check c = gs__check_begin(w, "gs_scene_create");
     gs_result r;
-    int first;
+    int first, ground;
+    double ground_height;
+    gs_material ground_material;
     if (!w || !out) return GS_ERR_INVALID_ARG;
     memset(out, 0, sizeof *out);
     out->desc = gs__scene_defaults(desc);
@@ -5268,6 +5454,9 @@ GS_API gs_result gs_scene_create(gs_world *w, const gs_scene_desc *desc,
                            out->desc.cloth_n, out->desc.dt, work, GS_SCENE_SETTLE_WORK);
     }
     if (c.r != GS_OK) return c.r;
+    ground = w->ground; /* put back if anything below fails */
+    ground_height = w->ground_height;
+    ground_material = w->ground_material;
     r = gs_world_set_ground(w, 1, -1.5, gs__scene_material());
     if (r != GS_OK) return r;
     first = w->agent_count;
@@ -5285,6 +5474,9 @@ GS_API gs_result gs_scene_create(gs_world *w, const gs_scene_desc *desc,
     if (r == GS_OK) r = gs__scene_bodies(w, out);
     if (r != GS_OK) { /* leave the world as it was */
         while (w->agent_count > first) gs_agent_destroy(w->agents[w->agent_count - 1]);
+        w->ground = ground;
+        w->ground_height = ground_height;
+        w->ground_material = ground_material;
         memset(out, 0, sizeof *out);
     }
     return r;
@@ -5399,6 +5591,11 @@ struct gs_net {
     gs__peer peers[GS__MAX_PEERS];
     uint64_t unknown_rejected[GS_REJECT_COUNT];
     gs_net_lock lock;
+    int inside;               /* under the lock: the net runs user code
+                                 under it (a weight rule in a blend, the
+                                 send callback in gs_net_update), which
+                                 must not re-enter the net */
+    int held;                 /* a gs_simnet_run is running it */
     int published;            /* a ghost published B since gs_udp's scatter
                                  thread last looked (it ticks while they do) */
     double now;               /* s, wall time of the last update/deliver */
@@ -5522,14 +5719,32 @@ GS__PRIVATE gs_result gs__ghost_chunks_fit(gs_world *w, size_t vars, gs_encoding
                     (unsigned long)(per * GS_WIRE_MAX_OBJECT_CHUNKS));
 }
 
+/* The bytes of a ghost (*bytes) and of one peer's queue (*queue) for a
+   state of n values; 0 if either does not fit in size_t (a custom agent's
+   state_size can be anything). */
+GS__PRIVATE int gs__ghost_sizes(size_t n, const gs_ghost_desc *d, size_t *bytes,
+                                size_t *queue) {
+    size_t qs = (size_t)d->queue_size, slots = (size_t)GS__MAX_PEERS * qs, per, nchunks, vals;
+    size_t room = GS_WIRE_CHUNK_ROOM / gs__value_size(d->encoding);
+    nchunks = (n - 1) / room + 1; /* at least one, as gs_ghost_attach counts */
+    if (!gs__size(n, 5, slots, &vals) || !gs__size(vals, sizeof(double), 0, &vals) ||
+        !gs__size(slots, sizeof(gs__src), sizeof(gs__ghost), bytes) || *bytes > SIZE_MAX - vals)
+        return 0;
+    *bytes += vals;
+    return gs__size(n - 1, sizeof(double), sizeof(gs__snap) + nchunks, &per) &&
+           gs__size(qs, per, 0, queue);
+}
+
 GS_API gs_result gs_ghost_attach(gs_agent *a, const gs_ghost_desc *desc) {
-    gs_world *w = a->world;
+    gs_world *w = a ? a->world : NULL;
     gs_ghost_desc d;
     gs__ghost *g;
-    size_t n = gs_agent_state_size(a), vars = n - 1, bytes;
+    size_t n, vars, bytes, queue;
     int i;
     gs_result r = gs__world_unlocked(w, "gs_ghost_attach");
     if (r != GS_OK) return r;
+    n = gs_agent_state_size(a);
+    vars = n - 1;
     if (!desc) return gs__fail(w, GS_ERR_INVALID_ARG, "gs_ghost_attach: desc is NULL");
     if (a->ghost) return gs__fail(w, GS_ERR_INVALID_ARG, "gs_ghost_attach: the agent has a ghost");
     d = gs__ghost_defaults(desc);
@@ -5537,8 +5752,10 @@ GS_API gs_result gs_ghost_attach(gs_agent *a, const gs_ghost_desc *desc) {
     if (r != GS_OK) return r;
     r = gs__ghost_chunks_fit(w, vars, d.encoding);
     if (r != GS_OK) return r;
-    bytes = sizeof *g + (size_t)GS__MAX_PEERS * (size_t)d.queue_size * sizeof(gs__src) +
-            (5 * n + (size_t)GS__MAX_PEERS * (size_t)d.queue_size) * sizeof(double);
+    if (!gs__ghost_sizes(n, &d, &bytes, &queue))
+        return gs__fail(w, GS_ERR_OUT_OF_RANGE, "gs_ghost_attach: a state of %lu values "
+                        "with queue_size %d does not fit in size_t", (unsigned long)n,
+                        d.queue_size);
     g = (gs__ghost *)gs__alloc(w, bytes);
     if (!g) return gs__fail(w, GS_ERR_NO_MEMORY, "gs_ghost_attach: out of memory");
     memset(g, 0, bytes);
@@ -5569,9 +5786,10 @@ GS_API gs_result gs_ghost_attach(gs_agent *a, const gs_ghost_desc *desc) {
 }
 
 GS_API gs_result gs_ghost_detach(gs_agent *a) {
-    gs_result r = gs__world_unlocked(a->world, "gs_ghost_detach");
-    gs__ghost *g = gs__ghost_of(a);
+    gs_result r = gs__world_unlocked(a ? a->world : NULL, "gs_ghost_detach");
+    gs__ghost *g;
     if (r != GS_OK) return r;
+    g = gs__ghost_of(a);
     if (!g) return GS_OK;
     gs__lock(a->world->net);
     a->ghost = NULL;
@@ -5581,7 +5799,7 @@ GS_API gs_result gs_ghost_detach(gs_agent *a) {
 }
 
 GS_API gs_result gs_ghost_get_stats(const gs_agent *a, gs_ghost_stats *out) {
-    const gs__ghost *g = gs__ghost_of(a);
+    const gs__ghost *g = a ? gs__ghost_of(a) : NULL;
     if (!g || !out) return GS_ERR_INVALID_ARG;
     *out = g->stats;
     return GS_OK;
@@ -5595,7 +5813,7 @@ GS__PRIVATE double gs__offset_fade(const gs__ghost *g, double t) {
 
 GS_API gs_result gs_ghost_render_state(const gs_agent *a, double *out,
                                        size_t n) {
-    const gs__ghost *g = gs__ghost_of(a);
+    const gs__ghost *g = a ? gs__ghost_of(a) : NULL;
     gs_result r = gs_agent_get_state(a, out, n);
     double f;
     size_t i;
@@ -6121,6 +6339,7 @@ GS__PRIVATE uint32_t gs__ghost_blend(gs__ghost *g, gs_net *net) {
     uint32_t seen = 0;
     int used;
     gs__lock(net);
+    net->inside++; /* the weight rules run under the lock */
     gs_agent_get_state(g->agent, g->local, n);
     t_i = g->local[0];
     memset(&ps, 0, sizeof ps);
@@ -6146,6 +6365,7 @@ GS__PRIVATE uint32_t gs__ghost_blend(gs__ghost *g, gs_net *net) {
         }
     }
     gs__ghost_clear(g);
+    net->inside--;
     gs__unlock(net);
     return seen;
 }
@@ -6315,10 +6535,15 @@ GS_API gs_result gs_wire_add(unsigned char *buf, size_t cap, size_t *size,
     if (!buf || !size || !c || (c->elements && !values)) return GS_ERR_INVALID_ARG;
     if (c->encoding != GS_ENCODING_F64 && c->encoding != GS_ENCODING_F32)
         return GS_ERR_INVALID_ARG;
+    /* *size as gs_wire_begin and gs_wire_add leave it, or nothing is
+       written: a wild one would wrap the room check below */
+    if (*size < GS_WIRE_HEADER || *size > cap || *size > GS_WIRE_MAX_DATAGRAM)
+        return GS_ERR_INVALID_ARG;
     if (gs__get16(buf + 6) >= GS_WIRE_MAX_CHUNKS) return GS_ERR_CAPACITY;
     vs = gs__value_size(c->encoding);
-    need = GS_WIRE_CHUNK_HEADER + vs * c->elements;
-    if (*size + need + 4 > cap || *size + need + 4 > GS_WIRE_MAX_DATAGRAM) return GS_ERR_CAPACITY;
+    need = GS_WIRE_CHUNK_HEADER + vs * c->elements + 4;
+    if (need > cap - *size || need > GS_WIRE_MAX_DATAGRAM - *size) return GS_ERR_CAPACITY;
+    need -= 4; /* the checksum's room stays free */
     if (!gs__finite(c->time)) return GS_ERR_NOT_FINITE;
     if (c->time < 0.0 || c->time > GS_WIRE_MAX_TIME) return GS_ERR_INVALID_ARG;
     /* the values first, checked as they are written: the bytes past *size
@@ -6343,6 +6568,7 @@ GS_API gs_result gs_wire_add(unsigned char *buf, size_t cap, size_t *size,
 }
 
 GS_API size_t gs_wire_end(unsigned char *buf, size_t size) {
+    if (!buf) return 0;
     gs__put32(buf + size, gs__crc32(buf, size));
     return size + 4;
 }
@@ -6464,7 +6690,7 @@ GS_API int gs_wire_decode(const unsigned char *buf, size_t size,
     gs_reject dummy;
     size_t end;
     if (!why) why = &dummy;
-    if (!out) { *why = GS_REJECT_SHORT; return 0; }
+    if (!out || !buf) { *why = GS_REJECT_SHORT; return 0; }
     if (!gs__wire_front(buf, size, why)) return 0;
     end = size - 4;
     if (gs__crc32(buf, end) != gs__get32(buf + end)) { *why = GS_REJECT_CHECKSUM; return 0; }
@@ -6580,8 +6806,9 @@ GS_API gs_result gs_net_create(gs_world *w, const gs_net_desc *desc,
     if (d.session == 0) d.session = 1;
     if (d.bandwidth == 0.0) d.bandwidth = 1e7;
     if (d.max_peers == 0) d.max_peers = GS__MAX_PEERS;
+    /* divided first: a bandwidth near DBL_MAX must not make it inf */
     if (d.max_rate == 0.0 && gs__finite(d.bandwidth))
-        d.max_rate = fmax(20000.0, 2.0 * d.bandwidth / GS_WIRE_MAX_DATAGRAM);
+        d.max_rate = fmax(20000.0, 2.0 * (d.bandwidth / GS_WIRE_MAX_DATAGRAM));
     if (!d.send) gs__check_fail(&c, GS_ERR_INVALID_ARG, "send is NULL");
     gs__check_positive(&c, "bandwidth", d.bandwidth);
     gs__check_nonneg(&c, "time_window", d.time_window);
@@ -6608,11 +6835,25 @@ GS_API gs_result gs_net_create(gs_world *w, const gs_net_desc *desc,
     return GS_OK;
 }
 
+/* Is the net inside one of its own calls (user code under its lock), or
+   is the simnet it joined running? Then it must not be freed. Read
+   without the lock: destroying a net whose other threads still run is
+   refused by its own contract already (close its gs_udp first). */
+GS__PRIVATE int gs__net_in_use(const gs_net *net) {
+    return net && (net->inside || net->held);
+}
+
+/* Refused from a callback, as gs_world_destroy. */
 GS_API void gs_net_destroy(gs_net *net) {
     gs_world *w;
     int i, p;
     if (!net) return;
     w = net->world;
+    if (gs__world_locked(w) || gs__net_in_use(net)) {
+        gs__fail(w, GS_ERR_BUSY, "gs_net_destroy: called from a callback of the "
+                 "world or the net, or while its simnet runs; refused, nothing freed");
+        return;
+    }
     for (i = 0; i < w->agent_count; ++i) { /* queues belong to peers */
         gs__ghost *g = gs__ghost_of(w->agents[i]);
         for (p = 0; g && p < GS__MAX_PEERS; ++p) {
@@ -6627,7 +6868,33 @@ GS_API void gs_net_destroy(gs_net *net) {
 
 GS_API gs_net *gs_world_net(const gs_world *w) { return w->net; }
 
-GS_API void gs_net_set_lock(gs_net *net, gs_net_lock lock) { net->lock = lock; }
+GS_API void gs_net_set_lock(gs_net *net, gs_net_lock lock) {
+    if (!net) return;
+    if (gs__world_locked(net->world) || net->inside) { /* it may be held now */
+        gs__fail(net->world, GS_ERR_BUSY, "gs_net_set_lock: called from a callback; "
+                 "the lock stays as it was");
+        return;
+    }
+    net->lock = lock;
+}
+
+/* The guard of the calls that change the net: the world's (these belong
+   to its thread), then, under the net's lock, the net's own (a send
+   callback or weight rule that calls back). Returns GS_OK with the lock
+   NOT held. */
+GS__PRIVATE gs_result gs__net_unlocked(gs_net *net, const char *who) {
+    int inside;
+    gs_result r;
+    if (!net) return GS_ERR_INVALID_ARG;
+    r = gs__world_unlocked(net->world, who);
+    if (r != GS_OK) return r;
+    gs__lock(net);
+    inside = net->inside;
+    gs__unlock(net);
+    return inside ? gs__fail(net->world, GS_ERR_BUSY, "%s: called from a callback the "
+                             "net runs (a send or a weight rule)", who)
+                  : GS_OK;
+}
 
 GS__PRIVATE int gs__peer_slot(const gs_net *net, uint32_t host) {
     int p;
@@ -6636,9 +6903,23 @@ GS__PRIVATE int gs__peer_slot(const gs_net *net, uint32_t host) {
     return -1;
 }
 
+/* Frees every ghost's queue for peer slot p (a slot no peer uses). */
+GS__PRIVATE void gs__net_drop_queues(gs_world *w, int p) {
+    int i;
+    for (i = 0; i < w->agent_count; ++i) {
+        gs__ghost *g = gs__ghost_of(w->agents[i]);
+        if (!g) continue;
+        gs__free(w, g->q[p]);
+        g->q[p] = NULL;
+    }
+}
+
 GS_API gs_result gs_net_add_peer(gs_net *net, uint32_t host) {
-    gs_world *w = net->world;
+    gs_world *w;
     int p, i, count = 0;
+    gs_result r = gs__net_unlocked(net, "gs_net_add_peer");
+    if (r != GS_OK) return r;
+    w = net->world;
     if (host == 0 || host == w->host_id)
         return gs__fail(w, GS_ERR_INVALID_ARG, "gs_net_add_peer: host %lu is 0 or this host",
                         (unsigned long)host);
@@ -6650,7 +6931,11 @@ GS_API gs_result gs_net_add_peer(gs_net *net, uint32_t host) {
                         net->d.max_peers);
     for (i = 0; i < w->agent_count; ++i) {
         gs__ghost *g = gs__ghost_of(w->agents[i]);
-        if (g && gs__ghost_add_peer(g, p) != GS_OK) return GS_ERR_NO_MEMORY;
+        if (g && gs__ghost_add_peer(g, p) != GS_OK) {
+            gs__net_drop_queues(w, p); /* the queues made so far go too */
+            return gs__fail(w, GS_ERR_NO_MEMORY, "gs_net_add_peer: out of memory "
+                            "for the ghosts' queues of host %lu", (unsigned long)host);
+        }
     }
     gs__lock(net);
     memset(&net->peers[p], 0, sizeof net->peers[p]);
@@ -6662,25 +6947,24 @@ GS_API gs_result gs_net_add_peer(gs_net *net, uint32_t host) {
 }
 
 GS_API gs_result gs_net_remove_peer(gs_net *net, uint32_t host) {
-    gs_world *w = net->world;
-    int p = gs__peer_slot(net, host), i;
+    gs_world *w;
+    int p;
+    gs_result r = gs__net_unlocked(net, "gs_net_remove_peer");
+    if (r != GS_OK) return r;
+    w = net->world;
+    p = gs__peer_slot(net, host);
     if (p < 0) return gs__fail(w, GS_ERR_INVALID_ARG, "gs_net_remove_peer: no peer %lu",
                                (unsigned long)host);
     gs__lock(net);
     net->peers[p].used = 0;
-    for (i = 0; i < w->agent_count; ++i) {
-        gs__ghost *g = gs__ghost_of(w->agents[i]);
-        if (!g) continue;
-        gs__free(w, g->q[p]);
-        g->q[p] = NULL;
-    }
+    gs__net_drop_queues(w, p);
     gs__unlock(net);
     return GS_OK;
 }
 
 GS_API gs_result gs_net_peer_stats(const gs_net *net, uint32_t host,
                                    gs_peer_stats *out) {
-    int p = gs__peer_slot(net, host);
+    int p = net ? gs__peer_slot(net, host) : -1;
     if (p < 0 || !out) return GS_ERR_INVALID_ARG;
     gs__lock((gs_net *)net);
     *out = net->peers[p].st;
@@ -6690,6 +6974,7 @@ GS_API gs_result gs_net_peer_stats(const gs_net *net, uint32_t host,
 
 GS_API gs_result gs_net_unknown_stats(const gs_net *net,
                                       uint64_t rejected[GS_REJECT_COUNT]) {
+    if (!net || !rejected) return GS_ERR_INVALID_ARG;
     gs__lock((gs_net *)net);
     memcpy(rejected, net->unknown_rejected, sizeof net->unknown_rejected);
     gs__unlock((gs_net *)net);
@@ -6813,12 +7098,19 @@ GS__PRIVATE int gs__ghost_due(const gs__ghost *g, double now) {
 /* Every due ghost is encoded once into datagrams that go to every peer
    (a peer whose budget is spent misses that datagram). */
 GS_API gs_result gs_net_update(gs_net *net, double now) {
-    gs_world *w = net->world;
+    gs_world *w;
     int p, i, peers = 0;
     size_t size;
+    if (!net) return GS_ERR_INVALID_ARG;
     if (!gs__finite(now)) return GS_ERR_NOT_FINITE;
     if (!gs__wire_time_ok(now)) return GS_ERR_INVALID_ARG; /* a clock */
+    w = net->world;
     gs__lock(net);
+    if (net->inside) { /* from its own send callback or a weight rule */
+        gs__unlock(net);
+        return GS_ERR_BUSY;
+    }
+    net->inside++;
     net->now = now;
     for (p = 0; p < GS__MAX_PEERS; ++p) peers += net->peers[p].used;
     if (peers) gs__datagram_begin(net, now, &size);
@@ -6830,6 +7122,7 @@ GS_API gs_result gs_net_update(gs_net *net, double now) {
         g->next_send = now + 1.0 / g->d.send_rate;
     }
     if (peers) gs__datagram_flush(net, now, &size);
+    net->inside--;
     gs__unlock(net);
     return GS_OK;
 }
@@ -7177,10 +7470,13 @@ GS__PRIVATE gs_result gs__deliver_locked(gs_net *net, const void *data, size_t s
 GS_API gs_result gs_net_deliver(gs_net *net, const void *data, size_t size,
                                 double now, gs_reject *why) {
     gs_result r;
+    if (!net || (!data && size > 0)) return GS_ERR_INVALID_ARG;
     if (!gs__wire_time_ok(now)) /* a clock; NaN included */
         return gs__finite(now) ? GS_ERR_INVALID_ARG : GS_ERR_NOT_FINITE;
     gs__lock(net);
-    r = gs__deliver_locked(net, data, size, now, why);
+    /* from a weight rule (the queues are being blended) or the send
+       callback: refused, not counted */
+    r = net->inside ? GS_ERR_BUSY : gs__deliver_locked(net, data, size, now, why);
     gs__unlock(net);
     return r;
 }
@@ -7224,6 +7520,7 @@ struct gs_simnet {
     int *free_slots, nfree;
     int count, cap;
     uint64_t order, dropped, duplicated, delivered;
+    int running;        /* inside gs_simnet_run: its hosts are in use */
 };
 
 /* xorshift64*: one stream for the whole simnet, so a seed fixes the run. */
@@ -7248,7 +7545,9 @@ GS_API gs_result gs_simnet_create(const gs_simnet_desc *desc, gs_simnet **out) {
     if (d.max_in_flight < 1 || d.max_in_flight > (1 << 22)) return GS_ERR_INVALID_ARG;
     if (!d.allocator.alloc != !d.allocator.free) return GS_ERR_INVALID_ARG;
     if (!d.allocator.alloc) { d.allocator.alloc = gs__default_alloc; d.allocator.free = gs__default_free; }
-    bytes = sizeof *s + (size_t)d.max_in_flight * (sizeof(gs__flight) + sizeof(int) + GS_WIRE_MAX_DATAGRAM);
+    if (!gs__size((size_t)d.max_in_flight, sizeof(gs__flight) + sizeof(int) + GS_WIRE_MAX_DATAGRAM,
+                  sizeof *s, &bytes))
+        return GS_ERR_OUT_OF_RANGE;
     s = (gs_simnet *)d.allocator.alloc(bytes, d.allocator.user);
     if (!s) return GS_ERR_NO_MEMORY;
     memset(s, 0, sizeof *s);
@@ -7264,8 +7563,9 @@ GS_API gs_result gs_simnet_create(const gs_simnet_desc *desc, gs_simnet **out) {
     return GS_OK;
 }
 
+/* From a callback inside gs_simnet_run: ignored (the run goes on in it). */
 GS_API void gs_simnet_destroy(gs_simnet *s) {
-    if (s) s->alloc.free(s, s->alloc.user);
+    if (s && !s->running) s->alloc.free(s, s->alloc.user);
 }
 
 GS__PRIVATE int gs__flight_less(const gs__flight *a, const gs__flight *b) {
@@ -7362,9 +7662,12 @@ GS_API gs_result gs_simnet_join(gs_simnet *s, gs_world *w, const gs_net_desc *de
     gs_net_desc d;
     gs__sim_host *h;
     gs_result r;
-    int i;
+    uint32_t had = 0;
+    int i, k;
     if (!s || !w || !out) return GS_ERR_INVALID_ARG;
     *out = NULL;
+    if (s->running)
+        return gs__fail(w, GS_ERR_BUSY, "gs_simnet_join: the simnet is running");
     if (s->hosts == GS__SIM_MAX_HOSTS || gs__sim_slot(s, w->host_id) >= 0)
         return gs__fail(w, GS_ERR_INVALID_ARG, "gs_simnet_join: host %lu already joined or "
                         "the simnet is full", (unsigned long)w->host_id);
@@ -7379,14 +7682,30 @@ GS_API gs_result gs_simnet_join(gs_simnet *s, gs_world *w, const gs_net_desc *de
     d.send_user = h;
     r = gs_net_create(w, &d, &h->net);
     if (r != GS_OK) return r;
+    /* validated by doing, then undone: the hosts before the one that
+       refused forget the new host again (unless they had it already) */
+    for (i = 0; i < s->hosts; ++i) {
+        gs__sim_host *o = &s->host[i];
+        if (gs__peer_slot(o->net, h->host) >= 0) had |= 1u << i;
+        r = gs_net_add_peer(h->net, o->host);
+        if (r != GS_OK) break;
+        r = gs_net_add_peer(o->net, h->host);
+        if (r != GS_OK) { /* its message is on the other world: bring it here */
+            gs__fail(w, r, "gs_simnet_join: host %lu: %s", (unsigned long)o->host,
+                     gs_world_error(o->world));
+            break;
+        }
+    }
+    if (r != GS_OK) {
+        for (k = 0; k < i; ++k)
+            if (!(had & (1u << k))) gs_net_remove_peer(s->host[k].net, h->host);
+        gs_net_destroy(h->net);
+        h->net = NULL;
+        return r;
+    }
     for (i = 0; i < s->hosts; ++i) {
         memset(&s->link[i][s->hosts], 0, sizeof(gs_link_desc));
         memset(&s->link[s->hosts][i], 0, sizeof(gs_link_desc));
-        if (gs_net_add_peer(h->net, s->host[i].host) != GS_OK ||
-            gs_net_add_peer(s->host[i].net, h->host) != GS_OK) {
-            gs_net_destroy(h->net);
-            return GS_ERR_NO_MEMORY;
-        }
     }
     s->hosts++;
     *out = h->net;
@@ -7395,8 +7714,12 @@ GS_API gs_result gs_simnet_join(gs_simnet *s, gs_world *w, const gs_net_desc *de
 
 GS_API gs_result gs_simnet_link(gs_simnet *s, uint32_t a, uint32_t b,
                                 const gs_link_desc *desc) {
-    int i = gs__sim_slot(s, a), j = gs__sim_slot(s, b), k;
-    if (i < 0 || j < 0 || !desc) return GS_ERR_INVALID_ARG;
+    int i, j, k;
+    if (!s || !desc) return GS_ERR_INVALID_ARG;
+    if (s->running) return GS_ERR_BUSY;
+    i = gs__sim_slot(s, a);
+    j = gs__sim_slot(s, b);
+    if (i < 0 || j < 0) return GS_ERR_INVALID_ARG;
     if (!(desc->latency >= 0.0) || !(desc->jitter >= 0.0) || !(desc->loss >= 0.0) ||
         !(desc->loss <= 1.0) || !(desc->duplicate >= 0.0) || !(desc->duplicate <= 1.0) ||
         !(desc->reorder >= 0.0) || !(desc->reorder <= 1.0) || !(desc->bandwidth >= 0.0) ||
@@ -7427,6 +7750,9 @@ GS_API gs_result gs_simnet_run(gs_simnet *s, double seconds, double frame) {
     if (!s || !gs__finite(seconds) || seconds < 0.0 || !gs__finite(frame) ||
         !(frame >= GS_MIN_DT) || seconds > GS_WIRE_MAX_TIME - s->now)
         return GS_ERR_INVALID_ARG;
+    if (s->running) return GS_ERR_BUSY; /* from a callback of one of its worlds */
+    s->running = 1;
+    for (i = 0; i < s->hosts; ++i) s->host[i].net->held = 1;
     end = s->now + seconds;
     while (s->now < end - 0.5 * frame) {
         s->now += frame;
@@ -7437,6 +7763,8 @@ GS_API gs_result gs_simnet_run(gs_simnet *s, double seconds, double frame) {
         }
         gs__sim_deliver_due(s);
     }
+    for (i = 0; i < s->hosts; ++i) s->host[i].net->held = 0;
+    s->running = 0;
     return first;
 }
 
@@ -7549,6 +7877,20 @@ GS__PRIVATE void gs__udp_unlock(void *user) {
     if (wake) gs__udp_kick(u);
 }
 
+/* A port in decimal, 0..65535 (getaddrinfo takes "99999" as 34463), or a
+   service name for getaddrinfo to look up. */
+GS__PRIVATE int gs__udp_port_ok(const char *port) {
+    unsigned long v = 0;
+    const char *c;
+    if (*port < '0' || *port > '9') return 1;
+    for (c = port; *c; ++c) {
+        if (*c < '0' || *c > '9') return 0;
+        v = v * 10 + (unsigned long)(*c - '0');
+        if (v > 65535) return 0;
+    }
+    return 1;
+}
+
 /* "HOST:PORT" or "[IPV6]:PORT" to a socket address. */
 GS__PRIVATE int gs__udp_resolve(const char *text, struct sockaddr_storage *out,
                                 socklen_t *len) {
@@ -7573,6 +7915,7 @@ GS__PRIVATE int gs__udp_resolve(const char *text, struct sockaddr_storage *out,
         port = colon + 1;
     }
     host[n] = '\0';
+    if (!gs__udp_port_ok(port)) return 0;
     memset(&hints, 0, sizeof hints);
     hints.ai_family = AF_UNSPEC;
     hints.ai_socktype = SOCK_DGRAM;
@@ -7819,7 +8162,14 @@ GS_API gs_result gs_udp_open(gs_world *w, const gs_udp_desc *desc, gs_udp **out)
     memset(u, 0, sizeof *u);
     u->world = w;
     u->threads = desc->threads;
-    pthread_mutex_init(&u->mu, NULL);
+    {   /* recursive: a weight rule runs under it, and its calls into the
+           net (stats; the refused ones see net->inside) take it again */
+        pthread_mutexattr_t ma;
+        pthread_mutexattr_init(&ma);
+        pthread_mutexattr_settype(&ma, PTHREAD_MUTEX_RECURSIVE);
+        pthread_mutex_init(&u->mu, &ma);
+        pthread_mutexattr_destroy(&ma);
+    }
     pthread_mutex_init(&u->wake_mu, NULL);
     pthread_mutex_init(&u->send_mu, NULL);
     pthread_cond_init(&u->wake, NULL);
@@ -7849,10 +8199,17 @@ GS_API gs_result gs_udp_open(gs_world *w, const gs_udp_desc *desc, gs_udp **out)
     return GS_OK;
 }
 
+/* From a callback of its world (a weight rule holds the lock that its
+   threads wait on): refused, as gs_world_destroy. */
 GS_API void gs_udp_close(gs_udp *u) {
     gs_world *w;
     if (!u) return;
     w = u->world;
+    if (gs__world_locked(w)) {
+        gs__fail(w, GS_ERR_BUSY, "gs_udp_close: called from a callback of its world; "
+                 "refused, nothing closed");
+        return;
+    }
     if (u->threads) {
         __atomic_store_n(&u->stop, 1, __ATOMIC_RELEASE);
         gs__udp_kick(u);
@@ -7868,13 +8225,14 @@ GS_API void gs_udp_close(gs_udp *u) {
     gs__free(w, u);
 }
 
-GS_API gs_net *gs_udp_net(gs_udp *u) { return u->net; }
+GS_API gs_net *gs_udp_net(gs_udp *u) { return u ? u->net : NULL; }
 
 GS_API gs_result gs_udp_add_peer(gs_udp *u, uint32_t host, const char *addr) {
     struct sockaddr_storage a;
     socklen_t len;
     int p, slot = -1, was_new = 0;
-    gs_result r;
+    gs_result r = gs__world_unlocked(u ? u->world : NULL, "gs_udp_add_peer");
+    if (r != GS_OK) return r;
     if (!gs__udp_resolve(addr, &a, &len))
         return gs__fail(u->world, GS_ERR_INVALID_ARG, "gs_udp_add_peer: address \"%s\" is not "
                         "HOST:PORT or [IPV6]:PORT", addr ? addr : "(null)");
@@ -7909,8 +8267,11 @@ GS_API gs_result gs_udp_add_peer(gs_udp *u, uint32_t host, const char *addr) {
 }
 
 GS_API gs_result gs_udp_remove_peer(gs_udp *u, uint32_t host) {
-    gs_result r = gs_net_remove_peer(u->net, host); /* the net first: see add */
+    gs_result r;
     int p;
+    if (!u) return GS_ERR_INVALID_ARG;
+    r = gs_net_remove_peer(u->net, host); /* the net first: see add */
+    if (r == GS_ERR_BUSY) return r;
     pthread_mutex_lock(&u->mu);
     for (p = 0; p < GS__MAX_PEERS; ++p)
         if (u->peers[p].used && u->peers[p].host == host) u->peers[p].used = 0;
@@ -7919,11 +8280,17 @@ GS_API gs_result gs_udp_remove_peer(gs_udp *u, uint32_t host) {
 }
 
 GS_API gs_result gs_udp_poll(gs_udp *u, double now) {
+    gs_result r;
+    if (!u) return GS_ERR_INVALID_ARG;
     if (!gs__finite(now)) return GS_ERR_NOT_FINITE;
     if (u->threads) {
         gs__udp_kick(u);
         return GS_OK;
     }
+    /* poll mode belongs to the world's thread: it delivers into queues
+       that a weight rule may be blending */
+    r = gs__world_unlocked(u->world, "gs_udp_poll");
+    if (r != GS_OK) return r;
     gs__udp_drain(u, 4096);
     return gs_net_update(u->net, now);
 }
