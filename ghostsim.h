@@ -849,6 +849,8 @@ typedef enum gs_encoding {
     GS_ENCODING_DEFAULT = 0, /* f64 */
     GS_ENCODING_F64,
     GS_ENCODING_F32,         /* half the bytes; ~1e-7 relative rounding */
+    GS_ENCODING_QUANT,       /* quantized at the ghost's resolutions and
+                                bit-packed (see >>wire for the error) */
     GS__ENCODING_COUNT
 } gs_encoding;
 
@@ -900,6 +902,23 @@ typedef struct gs_ghost_desc {
                               before the first round trip it may pull the
                               clock on, never back. Negative: none of this,
                               the formula as is */
+    /* GS_ENCODING_QUANT (see >>wire for the error each one introduces): */
+    double position_resolution; /* m; step of positions (and of any value
+                              of a custom agent's state); default 5e-5 */
+    double velocity_resolution; /* m/s (rad/s for angular velocities);
+                              default 1e-3 */
+    int orientation_bits;  /* bits per smallest-three component, 8..24;
+                              default 16 */
+    /* Send on change, in every encoding: */
+    double rest_threshold; /* m; while no position moved more than this
+                              (nor a quaternion component, nor a velocity
+                              by this over one send period) since the last
+                              snapshot sent, only a heartbeat goes; the
+                              last snapshot goes again with the first two
+                              heartbeats of a rest, so that one loss does
+                              not leave a peer a stale state. Default 0:
+                              every published state is sent */
+    double heartbeat_rate; /* Hz of wall time while at rest; default 4 */
 } gs_ghost_desc;
 
 GS_API gs_ghost_desc gs_ghost_desc_default(void);
@@ -938,18 +957,44 @@ GS_API gs_result gs_scene_attach_ghosts(gs_scene *sc, const gs_ghost_desc *share
 
 /* ========================================================================
    >>wire
-   Wire format v1, little-endian. A datagram (at most GS_WIRE_MAX_DATAGRAM
+   Wire format v2, little-endian. A datagram (at most GS_WIRE_MAX_DATAGRAM
    bytes) is a header, whole chunks, and a CRC-32 of everything before it:
-     header (48 B): magic "GSIM", version u8 = 1, flags u8, chunk count u16,
+     header (48 B): magic "GSIM", version u8 = 2, flags u8, chunk count u16,
        session u32, sender host u32, datagram sequence u32, run u32 (drawn
        by the sender at each start, so that its peers know it started again
        and its sequence with it; 0: not said),
        send time f64 (s, sender's clock), echo time f64 (the latest send time
        received from the destination), echo hold f64 (s it was held since)
      chunk (32 B + payload): object id u32, snapshot sequence u32,
-       simulation time f64, chunk index u16, chunk count u16, first element
-       u32 (of the state after its time), element count u16, encoding u8,
-       reserved u8; then count values as f64 or f32.
+       simulation time f64 (always exact), chunk index u16, chunk count
+       u16, first element u32 (of the state after its time), element count
+       u16, encoding u8, chunk flags u8, payload bytes u16, reserved u16
+       (0); then the payload: count values as f64 or f32, or in
+       GS_ENCODING_QUANT a segment count u8 (1..GS_WIRE_MAX_SEGMENTS) and
+       segments whose value counts add up to the element count:
+         scalar (kind 1): count u16, step f64 (> 0), width u8 (0..32),
+           base (a zigzag LEB128 varint, at most 9 bytes, |base| < 2^53),
+           then count unsigned integers q of width bits, packed from the
+           least significant bit of the first byte on (the segment padded
+           to a whole byte); value i = (base + q_i) * step.
+         quaternion (kind 2): count u16 (a multiple of 4), bits u8
+           (8..24), then per quaternion (x, y, z, w) 3 + 3 * bits bits
+           packed as above: the index of the largest component (2 bits),
+           its sign (1 bit: 1 negative), and the other three in order,
+           each q in [0, 2^bits - 1] for (q / (2^bits - 1)) * sqrt(2) -
+           1 / sqrt(2); the largest is sqrt(1 - the others' squares).
+       The error, against the exact state: a scalar is off by at most half
+       its step: the ghost's resolution, as long as the chunk's values of
+       the segment span under 2^32 steps (214 km at 0.05 mm); a wider span
+       doubles the step until it fits (then the error is half of that). A
+       quaternion of a rotation is sent normalized, each of its three
+       components off by at most sqrt(2) / (2 (2^bits - 1)) (1.1e-5 at 16
+       bits), its rotation by about twice that in radians.
+     Chunk flags: bit 0 (GS_WIRE_CHUNK_REST): a heartbeat: no values
+       (element count 0, payload 0 bytes, chunk index 0); the object is at
+       rest at the time it carries, its state within the sender's
+       rest_threshold of the last snapshot it sent of it.
+   v1 datagrams are refused as GS_REJECT_OLD_VERSION.
    A snapshot too big for one datagram is cut into chunks that each stand
    alone: a lost chunk leaves its range unblended, the rest still counts.
    A chunk carries at most GS_WIRE_CHUNK_ROOM bytes of values, so that a
@@ -972,7 +1017,9 @@ GS_API gs_result gs_scene_attach_ghosts(gs_scene *sc, const gs_ghost_desc *share
    a nonce under the same key; the epoch orders a peer's runs so that a
    recorded earlier run cannot be replayed once a later one was heard.
    ======================================================================== */
-#define GS_WIRE_VERSION 1
+#define GS_WIRE_VERSION 2
+#define GS_WIRE_MAX_SEGMENTS 4 /* segments in a quantized chunk */
+#define GS_WIRE_CHUNK_REST 0x01 /* chunk flag: a heartbeat */
 #define GS_WIRE_MAX_DATAGRAM 1200
 #define GS_WIRE_HEADER 48
 #define GS_WIRE_CHUNK_HEADER 32
@@ -994,6 +1041,27 @@ GS_API gs_result gs_scene_attach_ghosts(gs_scene *sc, const gs_ghost_desc *share
 /* bytes of values in one chunk at most (1080: 135 f64 or 270 f32) */
 #define GS_WIRE_CHUNK_ROOM (GS_WIRE_MAX_DATAGRAM - GS_WIRE_HEADER - \
                             GS_WIRE_CHUNK_HEADER - GS_WIRE_SEAL_TRAILER)
+/* Values a quantized chunk holds at most: at most 32 bits a value and the
+   segments' own bytes (1 + 4 x 21) always fit in GS_WIRE_CHUNK_ROOM. */
+#define GS_WIRE_QUANT_CHUNK 240
+
+/* One run of a quantized chunk's values (GS_ENCODING_QUANT). To encode, the
+   caller sets kind, count and step (scalar) or bits (quaternion); decode
+   fills them all. */
+typedef enum gs_wire_kind {
+    GS_WIRE_SCALAR = 1,     /* each value to a multiple of step */
+    GS_WIRE_QUATERNION = 2  /* unit quaternions (x, y, z, w), smallest three */
+} gs_wire_kind;
+typedef struct gs_wire_segment {
+    gs_wire_kind kind;
+    uint16_t count;           /* values (a quaternion is 4) */
+    double step;              /* scalar: the resolution asked for; decode:
+                                 the step sent (doubled for a wide span) */
+    int bits;                 /* quaternion: bits per component, 8..24 */
+    int width;                /* decode: bits per scalar */
+    int64_t base;             /* decode: the scalars' offset, in steps */
+    const unsigned char *data;/* decode: the packed bits */
+} gs_wire_segment;
 
 typedef struct gs_wire_header {
     uint32_t session, sender, sequence;
@@ -1008,6 +1076,9 @@ typedef struct gs_wire_chunk {
     uint32_t first;               /* element of the state after the time */
     uint16_t elements;
     gs_encoding encoding;
+    unsigned flags;               /* GS_WIRE_CHUNK_REST or 0 */
+    int segment_count;            /* GS_ENCODING_QUANT: its segments */
+    gs_wire_segment segments[GS_WIRE_MAX_SEGMENTS];
     const unsigned char *payload; /* decode only: into the datagram */
 } gs_wire_chunk;
 
@@ -1041,7 +1112,10 @@ typedef struct gs_wire_view {
     X(GS_REJECT_REPLAY,                                                        \
       "replayed: seen already, older than the replay window, or from an "      \
       "earlier run of its sender")                                             \
-    X(GS_REJECT_RATE, "over the sender's cap of datagrams per second")
+    X(GS_REJECT_RATE, "over the sender's cap of datagrams per second")        \
+    X(GS_REJECT_OLD_VERSION,                                                   \
+      "wire format v1 (a ghostsim before wire v2): every host of a session "  \
+      "must speak v2")
 
 typedef enum gs_reject {
 #define GS__REJECT_ENUM(name, text) name,
@@ -1057,7 +1131,11 @@ GS_API const char *gs_reject_str(gs_reject r);
    every net refuse a send or echo time outside [0, GS_WIRE_MAX_TIME]. */
 GS_API gs_result gs_wire_begin(unsigned char *buf, size_t cap,
                                const gs_wire_header *h, size_t *size);
-/* Appends a chunk of `c->elements` values. GS_ERR_CAPACITY if it does not
+/* Appends a chunk of `c->elements` values (none for a heartbeat: flags
+   GS_WIRE_CHUNK_REST). In GS_ENCODING_QUANT, c->segments say how: their
+   counts must add up to c->elements, a scalar step be in [1e-12, 1e12], a
+   quaternion's bits in 8..24 and its values not all 0 (GS_ERR_INVALID_ARG
+   otherwise). GS_ERR_CAPACITY if it does not
    fit in cap (leave room for the 4-byte checksum), GS_ERR_NOT_FINITE for a
    NaN or infinite value, or one beyond float range in f32 (never sent),
    GS_ERR_INVALID_ARG for a time negative or past GS_WIRE_MAX_TIME, or a
@@ -1076,7 +1154,8 @@ GS_API size_t gs_wire_end(unsigned char *buf, size_t size);
    with the key opens it. */
 GS_API int gs_wire_decode(const unsigned char *buf, size_t size,
                           gs_wire_view *out, gs_reject *why);
-/* Value i of a decoded chunk. */
+/* Value i of a decoded chunk (quantized: as the sender's state reads
+   after the round trip, bit for bit; linear in i there). */
 GS_API double gs_wire_value(const gs_wire_chunk *c, int i);
 
 /* ========================================================================
@@ -1129,6 +1208,12 @@ typedef struct gs_peer_stats {
     double last_remote_time; /* s; newest simulation time received */
     double gap;              /* s; last_remote_time - local time then */
     double rtt;              /* s; latest round-trip estimate, 0 unknown */
+    uint64_t heartbeats_sent, heartbeats_received; /* GS_WIRE_CHUNK_REST */
+    double last_heard;       /* s, the `now` of the last datagram taken from
+                                the peer (0: none yet): with objects_resting,
+                                a peer at rest is told from a silent one */
+    int objects_resting;     /* objects whose latest word from the peer was
+                                a heartbeat (filled by gs_net_peer_stats) */
     double divergence;       /* m; the largest over the objects of the RMS
                                 distance between an object's local position
                                 values and the peer's latest snapshot of it
@@ -5517,6 +5602,11 @@ typedef struct gs__snap {
     double *data;       /* the state after its time; valid where got */
 } gs__snap;
 
+/* What a ghost keeps of one peer on the sending and receiving side. */
+struct gs__ghost_peer {
+    int resting;          /* its latest word on the object was a heartbeat */
+};
+
 struct gs__ghost {
     gs_agent *agent;
     gs_ghost_desc d;
@@ -5551,6 +5641,13 @@ struct gs__ghost {
                              world's epoch moved_epoch (one advance) */
     uint64_t moved_epoch;
     gs_ghost_stats stats;
+    /* send on change */
+    double *sent;         /* the values of the last snapshot sent whole */
+    int rest_repeats;     /* heartbeats of this rest that carry it again */
+    int sent_any;         /* 0: send the state whole next (a first send, a
+                             peer added or started again) */
+    double next_heartbeat;/* s, wall time */
+    struct gs__ghost_peer gp[GS__MAX_PEERS];
 };
 typedef struct gs__ghost gs__ghost;
 
@@ -5621,11 +5718,20 @@ GS_API gs_ghost_desc gs_ghost_desc_default(void) {
     d.smoothing = 0.1;
     d.catchup = GS_CATCHUP_NONE;
     d.catchup_max = 0.05;
+    d.position_resolution = 5e-5;
+    d.velocity_resolution = 1e-3;
+    d.orientation_bits = 16;
+    d.heartbeat_rate = 4.0;
     return d;
 }
 
 GS__PRIVATE size_t gs__value_size(gs_encoding e) {
     return e == GS_ENCODING_F32 ? 4 : 8;
+}
+
+/* Values a chunk of a snapshot holds in encoding e. */
+GS__PRIVATE size_t gs__per_chunk(gs_encoding e) {
+    return e == GS_ENCODING_QUANT ? GS_WIRE_QUANT_CHUNK : GS_WIRE_CHUNK_ROOM / gs__value_size(e);
 }
 
 /* A ghost's queue for one peer slot: queue_size snapshots. */
@@ -5646,6 +5752,8 @@ GS__PRIVATE gs__ghost *gs__ghost_of(const gs_agent *a);
 GS__PRIVATE gs_result gs__ghost_add_peer(gs__ghost *g, int slot) {
     gs_world *w = g->agent->world;
     if (g->q[slot]) return GS_OK;
+    g->gp[slot].resting = 0;
+    g->sent_any = 0; /* the new peer has none of our states */
     g->q[slot] = gs__snaps_new(w, g);
     return g->q[slot] ? GS_OK : gs__fail(w, GS_ERR_NO_MEMORY, "ghost: out of memory for a peer queue");
 }
@@ -5679,6 +5787,10 @@ GS__PRIVATE gs_ghost_desc gs__ghost_defaults(const gs_ghost_desc *in) {
     if (d.smoothing == 0.0) d.smoothing = def.smoothing;
     if (d.catchup == GS_CATCHUP_DEFAULT) d.catchup = def.catchup;
     if (d.catchup_max == 0.0) d.catchup_max = def.catchup_max;
+    if (d.position_resolution == 0.0) d.position_resolution = def.position_resolution;
+    if (d.velocity_resolution == 0.0) d.velocity_resolution = def.velocity_resolution;
+    if (d.orientation_bits == 0) d.orientation_bits = def.orientation_bits;
+    if (d.heartbeat_rate == 0.0) d.heartbeat_rate = def.heartbeat_rate;
     return d;
 }
 
@@ -5696,6 +5808,16 @@ GS__PRIVATE gs_result gs__ghost_check(gs_world *w, const gs_ghost_desc *d) {
     gs__check_finite(&c, "time_deadband", d->time_deadband);
     gs__check_int(&c, "catchup", (long)d->catchup, 1, GS__CATCHUP_COUNT - 1);
     gs__check_positive(&c, "catchup_max", d->catchup_max);
+    /* the steps gs_wire_add takes */
+    if (!(d->position_resolution >= 1e-12 && d->position_resolution <= 1e12))
+        gs__check_fail(&c, GS_ERR_INVALID_ARG, "position_resolution %g is outside [1e-12, 1e12]",
+                       d->position_resolution);
+    if (!(d->velocity_resolution >= 1e-12 && d->velocity_resolution <= 1e12))
+        gs__check_fail(&c, GS_ERR_INVALID_ARG, "velocity_resolution %g is outside [1e-12, 1e12]",
+                       d->velocity_resolution);
+    gs__check_int(&c, "orientation_bits", d->orientation_bits, 8, 24);
+    gs__check_nonneg(&c, "rest_threshold", d->rest_threshold);
+    gs__check_positive(&c, "heartbeat_rate", d->heartbeat_rate);
     return c.r;
 }
 
@@ -5706,7 +5828,7 @@ GS__PRIVATE gs_result gs__ghost_queues(gs__ghost *g);
    every peer refuse them). Counted without (vars + per - 1), which could
    wrap for a custom agent's state_size. */
 GS__PRIVATE gs_result gs__ghost_chunks_fit(gs_world *w, size_t vars, gs_encoding e) {
-    size_t per = GS_WIRE_CHUNK_ROOM / gs__value_size(e);
+    size_t per = gs__per_chunk(e);
     size_t chunks = vars / per + (vars % per != 0);
     if (chunks <= GS_WIRE_MAX_OBJECT_CHUNKS) return GS_OK;
     return gs__fail(w, GS_ERR_CAPACITY,
@@ -5714,7 +5836,8 @@ GS__PRIVATE gs_result gs__ghost_chunks_fit(gs_world *w, size_t vars, gs_encoding
                     "%lu in %s; a snapshot may have at most %d chunks "
                     "(GS_WIRE_MAX_OBJECT_CHUNKS, %lu values)",
                     (unsigned long)vars, (unsigned long)chunks,
-                    (unsigned long)per, e == GS_ENCODING_F32 ? "f32" : "f64",
+                    (unsigned long)per,
+                    e == GS_ENCODING_F32 ? "f32" : e == GS_ENCODING_QUANT ? "quant" : "f64",
                     GS_WIRE_MAX_OBJECT_CHUNKS,
                     (unsigned long)(per * GS_WIRE_MAX_OBJECT_CHUNKS));
 }
@@ -5725,9 +5848,9 @@ GS__PRIVATE gs_result gs__ghost_chunks_fit(gs_world *w, size_t vars, gs_encoding
 GS__PRIVATE int gs__ghost_sizes(size_t n, const gs_ghost_desc *d, size_t *bytes,
                                 size_t *queue) {
     size_t qs = (size_t)d->queue_size, slots = (size_t)GS__MAX_PEERS * qs, per, nchunks, vals;
-    size_t room = GS_WIRE_CHUNK_ROOM / gs__value_size(d->encoding);
+    size_t room = gs__per_chunk(d->encoding);
     nchunks = (n - 1) / room + 1; /* at least one, as gs_ghost_attach counts */
-    if (!gs__size(n, 5, slots, &vals) || !gs__size(vals, sizeof(double), 0, &vals) ||
+    if (!gs__size(n, 6, slots, &vals) || !gs__size(vals, sizeof(double), 0, &vals) ||
         !gs__size(slots, sizeof(gs__src), sizeof(gs__ghost), bytes) || *bytes > SIZE_MAX - vals)
         return 0;
     *bytes += vals;
@@ -5762,7 +5885,7 @@ GS_API gs_result gs_ghost_attach(gs_agent *a, const gs_ghost_desc *desc) {
     g->agent = a;
     g->d = d;
     g->n = n;
-    g->per_chunk = (int)(GS_WIRE_CHUNK_ROOM / gs__value_size(d.encoding));
+    g->per_chunk = (int)gs__per_chunk(d.encoding);
     g->nchunks = vars ? (int)((vars + (size_t)g->per_chunk - 1) / (size_t)g->per_chunk) : 1;
     g->src = (gs__src *)(g + 1);
     g->B = (double *)(g->src + (size_t)GS__MAX_PEERS * (size_t)d.queue_size);
@@ -5771,7 +5894,9 @@ GS_API gs_result gs_ghost_attach(gs_agent *a, const gs_ghost_desc *desc) {
     g->offset = g->scratch + n;
     g->offset_next = g->offset + n;
     g->wq = g->offset_next + n;
+    g->sent = g->wq + (size_t)GS__MAX_PEERS * (size_t)d.queue_size;
     gs_agent_get_state(a, g->B, n);
+    memcpy(g->sent, g->B, n * sizeof(double));
     g->b_seq = 1;
     g->t_local = g->B[0];
     for (i = 0; i < GS__MAX_PEERS; ++i)
@@ -6481,20 +6606,277 @@ GS__PRIVATE float gs__getf32(const unsigned char *p) {
     return v;
 }
 
+/* ---- GS_ENCODING_QUANT: segments of quantized, bit-packed values ---- */
+
+/* Bits appended from the least significant one on (at most 57 at a time:
+   the accumulator keeps whole bytes out as soon as it has them). */
+typedef struct gs__bitw {
+    unsigned char *p, *end;
+    uint64_t acc;
+    int n;
+    int over; /* it ran past end */
+} gs__bitw;
+GS__PRIVATE void gs__bitw_put(gs__bitw *b, uint64_t v, int bits) {
+    b->acc |= v << b->n;
+    b->n += bits;
+    while (b->n >= 8) {
+        if (b->p < b->end) *b->p++ = (unsigned char)b->acc; else b->over = 1;
+        b->acc >>= 8;
+        b->n -= 8;
+    }
+}
+GS__PRIVATE void gs__bitw_flush(gs__bitw *b) {
+    if (b->n > 0) gs__bitw_put(b, 0, 8 - b->n);
+}
+typedef struct gs__bitr {
+    const unsigned char *p;
+    uint64_t acc;
+    int n;
+} gs__bitr;
+/* Reads bits (<= 32); the caller checked the bytes are there. */
+GS__PRIVATE uint32_t gs__bitr_get(gs__bitr *b, int bits) {
+    uint32_t v;
+    while (b->n < bits) { b->acc |= (uint64_t)*b->p++ << b->n; b->n += 8; }
+    v = bits ? (uint32_t)(b->acc & (((uint64_t)1 << bits) - 1)) : 0u;
+    b->acc >>= bits;
+    b->n -= bits;
+    return v;
+}
+
+GS__PRIVATE uint64_t gs__zigzag(int64_t v) { return ((uint64_t)v << 1) ^ (uint64_t)(v >> 63); }
+GS__PRIVATE int64_t gs__unzigzag(uint64_t u) { return (int64_t)(u >> 1) ^ -(int64_t)(u & 1); }
+
+/* The step a scalar segment is sent at: the one asked for, doubled while
+   the values would not fit: |v| / step under 2^52 (exact integers in a
+   double) and their span under 2^32 - 2 steps (32-bit width, with a step
+   either way for the rounding of each end). */
+GS__PRIVATE double gs__quant_step(double step, const double *v, int n) {
+    double lo = v[0], hi = v[0], big;
+    int i;
+    for (i = 1; i < n; ++i) { lo = v[i] < lo ? v[i] : lo; hi = v[i] > hi ? v[i] : hi; }
+    big = fmax(fabs(lo), fabs(hi));
+    while (big / step >= 4503599627370496.0 || (hi - lo) / step >= 4294967294.0) step *= 2.0;
+    return step;
+}
+
+/* A scalar segment at w: header, then the packed values. 0 if it ran out
+   of room. */
+GS__PRIVATE int gs__quant_put_scalar(gs__bitw *w, const gs_wire_segment *s, const double *v) {
+    double step = s->count ? gs__quant_step(s->step, v, s->count) : s->step;
+    int64_t lo = 0, hi = 0, q;
+    uint64_t z;
+    int i, width = 0;
+    for (i = 0; i < s->count; ++i) {
+        q = (int64_t)llround(v[i] / step);
+        if (i == 0 || q < lo) lo = q;
+        if (i == 0 || q > hi) hi = q;
+    }
+    while (width < 32 && (uint64_t)(hi - lo) >> width) ++width;
+    gs__bitw_put(w, GS_WIRE_SCALAR, 8);
+    gs__bitw_put(w, s->count, 16);
+    { uint64_t u; memcpy(&u, &step, 8); gs__bitw_put(w, u & 0xffffffffu, 32); gs__bitw_put(w, u >> 32, 32); }
+    gs__bitw_put(w, (uint64_t)width, 8);
+    for (z = gs__zigzag(lo); z >= 0x80; z >>= 7) gs__bitw_put(w, (z & 0x7f) | 0x80, 8);
+    gs__bitw_put(w, z, 8);
+    for (i = 0; i < s->count; ++i)
+        gs__bitw_put(w, (uint64_t)((int64_t)llround(v[i] / step) - lo), width);
+    gs__bitw_flush(w);
+    return !w->over;
+}
+
+/* sqrt(2) / (2^bits - 1): a smallest-three component's step. */
+GS__PRIVATE double gs__quat_step(int bits) {
+    return 1.4142135623730951 / (double)((1u << bits) - 1u);
+}
+
+GS__PRIVATE int gs__quant_put_quat(gs__bitw *w, const gs_wire_segment *s, const double *v) {
+    double st = gs__quat_step(s->bits), top = (double)((1u << s->bits) - 1u);
+    int i, k, big, j;
+    gs__bitw_put(w, GS_WIRE_QUATERNION, 8);
+    gs__bitw_put(w, s->count, 16);
+    gs__bitw_put(w, (uint64_t)s->bits, 8);
+    for (i = 0; i < s->count; i += 4) {
+        const double *q = v + i;
+        double norm = sqrt(q[0] * q[0] + q[1] * q[1] + q[2] * q[2] + q[3] * q[3]);
+        for (big = 0, k = 1; k < 4; ++k) big = fabs(q[k]) > fabs(q[big]) ? k : big;
+        gs__bitw_put(w, (uint64_t)big, 2);
+        gs__bitw_put(w, q[big] < 0.0, 1);
+        for (k = 0; k < 4; ++k) {
+            double c, u;
+            if (k == big) continue;
+            c = q[k] / norm;
+            u = floor((c + 0.7071067811865476) / st + 0.5);
+            j = (int)(u < 0.0 ? 0.0 : u > top ? top : u);
+            gs__bitw_put(w, (uint64_t)j, s->bits);
+        }
+    }
+    gs__bitw_flush(w);
+    return !w->over;
+}
+
+/* Are the segments of c fit to encode its values? */
+GS__PRIVATE int gs__quant_args_ok(const gs_wire_chunk *c, const double *values) {
+    int k, sum = 0, off = 0, i;
+    if (c->segment_count < 1 || c->segment_count > GS_WIRE_MAX_SEGMENTS) return 0;
+    for (k = 0; k < c->segment_count; ++k) {
+        const gs_wire_segment *s = &c->segments[k];
+        sum += s->count;
+        if (s->kind == GS_WIRE_SCALAR) {
+            if (!(s->step >= 1e-12 && s->step <= 1e12)) return 0;
+        } else if (s->kind == GS_WIRE_QUATERNION) {
+            if (s->bits < 8 || s->bits > 24 || s->count % 4) return 0;
+            for (i = off; i < off + s->count; i += 4)
+                if (!(fabs(values[i]) + fabs(values[i + 1]) + fabs(values[i + 2]) +
+                      fabs(values[i + 3]) > 0.0)) return 0;
+        } else {
+            return 0;
+        }
+        off += s->count;
+    }
+    return sum == c->elements;
+}
+
+/* Writes a quantized payload at p (room bytes); its size, or 0 if it does
+   not fit. The values are checked finite by the caller. */
+GS__PRIVATE size_t gs__quant_put(unsigned char *p, size_t room, const gs_wire_chunk *c,
+                                 const double *v) {
+    gs__bitw w;
+    int k, ok = 1;
+    w.p = p; w.end = p + room; w.acc = 0; w.n = 0; w.over = 0;
+    gs__bitw_put(&w, (uint64_t)c->segment_count, 8);
+    for (k = 0; k < c->segment_count && ok; ++k) {
+        const gs_wire_segment *s = &c->segments[k];
+        ok = s->kind == GS_WIRE_SCALAR ? gs__quant_put_scalar(&w, s, v)
+                                       : gs__quant_put_quat(&w, s, v);
+        v += s->count;
+    }
+    return ok && !w.over ? (size_t)(w.p - p) : 0;
+}
+
+/* Reads the segments of a quantized payload of len bytes into c, checking
+   every length and bound: the values it gives are finite, under 2^53 *
+   step in size. 0 if anything is off. */
+GS__PRIVATE int gs__quant_parse(gs_wire_chunk *c, const unsigned char *p, size_t len) {
+    size_t off = 1, need;
+    int k, sum = 0;
+    if (len < 1) return 0;
+    c->segment_count = p[0];
+    if (c->segment_count < 1 || c->segment_count > GS_WIRE_MAX_SEGMENTS) return 0;
+    for (k = 0; k < c->segment_count; ++k) {
+        gs_wire_segment *s = &c->segments[k];
+        if (off + 3 > len) return 0;
+        s->kind = (gs_wire_kind)p[off];
+        s->count = gs__get16(p + off + 1);
+        off += 3;
+        s->step = 0.0; s->bits = 0; s->width = 0; s->base = 0;
+        if (s->kind == GS_WIRE_SCALAR) {
+            uint64_t z = 0;
+            int sh = 0;
+            if (off + 9 > len) return 0;
+            s->step = gs__getf64(p + off);
+            s->width = p[off + 8];
+            off += 9;
+            if (!(s->step >= 1e-12 && s->step <= 1e12) || s->width > 32) return 0;
+            do {
+                if (off >= len || sh > 56) return 0;
+                z |= (uint64_t)(p[off] & 0x7f) << sh;
+                sh += 7;
+            } while (p[off++] & 0x80);
+            s->base = gs__unzigzag(z);
+            if (s->base > 4503599627370496LL || s->base < -4503599627370496LL) return 0;
+            need = ((size_t)s->count * (size_t)s->width + 7) / 8;
+        } else if (s->kind == GS_WIRE_QUATERNION) {
+            if (off + 1 > len) return 0;
+            s->bits = p[off++];
+            if (s->bits < 8 || s->bits > 24 || s->count % 4) return 0;
+            need = ((size_t)(s->count / 4) * (size_t)(3 + 3 * s->bits) + 7) / 8;
+        } else {
+            return 0;
+        }
+        if (need > len - off) return 0;
+        s->data = p + off;
+        off += need;
+        sum += s->count;
+    }
+    return off == len && sum == c->elements;
+}
+
+/* A quaternion's four values from its packed bits. */
+GS__PRIVATE void gs__quant_get_quat(gs__bitr *r, int bits, double *out) {
+    double st = gs__quat_step(bits), ss = 0.0;
+    int big = (int)gs__bitr_get(r, 2), neg = (int)gs__bitr_get(r, 1), k;
+    for (k = 0; k < 4; ++k) {
+        if (k == big) continue;
+        out[k] = (double)gs__bitr_get(r, bits) * st - 0.7071067811865476;
+        ss += out[k] * out[k];
+    }
+    out[big] = ss < 1.0 ? sqrt(1.0 - ss) : 0.0;
+    if (neg) out[big] = -out[big];
+}
+
+/* Every value of a parsed quantized chunk into out. */
+GS__PRIVATE void gs__quant_get(const gs_wire_chunk *c, double *out) {
+    int k, i;
+    for (k = 0; k < c->segment_count; ++k) {
+        const gs_wire_segment *s = &c->segments[k];
+        gs__bitr r;
+        r.p = s->data; r.acc = 0; r.n = 0;
+        if (s->kind == GS_WIRE_SCALAR)
+            for (i = 0; i < s->count; ++i)
+                out[i] = (double)(s->base + (int64_t)gs__bitr_get(&r, s->width)) * s->step;
+        else
+            for (i = 0; i < s->count; i += 4) gs__quant_get_quat(&r, s->bits, out + i);
+        out += s->count;
+    }
+}
+
+/* Value i of a parsed quantized chunk: its segment decoded up to it. */
+GS__PRIVATE double gs__quant_value(const gs_wire_chunk *c, int i) {
+    double q[4];
+    int k, j;
+    for (k = 0; k < c->segment_count; ++k) {
+        const gs_wire_segment *s = &c->segments[k];
+        gs__bitr r;
+        if (i >= s->count) { i -= s->count; continue; }
+        r.p = s->data; r.acc = 0; r.n = 0;
+        if (s->kind == GS_WIRE_SCALAR) {
+            uint32_t u = 0;
+            for (j = 0; j <= i; ++j) u = gs__bitr_get(&r, s->width);
+            return (double)(s->base + (int64_t)u) * s->step;
+        }
+        for (j = 0; j <= i / 4; ++j) gs__quant_get_quat(&r, s->bits, q);
+        return q[i % 4];
+    }
+    return 0.0;
+}
+
+/* ---- the header's fields, by name: nothing else reads or patches them ---- */
+GS__PRIVATE unsigned gs__hdr_version(const unsigned char *b) { return b[4]; }
+GS__PRIVATE unsigned gs__hdr_flags(const unsigned char *b) { return b[5]; }
+GS__PRIVATE void gs__hdr_set_flags(unsigned char *b, unsigned f) { b[5] = (unsigned char)f; }
+GS__PRIVATE int gs__hdr_chunks(const unsigned char *b) { return gs__get16(b + 6); }
+GS__PRIVATE void gs__hdr_set_chunks(unsigned char *b, int n) { gs__put16(b + 6, (uint16_t)n); }
+GS__PRIVATE uint32_t gs__hdr_session(const unsigned char *b) { return gs__get32(b + 8); }
+GS__PRIVATE uint32_t gs__hdr_sender(const unsigned char *b) { return gs__get32(b + 12); }
+/* The fields that differ per peer: its datagram sequence and the echo. */
+GS__PRIVATE void gs__hdr_set_peer(unsigned char *b, uint32_t seq, double echo, double hold) {
+    gs__put32(b + 16, seq);
+    gs__putf64(b + 32, echo);
+    gs__putf64(b + 40, hold);
+}
+
 GS_API gs_result gs_wire_begin(unsigned char *buf, size_t cap,
                                const gs_wire_header *h, size_t *size) {
     if (!buf || !h || !size || cap < GS_WIRE_HEADER + 4) return GS_ERR_INVALID_ARG;
     memcpy(buf, "GSIM", 4);
     buf[4] = GS_WIRE_VERSION;
-    buf[5] = 0;
-    gs__put16(buf + 6, 0);
+    gs__hdr_set_flags(buf, 0);
+    gs__hdr_set_chunks(buf, 0);
     gs__put32(buf + 8, h->session);
     gs__put32(buf + 12, h->sender);
-    gs__put32(buf + 16, h->sequence);
     gs__put32(buf + 20, h->run);
     gs__putf64(buf + 24, h->send_time);
-    gs__putf64(buf + 32, h->echo_time);
-    gs__putf64(buf + 40, h->echo_hold);
+    gs__hdr_set_peer(buf, h->sequence, h->echo_time, h->echo_hold);
     *size = GS_WIRE_HEADER;
     return GS_OK;
 }
@@ -6528,29 +6910,56 @@ GS__PRIVATE int gs__wire_put_values(unsigned char *p, gs_encoding e, const doubl
     return ok;
 }
 
+/* The quantized payload of c at p, within room bytes: its size in *len.
+   GS_ERR_CAPACITY if it does not fit. */
+GS__PRIVATE gs_result gs__wire_put_quant(unsigned char *p, size_t room, const gs_wire_chunk *c,
+                                         const double *values, size_t *len) {
+    int i, ok = 1;
+    if (c->flags & GS_WIRE_CHUNK_REST) { *len = 0; return GS_OK; }
+    for (i = 0; i < c->elements; ++i) ok &= gs__finite(values[i]);
+    if (!ok) return GS_ERR_NOT_FINITE;
+    if (!gs__quant_args_ok(c, values)) return GS_ERR_INVALID_ARG;
+    *len = gs__quant_put(p, room, c, values);
+    return *len ? GS_OK : GS_ERR_CAPACITY;
+}
+
 GS_API gs_result gs_wire_add(unsigned char *buf, size_t cap, size_t *size,
                              const gs_wire_chunk *c, const double *values) {
-    size_t vs, need;
+    size_t vs, need, room;
     unsigned char *p;
+    int rest;
     if (!buf || !size || !c || (c->elements && !values)) return GS_ERR_INVALID_ARG;
-    if (c->encoding != GS_ENCODING_F64 && c->encoding != GS_ENCODING_F32)
+    if (c->encoding != GS_ENCODING_F64 && c->encoding != GS_ENCODING_F32 &&
+        c->encoding != GS_ENCODING_QUANT)
+        return GS_ERR_INVALID_ARG;
+    rest = (c->flags & GS_WIRE_CHUNK_REST) != 0;
+    if ((c->flags & ~(unsigned)GS_WIRE_CHUNK_REST) || (rest && (c->elements || c->index)))
         return GS_ERR_INVALID_ARG;
     /* *size as gs_wire_begin and gs_wire_add leave it, or nothing is
        written: a wild one would wrap the room check below */
     if (*size < GS_WIRE_HEADER || *size > cap || *size > GS_WIRE_MAX_DATAGRAM)
         return GS_ERR_INVALID_ARG;
-    if (gs__get16(buf + 6) >= GS_WIRE_MAX_CHUNKS) return GS_ERR_CAPACITY;
-    vs = gs__value_size(c->encoding);
-    need = GS_WIRE_CHUNK_HEADER + vs * c->elements + 4;
-    if (need > cap - *size || need > GS_WIRE_MAX_DATAGRAM - *size) return GS_ERR_CAPACITY;
-    need -= 4; /* the checksum's room stays free */
+    if (gs__hdr_chunks(buf) >= GS_WIRE_MAX_CHUNKS) return GS_ERR_CAPACITY;
+    room = cap < GS_WIRE_MAX_DATAGRAM ? cap : GS_WIRE_MAX_DATAGRAM;
+    if (GS_WIRE_CHUNK_HEADER + 4 > room - *size) return GS_ERR_CAPACITY;
+    room -= *size + GS_WIRE_CHUNK_HEADER + 4; /* the checksum's room stays free */
+    if (c->encoding != GS_ENCODING_QUANT && !rest &&
+        gs__value_size(c->encoding) * c->elements > room)
+        return GS_ERR_CAPACITY;
     if (!gs__finite(c->time)) return GS_ERR_NOT_FINITE;
     if (c->time < 0.0 || c->time > GS_WIRE_MAX_TIME) return GS_ERR_INVALID_ARG;
     /* the values first, checked as they are written: the bytes past *size
        are the caller's scratch until the chunk is counted below */
-    if (!gs__wire_put_values(buf + *size + GS_WIRE_CHUNK_HEADER, c->encoding, values,
-                             c->elements))
-        return GS_ERR_NOT_FINITE;
+    if (c->encoding == GS_ENCODING_QUANT) {
+        gs_result r = gs__wire_put_quant(buf + *size + GS_WIRE_CHUNK_HEADER, room, c, values, &vs);
+        if (r != GS_OK) return r;
+    } else {
+        vs = rest ? 0 : gs__value_size(c->encoding) * c->elements;
+        if (!gs__wire_put_values(buf + *size + GS_WIRE_CHUNK_HEADER, c->encoding, values,
+                                 rest ? 0 : c->elements))
+            return GS_ERR_NOT_FINITE;
+    }
+    need = GS_WIRE_CHUNK_HEADER + vs;
     p = buf + *size;
     gs__put32(p, c->object_id);
     gs__put32(p + 4, c->sequence);
@@ -6560,10 +6969,11 @@ GS_API gs_result gs_wire_add(unsigned char *buf, size_t cap, size_t *size,
     gs__put32(p + 20, c->first);
     gs__put16(p + 24, c->elements);
     p[26] = (unsigned char)c->encoding;
-    p[27] = 0;
-    gs__put32(p + 28, 0);
+    p[27] = (unsigned char)c->flags;
+    gs__put16(p + 28, (uint16_t)vs);
+    gs__put16(p + 30, 0);
     *size += need;
-    gs__put16(buf + 6, (uint16_t)(gs__get16(buf + 6) + 1));
+    gs__hdr_set_chunks(buf, gs__hdr_chunks(buf) + 1);
     return GS_OK;
 }
 
@@ -6574,6 +6984,7 @@ GS_API size_t gs_wire_end(unsigned char *buf, size_t size) {
 }
 
 GS_API double gs_wire_value(const gs_wire_chunk *c, int i) {
+    if (c->encoding == GS_ENCODING_QUANT) return gs__quant_value(c, i);
     if (c->encoding == GS_ENCODING_F32) return (double)gs__getf32(c->payload + 4 * (size_t)i);
     return gs__getf64(c->payload + 8 * (size_t)i);
 }
@@ -6584,6 +6995,7 @@ GS_API double gs_wire_value(const gs_wire_chunk *c, int i) {
 GS__PRIVATE int gs__wire_values_finite(const gs_wire_chunk *c) {
     const unsigned char *p = c->payload;
     int i, bad = 0;
+    if (c->encoding == GS_ENCODING_QUANT) return 1; /* finite by construction */
     if (c->encoding == GS_ENCODING_F32) {
         for (i = 0; i < c->elements; ++i, p += 4)
             bad |= ((p[3] & 0x7f) << 1 | p[2] >> 7) == 0xff;
@@ -6606,6 +7018,7 @@ GS__PRIVATE int gs__wire_values_finite(const gs_wire_chunk *c) {
 GS__PRIVATE void gs__wire_get_values(const gs_wire_chunk *c, double *out) {
     const unsigned char *p = c->payload;
     int i;
+    if (c->encoding == GS_ENCODING_QUANT) { gs__quant_get(c, out); return; }
     if (c->encoding == GS_ENCODING_F32) {
         for (i = 0; i < c->elements; ++i, p += 4) out[i] = (double)gs__getf32(p);
         return;
@@ -6635,12 +7048,25 @@ GS__PRIVATE int gs__wire_chunk(const unsigned char *buf, size_t end, size_t *off
     c->first = gs__get32(p + 20);
     c->elements = gs__get16(p + 24);
     c->encoding = (gs_encoding)p[26];
-    if ((c->encoding != GS_ENCODING_F64 && c->encoding != GS_ENCODING_F32) ||
-        c->count == 0 || c->index >= c->count) { *why = GS_REJECT_LAYOUT; return 0; }
-    len = gs__value_size(c->encoding) * c->elements;
+    c->flags = p[27];
+    c->segment_count = 0;
+    if ((c->encoding != GS_ENCODING_F64 && c->encoding != GS_ENCODING_F32 &&
+         c->encoding != GS_ENCODING_QUANT) ||
+        c->count == 0 || c->index >= c->count || (c->flags & ~(unsigned)GS_WIRE_CHUNK_REST) ||
+        gs__get16(p + 30) != 0) { *why = GS_REJECT_LAYOUT; return 0; }
+    len = c->encoding == GS_ENCODING_QUANT ? gs__get16(p + 28)
+                                           : gs__value_size(c->encoding) * c->elements;
+    if (c->flags & GS_WIRE_CHUNK_REST) len = 0;
     if (*off + GS_WIRE_CHUNK_HEADER + len > end) { *why = GS_REJECT_SHORT; return 0; }
+    if (gs__get16(p + 28) != len ||
+        ((c->flags & GS_WIRE_CHUNK_REST) && (c->elements || c->index))) {
+        *why = GS_REJECT_LAYOUT;
+        return 0;
+    }
     if (!gs__wire_time_ok(c->time)) { *why = GS_REJECT_TIME; return 0; }
     c->payload = p + GS_WIRE_CHUNK_HEADER;
+    if (c->encoding == GS_ENCODING_QUANT && !(c->flags & GS_WIRE_CHUNK_REST) &&
+        !gs__quant_parse(c, c->payload, len)) { *why = GS_REJECT_LAYOUT; return 0; }
     if (!gs__wire_values_finite(c)) { *why = GS_REJECT_NOT_FINITE; return 0; }
     *off += GS_WIRE_CHUNK_HEADER + len;
     return 1;
@@ -6652,7 +7078,8 @@ GS__PRIVATE int gs__wire_front(const unsigned char *buf, size_t size, gs_reject 
     if (!buf || size < GS_WIRE_HEADER + 4) { *why = GS_REJECT_SHORT; return 0; }
     if (size > GS_WIRE_MAX_DATAGRAM) { *why = GS_REJECT_LAYOUT; return 0; }
     if (memcmp(buf, "GSIM", 4) != 0) { *why = GS_REJECT_MAGIC; return 0; }
-    if (buf[4] != GS_WIRE_VERSION) { *why = GS_REJECT_VERSION; return 0; }
+    if (gs__hdr_version(buf) == 1) { *why = GS_REJECT_OLD_VERSION; return 0; }
+    if (gs__hdr_version(buf) != GS_WIRE_VERSION) { *why = GS_REJECT_VERSION; return 0; }
     return 1;
 }
 
@@ -6661,7 +7088,7 @@ GS__PRIVATE int gs__wire_front(const unsigned char *buf, size_t size, gs_reject 
 GS__PRIVATE int gs__wire_parse(const unsigned char *buf, size_t end, gs_wire_view *out,
                                gs_reject *why) {
     size_t off = GS_WIRE_HEADER;
-    int i, n = gs__get16(buf + 6);
+    int i, n = gs__hdr_chunks(buf);
     if (n < 1 || n > GS_WIRE_MAX_CHUNKS) { *why = GS_REJECT_LAYOUT; return 0; }
     out->header.session = gs__get32(buf + 8);
     out->header.sender = gs__get32(buf + 12);
@@ -6694,7 +7121,7 @@ GS_API int gs_wire_decode(const unsigned char *buf, size_t size,
     if (!gs__wire_front(buf, size, why)) return 0;
     end = size - 4;
     if (gs__crc32(buf, end) != gs__get32(buf + end)) { *why = GS_REJECT_CHECKSUM; return 0; }
-    if (buf[5] != 0) { *why = GS_REJECT_LAYOUT; return 0; } /* sealed or unknown */
+    if (gs__hdr_flags(buf) != 0) { *why = GS_REJECT_LAYOUT; return 0; } /* sealed or unknown */
     return gs__wire_parse(buf, end, out, why);
 }
 
@@ -6713,7 +7140,8 @@ GS__PRIVATE void gs__wire_nonce(unsigned char *p, uint64_t epoch, uint64_t salt,
 GS__PRIVATE size_t gs__wire_seal(unsigned char *buf, size_t size, const unsigned char *key,
                                  uint64_t epoch, uint64_t salt, uint64_t counter) {
     unsigned long long taglen = 0;
-    buf[5] |= GS_WIRE_FLAG_SEALED; /* before: the header is authenticated */
+    /* before: the header is authenticated */
+    gs__hdr_set_flags(buf, gs__hdr_flags(buf) | GS_WIRE_FLAG_SEALED);
     gs__wire_nonce(buf + size, epoch, salt, counter);
     crypto_aead_xchacha20poly1305_ietf_encrypt_detached(
         buf + GS_WIRE_HEADER, buf + size + GS_WIRE_NONCE_BYTES, &taglen, buf + GS_WIRE_HEADER,
@@ -6964,10 +7392,15 @@ GS_API gs_result gs_net_remove_peer(gs_net *net, uint32_t host) {
 
 GS_API gs_result gs_net_peer_stats(const gs_net *net, uint32_t host,
                                    gs_peer_stats *out) {
-    int p = net ? gs__peer_slot(net, host) : -1;
+    int p = net ? gs__peer_slot(net, host) : -1, i;
     if (p < 0 || !out) return GS_ERR_INVALID_ARG;
     gs__lock((gs_net *)net);
     *out = net->peers[p].st;
+    out->objects_resting = 0;
+    for (i = 0; i < net->world->agent_count; ++i) {
+        const gs__ghost *g = gs__ghost_of(net->world->agents[i]);
+        out->objects_resting += g && g->gp[p].resting;
+    }
     gs__unlock((gs_net *)net);
     return GS_OK;
 }
@@ -7023,9 +7456,8 @@ GS__PRIVATE size_t gs__net_cap(const gs_net *net) {
 GS__PRIVATE const unsigned char *gs__datagram_to_peer(gs_net *net, const gs__peer *pe,
                                                       double now, size_t size, size_t *n) {
     unsigned char *b = net->buf;
-    gs__put32(b + 16, pe->send_seq);
-    gs__putf64(b + 32, pe->their_send_time);
-    gs__putf64(b + 40, pe->recv_any ? now - pe->their_recv_now : 0.0);
+    gs__hdr_set_peer(b, pe->send_seq, pe->their_send_time,
+                     pe->recv_any ? now - pe->their_recv_now : 0.0);
 #ifdef GHOSTSIM_SODIUM
     if (net->guard.keyed) {
         memcpy(net->guard.sealed, b, size);
@@ -7045,7 +7477,7 @@ GS__PRIVATE const unsigned char *gs__datagram_to_peer(gs_net *net, const gs__pee
 GS__PRIVATE void gs__datagram_flush(gs_net *net, double now, size_t *size) {
     size_t wire = *size + (net->guard.keyed ? GS_WIRE_SEAL_TRAILER : 4), n;
     int p;
-    if (gs__get16(net->buf + 6) == 0) return;
+    if (gs__hdr_chunks(net->buf) == 0) return;
     for (p = 0; p < GS__MAX_PEERS; ++p) {
         gs__peer *pe = &net->peers[p];
         const unsigned char *d;
@@ -7059,14 +7491,74 @@ GS__PRIVATE void gs__datagram_flush(gs_net *net, double now, size_t *size) {
     gs__datagram_begin(net, now, size);
 }
 
-/* Appends every chunk of a ghost's B to the datagrams for all peers. */
-GS__PRIVATE void gs__send_ghost(gs_net *net, const gs__ghost *g, double now, size_t *size) {
+/* A ghost's state (after its time) as runs of one kind each: its
+   positions, a rigid body's quaternion, velocities. Returns the runs, each
+   [previous end, end[i]) of class cls[i]: 0 position, 1 quaternion, 2
+   velocity. A custom agent's state is all positions. */
+GS__PRIVATE int gs__ghost_runs(const gs__ghost *g, size_t end[3], int cls[3]) {
+    const gs_agent *a = g->agent;
+    size_t vars = g->n - 1;
+    if ((a->kind == &gs__rigid_kind || a->kind == &gs__probe_kind) && vars == 13) {
+        end[0] = 3; cls[0] = 0;
+        end[1] = 7; cls[1] = 1;
+        end[2] = 13; cls[2] = 2;
+        return 3;
+    }
+    if (a->kind->positions && a->kind->positions(a) < vars) {
+        end[0] = a->kind->positions(a); cls[0] = 0;
+        end[1] = vars; cls[1] = 2;
+        return 2;
+    }
+    end[0] = vars; cls[0] = 0;
+    return 1;
+}
+
+/* The quantized segments of chunk values [first, first + cnt). */
+GS__PRIVATE void gs__ghost_segments(const gs__ghost *g, size_t first, size_t cnt,
+                                    gs_wire_chunk *ch) {
+    size_t end[3], lo = 0, a, b;
+    int cls[3], r, nr = gs__ghost_runs(g, end, cls);
+    ch->segment_count = 0;
+    for (r = 0; r < nr; lo = end[r++]) {
+        gs_wire_segment *s;
+        a = first > lo ? first : lo;
+        b = first + cnt < end[r] ? first + cnt : end[r];
+        if (a >= b) continue;
+        s = &ch->segments[ch->segment_count++];
+        memset(s, 0, sizeof *s);
+        s->kind = cls[r] == 1 ? GS_WIRE_QUATERNION : GS_WIRE_SCALAR;
+        s->count = (uint16_t)(b - a);
+        s->step = cls[r] == 2 ? g->d.velocity_resolution : g->d.position_resolution;
+        s->bits = g->d.orientation_bits;
+    }
+}
+
+/* Has the state moved past the rest threshold since the last snapshot
+   sent whole? A velocity counts by what it moves over one send period. */
+GS__PRIVATE int gs__ghost_moved(const gs__ghost *g) {
+    size_t end[3], lo = 0, i;
+    int cls[3], r, nr = gs__ghost_runs(g, end, cls);
+    double thr = g->d.rest_threshold;
+    if (!g->sent_any) return 1;
+    for (r = 0; r < nr; lo = end[r++]) {
+        double lim = cls[r] == 2 ? thr * g->d.send_rate : thr;
+        for (i = lo; i < end[r]; ++i)
+            if (!(fabs(g->B[1 + i] - g->sent[1 + i]) <= lim)) return 1;
+    }
+    return 0;
+}
+
+/* Appends every chunk of a ghost's B to the datagrams for all peers, or a
+   heartbeat (rest). */
+GS__PRIVATE void gs__send_ghost(gs_net *net, const gs__ghost *g, double now, size_t *size,
+                                int rest) {
     size_t vars = g->n - 1;
     int c, p;
-    for (c = 0; c < g->nchunks; ++c) {
+    for (c = 0; c < (rest ? 1 : g->nchunks); ++c) {
         gs_wire_chunk ch;
         size_t first = (size_t)c * (size_t)g->per_chunk, cnt = (size_t)g->per_chunk;
         if (first + cnt > vars) cnt = vars - first;
+        if (rest) cnt = 0;
         ch.object_id = g->d.object_id;
         ch.sequence = g->b_seq;
         ch.time = g->B[0];
@@ -7075,15 +7567,44 @@ GS__PRIVATE void gs__send_ghost(gs_net *net, const gs__ghost *g, double now, siz
         ch.first = (uint32_t)first;
         ch.elements = (uint16_t)cnt;
         ch.encoding = g->d.encoding;
+        ch.flags = rest ? GS_WIRE_CHUNK_REST : 0;
+        ch.segment_count = 0;
         ch.payload = NULL;
+        if (ch.encoding == GS_ENCODING_QUANT && !rest) gs__ghost_segments(g, first, cnt, &ch);
         if (gs_wire_add(net->buf, gs__net_cap(net), size, &ch, g->B + 1 + first) ==
             GS_ERR_CAPACITY) {
             gs__datagram_flush(net, now, size);
             gs_wire_add(net->buf, gs__net_cap(net), size, &ch, g->B + 1 + first);
         }
     }
-    for (p = 0; p < GS__MAX_PEERS; ++p)
-        if (net->peers[p].used) net->peers[p].st.snapshots_sent++;
+    for (p = 0; p < GS__MAX_PEERS; ++p) {
+        if (!net->peers[p].used) continue;
+        if (rest) net->peers[p].st.heartbeats_sent++;
+        else net->peers[p].st.snapshots_sent++;
+    }
+}
+
+/* Sends a due ghost: its state, or while it rests (send on change) a
+   heartbeat at the heartbeat rate, the first two of a rest with the state
+   again. */
+GS__PRIVATE void gs__send_due(gs_net *net, gs__ghost *g, double now, size_t *size) {
+    double hb = 1.0 / g->d.heartbeat_rate;
+    if (g->d.rest_threshold > 0.0 && !gs__ghost_moved(g)) {
+        if (now < g->next_heartbeat && g->next_heartbeat - now <= hb) return;
+        g->next_heartbeat = now + hb;
+        if (g->rest_repeats > 0) {
+            g->rest_repeats--;
+            gs__send_ghost(net, g, now, size, 0);
+        } else {
+            gs__send_ghost(net, g, now, size, 1);
+        }
+        return;
+    }
+    gs__send_ghost(net, g, now, size, 0);
+    memcpy(g->sent, g->B, g->n * sizeof(double));
+    g->sent_any = 1;
+    g->rest_repeats = 2;
+    g->next_heartbeat = now + hb;
 }
 
 /* Has a ghost a new B to send at wall time now? Its next send further
@@ -7117,7 +7638,7 @@ GS_API gs_result gs_net_update(gs_net *net, double now) {
     for (i = 0; i < w->agent_count; ++i) {
         gs__ghost *g = gs__ghost_of(w->agents[i]);
         if (!g || !gs__ghost_due(g, now)) continue;
-        if (peers) gs__send_ghost(net, g, now, &size);
+        if (peers) gs__send_due(net, g, now, &size);
         g->sent_seq = g->b_seq;
         g->next_send = now + 1.0 / g->d.send_rate;
     }
@@ -7153,6 +7674,8 @@ GS__PRIVATE int gs__peer_run(gs_net *net, int p, uint32_t run) {
         pe->their_send_time = 0.0;
         for (i = 0; i < w->agent_count; ++i) {
             gs__ghost *g = gs__ghost_of(w->agents[i]);
+            if (g) g->gp[p].resting = 0;
+            if (g) g->sent_any = 0; /* it knows nothing of our states */
             for (k = 0; g && g->q[p] && k < g->d.queue_size; ++k) {
                 g->q[p][k].used = 0;
                 g->q[p][k].chunks = 0;
@@ -7208,6 +7731,13 @@ GS__PRIVATE int gs__chunks_fit(gs_net *net, const gs_wire_view *v, double now,
                         ? ghosts[i - 1] : gs__ghost_find(net->world, c->object_id);
         g = ghosts[i];
         if (!g) { *why = GS_REJECT_OBJECT; return 0; }
+        if (c->flags & GS_WIRE_CHUNK_REST) { /* a heartbeat: no values */
+            if (c->count != g->nchunks || c->encoding != g->d.encoding) {
+                *why = GS_REJECT_RANGE;
+                return 0;
+            }
+            continue;
+        }
         size_t first = (size_t)c->index * (size_t)g->per_chunk;
         size_t want = first < g->n - 1 ? g->n - 1 - first : 0;
         if (want > (size_t)g->per_chunk) want = (size_t)g->per_chunk;
@@ -7254,7 +7784,15 @@ GS__PRIVATE gs__snap *gs__snap_slot(gs__ghost *g, int p, const gs_wire_chunk *c,
 
 GS__PRIVATE void gs__queue_chunk(gs_net *net, gs__ghost *g, int p, const gs_wire_chunk *c,
                                  double age) {
-    gs__snap *s = gs__snap_slot(g, p, c, age);
+    gs__snap *s;
+    g->gp[p].resting = (c->flags & GS_WIRE_CHUNK_REST) != 0;
+    if (g->gp[p].resting) { /* nothing to blend: the last snapshot stands */
+        net->peers[p].st.heartbeats_received++;
+        if (c->time > net->peers[p].st.last_remote_time)
+            net->peers[p].st.last_remote_time = c->time;
+        return;
+    }
+    s = gs__snap_slot(g, p, c, age);
     if (s->got[c->index]) return; /* a duplicated chunk */
     gs__wire_get_values(c, s->data + c->first);
     s->got[c->index] = 1;
@@ -7396,13 +7934,14 @@ GS__PRIVATE int gs__receive_sealed(gs_net *net, const unsigned char *buf, size_t
     const unsigned char *nonce = buf + size - GS_WIRE_SEAL_TRAILER;
     uint64_t epoch, salt, counter;
     int order;
-    if (buf[5] & ~GS_WIRE_FLAG_SEALED) { *why = GS_REJECT_LAYOUT; return 0; }
-    if ((buf[5] & GS_WIRE_FLAG_SEALED) && size < GS_WIRE_HEADER + GS_WIRE_SEAL_TRAILER) {
+    unsigned flags = gs__hdr_flags(buf);
+    if (flags & ~(unsigned)GS_WIRE_FLAG_SEALED) { *why = GS_REJECT_LAYOUT; return 0; }
+    if ((flags & GS_WIRE_FLAG_SEALED) && size < GS_WIRE_HEADER + GS_WIRE_SEAL_TRAILER) {
         *why = GS_REJECT_SHORT;
         return 0;
     }
-    if (!gs__receive_sender(net, gs__get32(buf + 8), gs__get32(buf + 12), p, why)) return 0;
-    if (!(buf[5] & GS_WIRE_FLAG_SEALED)) { *why = GS_REJECT_KEY; return 0; }
+    if (!gs__receive_sender(net, gs__hdr_session(buf), gs__hdr_sender(buf), p, why)) return 0;
+    if (!(flags & GS_WIRE_FLAG_SEALED)) { *why = GS_REJECT_KEY; return 0; }
     epoch = gs__get64(nonce);
     salt = gs__get64(nonce + 8);
     counter = gs__get64(nonce + 16);
@@ -7462,6 +8001,7 @@ GS__PRIVATE gs_result gs__deliver_locked(gs_net *net, const void *data, size_t s
         age = gs__datagram_age(pe, &v->header, now);
         pe->st.datagrams_received++;
         pe->st.bytes_received += size;
+        pe->st.last_heard = now;
         for (i = 0; i < v->chunk_count; ++i) gs__queue_chunk(net, ghosts[i], p, &v->chunks[i], age);
     }
     return res;
@@ -8003,7 +8543,7 @@ GS__PRIVATE int gs__udp_from_ok(gs_udp *u, size_t n, const struct sockaddr_stora
     uint32_t host;
     int p, ok = 1, found = 0;
     if (n < GS_WIRE_HEADER || memcmp(u->rbuf, "GSIM", 4) != 0) return 1;
-    host = gs__get32(u->rbuf + 12);
+    host = gs__hdr_sender(u->rbuf);
     for (p = 0; p < GS__MAX_PEERS && !found; ++p)
         if (u->peers[p].used && u->peers[p].host == host) {
             found = 1;

@@ -1,4 +1,4 @@
-/* fuzz_wire.c - libFuzzer harness over the receiving side of wire format v1:
+/* fuzz_wire.c - libFuzzer harness over the receiving side of wire format v2:
    gs_wire_decode, the net's validation (gs_net_deliver) and the blend.
 
    An input is one or more datagrams back to back: it is cut before every
@@ -8,7 +8,9 @@
      1. gs_wire_decode on an exact-size heap copy (ASan sees any overread).
         Accepted: every chunk lies inside the datagram, its values and time
         are finite, and encoding the view again with gs_wire_begin/add/end
-        gives the same bytes (the fields decode ignores copied over).
+        gives the same bytes (the fields decode ignores copied over); a
+        quantized chunk, whose encoder picks the width and base itself,
+        gives the same values.
      2. gs_net_deliver into a small world (tests/fuzz_world.h: host 1, peers
         2 and 3, six ghosts of every kind; an input of odd length gets a
         time window of 100 s, an even one none) at a wall time moving 4 ms
@@ -60,6 +62,7 @@ typedef struct fuzz_tally {
 /* The reasons gs_wire_decode gives; the net's own come after decoding. */
 static int fuzz_decode_reason(gs_reject r) {
     return r == GS_REJECT_SHORT || r == GS_REJECT_MAGIC || r == GS_REJECT_VERSION ||
+           r == GS_REJECT_OLD_VERSION ||
            r == GS_REJECT_CHECKSUM || r == GS_REJECT_LAYOUT ||
            r == GS_REJECT_NOT_FINITE || r == GS_REJECT_TIME;
 }
@@ -81,21 +84,42 @@ static void fuzz_put32(unsigned char *p, uint32_t v) {
     p[2] = (unsigned char)(v >> 16); p[3] = (unsigned char)(v >> 24);
 }
 
+/* A quantized chunk's values encode again (in a datagram of their own)
+   to the same values. */
+static void fuzz_requant(const gs_wire_chunk *c, const double *values) {
+    static gs_wire_view w;
+    unsigned char out[GS_WIRE_MAX_DATAGRAM];
+    gs_wire_header h;
+    gs_reject why;
+    size_t n = 0;
+    int k;
+    memset(&h, 0, sizeof h);
+    FUZZ_CHECK(gs_wire_begin(out, sizeof out, &h, &n) == GS_OK);
+    FUZZ_CHECK(gs_wire_add(out, sizeof out, &n, c, values) == GS_OK);
+    n = gs_wire_end(out, n);
+    FUZZ_CHECK(gs_wire_decode(out, n, &w, &why) == 1);
+    for (k = 0; k < c->elements; ++k) FUZZ_CHECK(gs_wire_value(&w.chunks[0], k) == values[k]);
+}
+
 /* An accepted view encodes back to the very bytes it came from, apart from
    what decode ignores (flags, the reserved fields), copied over here. */
 static void fuzz_reencode(const unsigned char *buf, size_t size, const gs_wire_view *v) {
     unsigned char out[GS_WIRE_MAX_DATAGRAM];
-    double values[GS_WIRE_MAX_DATAGRAM / 4];
-    size_t n = 0, off = GS_WIRE_HEADER;
-    int i, k;
+    double values[GS_WIRE_MAX_DATAGRAM];
+    size_t n = 0;
+    int i, k, quant = 0;
     FUZZ_CHECK(gs_wire_begin(out, sizeof out, &v->header, &n) == GS_OK);
     for (i = 0; i < v->chunk_count; ++i) {
         const gs_wire_chunk *c = &v->chunks[i];
         for (k = 0; k < c->elements; ++k) values[k] = gs_wire_value(c, k);
-        FUZZ_CHECK(gs_wire_add(out, sizeof out, &n, c, values) == GS_OK);
-        memcpy(out + off + 27, buf + off + 27, 5); /* chunk reserved */
-        off = n;
+        if (c->encoding == GS_ENCODING_QUANT && !(c->flags & GS_WIRE_CHUNK_REST)) {
+            fuzz_requant(c, values);
+            quant = 1;
+        } else {
+            FUZZ_CHECK(gs_wire_add(out, sizeof out, &n, c, values) == GS_OK);
+        }
     }
+    if (quant) return;
     FUZZ_CHECK(n + 4 == size);
     out[5] = buf[5];                /* flags */
     memcpy(out + 20, buf + 20, 4);  /* reserved */
@@ -118,8 +142,13 @@ static int fuzz_decode(const unsigned char *buf, size_t size, gs_reject *why) {
     FUZZ_CHECK(v.chunk_count >= 1 && v.chunk_count <= GS_WIRE_MAX_CHUNKS);
     for (i = 0; i < v.chunk_count; ++i) {
         const gs_wire_chunk *c = &v.chunks[i];
-        size_t len = (size_t)c->elements * (c->encoding == GS_ENCODING_F32 ? 4u : 8u);
-        FUZZ_CHECK(c->encoding == GS_ENCODING_F64 || c->encoding == GS_ENCODING_F32);
+        /* the payload's length, from its chunk header */
+        size_t len = (size_t)(c->payload[-4] | c->payload[-3] << 8);
+        FUZZ_CHECK(c->encoding == GS_ENCODING_F64 || c->encoding == GS_ENCODING_F32 ||
+                   c->encoding == GS_ENCODING_QUANT);
+        if (c->flags & GS_WIRE_CHUNK_REST) FUZZ_CHECK(len == 0 && c->elements == 0);
+        else if (c->encoding != GS_ENCODING_QUANT)
+            FUZZ_CHECK(len == (size_t)c->elements * (c->encoding == GS_ENCODING_F32 ? 4u : 8u));
         FUZZ_CHECK(c->index < c->count);
         FUZZ_CHECK(isfinite(c->time) && c->time >= 0.0);
         FUZZ_CHECK(c->payload >= buf + GS_WIRE_HEADER + GS_WIRE_CHUNK_HEADER);
