@@ -3,8 +3,17 @@
      ghostpeer --id N --listen HOST:PORT [--peer ID@HOST:PORT]... [--duration S]
                [--cloth N] [--spheres K] [--weight cs|exp[:RATE]|owner]
                [--integrator NAME] [--dt S] [--probe-until S] [--seed N]
-               [--encoding f64|f32] [--stats-every S] [--trace FILE] [--key FILE]
+               [--encoding f64|f32|quant] [--stats-every S] [--trace FILE] [--key FILE]
                [--clock-step AT:SECONDS] [--probe-wild AT:SECONDS:SPEED]
+               [--resolution M] [--rest-threshold M] [--heartbeat-rate HZ]
+
+   --encoding quant sends positions at --resolution metres (default 5e-5),
+   velocities at 1 mm/s and orientations as smallest three (wire v2);
+   --rest-threshold M (default 0: off) sends a ghost that moved less than M
+   since its last snapshot as a heartbeat only, at --heartbeat-rate Hz
+   (default 4). Each JSON line gives per peer "bytes_sent" and "bytes_rx"
+   (datagram bytes so far), "heartbeats_rx", "resting" (objects the peer
+   says are at rest) and "heard" (s since its last datagram, -1 never).
 
    Every host builds the same scene (gs_scene_create: a cloth pinned by its
    corners, K spheres above it, one probe per host of the session) and runs
@@ -73,6 +82,9 @@ typedef struct options {
     double probe_until;    /* s of simulation time */
     uint32_t seed;
     gs_encoding encoding;
+    double resolution;     /* m, quant positions; 0 = the library's default */
+    double rest_threshold; /* m; 0 = send every state */
+    double heartbeat_rate; /* Hz; 0 = the library's default */
     double stats_every;
     const char *trace;
     double step_at, step;  /* --clock-step: s into the run, s of jump */
@@ -94,9 +106,10 @@ static void usage(const char *why) {
             "usage: ghostpeer --id N --listen HOST:PORT [--peer ID@HOST:PORT]... [--duration S]\n"
             "                 [--cloth N] [--spheres K] [--weight cs|exp[:RATE]|owner]\n"
             "                 [--integrator explicit|symplectic|verlet|rk4|implicit] [--dt S]\n"
-            "                 [--probe-until S] [--seed N] [--encoding f64|f32]\n"
+            "                 [--probe-until S] [--seed N] [--encoding f64|f32|quant]\n"
             "                 [--stats-every S] [--trace FILE] [--key FILE]\n"
-            "                 [--clock-step AT:SECONDS] [--probe-wild AT:SECONDS:SPEED]\n");
+            "                 [--clock-step AT:SECONDS] [--probe-wild AT:SECONDS:SPEED]\n"
+            "                 [--resolution M] [--rest-threshold M] [--heartbeat-rate HZ]\n");
     exit(2);
 }
 
@@ -261,8 +274,14 @@ static void parse_args(int argc, char **argv, options *o) {
         else if (strcmp(f, "--encoding") == 0) {
             if (strcmp(v, "f64") == 0) o->encoding = GS_ENCODING_F64;
             else if (strcmp(v, "f32") == 0) o->encoding = GS_ENCODING_F32;
-            else usage("--encoding: f64 or f32");
-        } else if (strcmp(f, "--stats-every") == 0) o->stats_every = parse_number(f, v, 1e-3, 3600);
+            else if (strcmp(v, "quant") == 0) o->encoding = GS_ENCODING_QUANT;
+            else usage("--encoding: f64, f32 or quant");
+        }
+        else if (strcmp(f, "--resolution") == 0) o->resolution = parse_number(f, v, 1e-9, 1.0);
+        else if (strcmp(f, "--rest-threshold") == 0)
+            o->rest_threshold = parse_number(f, v, 0, 1.0);
+        else if (strcmp(f, "--heartbeat-rate") == 0)
+            o->heartbeat_rate = parse_number(f, v, 0.01, 1000.0); else if (strcmp(f, "--stats-every") == 0) o->stats_every = parse_number(f, v, 1e-3, 3600);
         else if (strcmp(f, "--trace") == 0) o->trace = v;
         else if (strcmp(f, "--clock-step") == 0) {
             static const double lo[] = {0, -1e6}, hi[] = {1e7, 1e6};
@@ -344,6 +363,9 @@ static int build(peer_host *h) {
     gd.weight = o->weight;
     gd.weight_user = o->weight == gs_weight_exp ? (void *)&h->o.exp_rate : NULL;
     gd.encoding = o->encoding;
+    gd.position_resolution = o->resolution;
+    gd.rest_threshold = o->rest_threshold;
+    gd.heartbeat_rate = o->heartbeat_rate;
     if (gs_scene_attach_ghosts(&h->sc, &gd) != GS_OK) return fail(h, "ghost");
     memset(&ud, 0, sizeof ud);
     ud.bind = o->listen;
@@ -423,11 +445,15 @@ static void print_line(peer_host *h, int final) {
         memset(&ps, 0, sizeof ps);
         gs_net_peer_stats(net, h->o.peers[i].id, &ps);
         printf("%s\"%u\": {\"gap\": %.6f, \"div\": %.9g, \"rtt\": %.6f, \"rx\": %llu, "
-               "\"lost\": %llu, \"rejected\": %llu}",
+               "\"lost\": %llu, \"rejected\": %llu, \"bytes_sent\": %llu, \"bytes_rx\": %llu, "
+               "\"heartbeats_rx\": %llu, \"resting\": %d, \"heard\": %.3f}",
                i ? ", " : "", (unsigned)h->o.peers[i].id,
                ps.snapshots_received ? ps.gap : 0.0, ps.divergence, ps.rtt,
                (unsigned long long)ps.snapshots_received, (unsigned long long)ps.lost,
-               (unsigned long long)ps.rejected_total);
+               (unsigned long long)ps.rejected_total, (unsigned long long)ps.bytes_sent,
+               (unsigned long long)ps.bytes_received, (unsigned long long)ps.heartbeats_received,
+               ps.objects_resting,
+               ps.datagrams_received ? gs_udp_now() - ps.last_heard : -1.0);
         rejected += ps.rejected_total;
         rx += ps.snapshots_received;
         sent += ps.snapshots_sent;
