@@ -1258,8 +1258,9 @@ GS_API gs_result gs_net_update(gs_net *net, double now);
    Memory: nothing is allocated here. A net is one fixed struct (13 KB; a
    gs_udp adds 25 KB, 16 datagrams of them waiting to go out, and its
    socket's rcvbuf in the kernel), and each ghost
-   keeps queue_size snapshots per peer (queue_size * (48 + 8 * state
-   values + chunks) bytes, allocated when the ghost or the peer is added;
+   keeps queue_size snapshots per peer and the newest values received
+   ((queue_size + 1) * (48 + 8 * state values + chunks) bytes, allocated
+   when the ghost or the peer is added;
    a full queue drops its oldest), whatever arrives. */
 GS_API gs_result gs_net_deliver(gs_net *net, const void *data, size_t size,
                                 double now, gs_reject *why);
@@ -5734,9 +5735,11 @@ GS__PRIVATE size_t gs__per_chunk(gs_encoding e) {
     return e == GS_ENCODING_QUANT ? GS_WIRE_QUANT_CHUNK : GS_WIRE_CHUNK_ROOM / gs__value_size(e);
 }
 
-/* A ghost's queue for one peer slot: queue_size snapshots. */
+/* A ghost's queue for one peer slot: queue_size snapshots, and one more
+   (index queue_size, never used as a queue slot) that keeps the newest
+   values received of each chunk, which a heartbeat says still stand. */
 GS__PRIVATE gs__snap *gs__snaps_new(gs_world *w, const gs__ghost *g) {
-    size_t qs = (size_t)g->d.queue_size, vars = g->n - 1, i;
+    size_t qs = (size_t)g->d.queue_size + 1, vars = g->n - 1, i;
     size_t bytes = qs * (sizeof(gs__snap) + vars * sizeof(double) + (size_t)g->nchunks);
     gs__snap *s = (gs__snap *)gs__alloc(w, bytes);
     char *p;
@@ -5855,7 +5858,7 @@ GS__PRIVATE int gs__ghost_sizes(size_t n, const gs_ghost_desc *d, size_t *bytes,
         return 0;
     *bytes += vals;
     return gs__size(n - 1, sizeof(double), sizeof(gs__snap) + nchunks, &per) &&
-           gs__size(qs, per, 0, queue);
+           gs__size(qs + 1, per, 0, queue); /* + the last values (gs__snaps_new) */
 }
 
 GS_API gs_result gs_ghost_attach(gs_agent *a, const gs_ghost_desc *desc) {
@@ -7676,7 +7679,7 @@ GS__PRIVATE int gs__peer_run(gs_net *net, int p, uint32_t run) {
             gs__ghost *g = gs__ghost_of(w->agents[i]);
             if (g) g->gp[p].resting = 0;
             if (g) g->sent_any = 0; /* it knows nothing of our states */
-            for (k = 0; g && g->q[p] && k < g->d.queue_size; ++k) {
+            for (k = 0; g && g->q[p] && k <= g->d.queue_size; ++k) {
                 g->q[p][k].used = 0;
                 g->q[p][k].chunks = 0;
                 memset(g->q[p][k].got, 0, (size_t)g->nchunks);
@@ -7782,19 +7785,43 @@ GS__PRIVATE gs__snap *gs__snap_slot(gs__ghost *g, int p, const gs_wire_chunk *c,
     return free_s;
 }
 
+/* A heartbeat: the peer's state still stands as last sent, now at the
+   heartbeat's time. It is queued again as a snapshot, so that a follower
+   keeps being pulled to a leader at rest (silent, it would drift off on
+   its own), once the last values of every chunk are known. */
+GS__PRIVATE void gs__heartbeat(gs_net *net, gs__ghost *g, int p, const gs_wire_chunk *c,
+                               double age) {
+    gs__snap *s, *last = &g->q[p][g->d.queue_size];
+    net->peers[p].st.heartbeats_received++;
+    if (c->time > net->peers[p].st.last_remote_time) net->peers[p].st.last_remote_time = c->time;
+    if (last->chunks < g->nchunks) return;
+    s = gs__snap_slot(g, p, c, age);
+    if (s->chunks == g->nchunks) return; /* a duplicated heartbeat */
+    memcpy(s->data, last->data, (g->n - 1) * sizeof(double));
+    memset(s->got, 1, (size_t)g->nchunks);
+    s->chunks = g->nchunks;
+}
+
 GS__PRIVATE void gs__queue_chunk(gs_net *net, gs__ghost *g, int p, const gs_wire_chunk *c,
                                  double age) {
-    gs__snap *s;
+    gs__snap *s, *last = &g->q[p][g->d.queue_size];
     g->gp[p].resting = (c->flags & GS_WIRE_CHUNK_REST) != 0;
-    if (g->gp[p].resting) { /* nothing to blend: the last snapshot stands */
-        net->peers[p].st.heartbeats_received++;
-        if (c->time > net->peers[p].st.last_remote_time)
-            net->peers[p].st.last_remote_time = c->time;
+    if (g->gp[p].resting) {
+        gs__heartbeat(net, g, p, c, age);
         return;
     }
     s = gs__snap_slot(g, p, c, age);
     if (s->got[c->index]) return; /* a duplicated chunk */
     gs__wire_get_values(c, s->data + c->first);
+    /* the newest values of each chunk: a late older chunk leaves them */
+    if (!last->used || !gs__seq_newer(last->seq, c->sequence)) {
+        size_t cnt = c->elements;
+        last->used = 1;
+        last->seq = c->sequence;
+        memcpy(last->data + c->first, s->data + c->first, cnt * sizeof(double));
+        if (!last->got[c->index]) last->chunks++;
+        last->got[c->index] = 1;
+    }
     s->got[c->index] = 1;
     s->chunks++;
     net->peers[p].st.chunks_received++;

@@ -472,6 +472,11 @@ static void test_net_send_on_change(void **state) {
     assert_true(now - pr.last_heard < 0.26); /* at rest, not silent */
     /* f64 every frame would have been 120 datagrams */
     assert_true(ps.datagrams_sent < 12);
+    /* the receiver drifts off on its own: the next heartbeat pulls it
+       back to the sender's (quantized) state, which still stands */
+    r->b.x[2] += 0.5;
+    for (f = 0; f < 20; ++f) frame(s, r, now += 1.0 / 60.0); /* > one 0.25 s period */
+    assert_true(fabs(r->b.x[2] - s->b.x[2]) <= 2.5e-5 + 1e-15);
     /* a move under the threshold: still at rest */
     s->b.x[1] += 5e-5;
     for (f = 0; f < 10; ++f) frame(s, r, now += 1.0 / 60.0);
