@@ -1,0 +1,328 @@
+/* bandwidth - what a host sends, per peer and per object, in each wire
+   encoding, and what each costs in divergence and CPU.
+
+   Scenes (two hosts on gs_simnet, a perfect link, 60 Hz frames; ghosts at
+   their default 60 Hz, the net's budget raised to 1e9 B/s so that nothing
+   is held back):
+     paper-push   the paper's scene (16x16 cloth, 3 spheres, 2 probes),
+                  each host driving its probe along gs_scene_probe_path
+     paper-rest   the same scene with the probes parked above the cloth
+                  from the start; measured after 4 s (2 s quick) of
+                  settling, over the next 4 s (2 s)
+     cloth64-push the scene with a 64x64 cloth and no spheres, probes
+                  pushing
+     spheres900   900 spheres in a 30 x 30 grid, no gravity, no contacts
+                  (1 m apart), 90 of them (one in ten) drifting at 0.2 m/s,
+                  the rest at rest
+   Encodings: f64, f32, quant (0.05 mm, 1 mm/s, 16-bit smallest three),
+   quant+rest (send on change: rest threshold 0.1 mm, heartbeats at 4 Hz).
+   Delta coding against an acknowledged baseline is not implemented yet.
+   --quick runs the paper scenes only, in f64 and quant+rest, over 1 s,
+   and times f64 and quant only (the cloth64 and
+   spheres900 rows take minutes: a 64x64 cloth settles 3 s at creation on
+   each host, and 900 ghosts are looked up linearly per chunk); their rows
+   are then null.
+
+   Figures: kbit/s that host 1 sent to host 2 (its gs_peer_stats
+   bytes_sent, datagram bytes, no UDP/IP headers) over the measured span;
+   that per object; the divergence: host 1's gs_peer_stats.divergence (RMS
+   distance between its positions and host 2's latest snapshot of each
+   object, the largest over the objects), mean over the frames of the
+   measured span. CPU: one full snapshot of the paper scene encoded
+   (gs_net_update after a publish) and decoded (gs_net_deliver of each
+   datagram) between two nets of the program's own transport, median of
+   repeats, monotonic clock. */
+#define GHOSTSIM_IMPLEMENTATION
+#include "ghostsim.h"
+#include "bench_util.h"
+
+#define FRAME (1.0 / 60.0)
+#define NSPHERES 900
+
+static gs_vec3 v3(double x, double y, double z) {
+    gs_vec3 v;
+    v.x = x; v.y = y; v.z = z;
+    return v;
+}
+
+enum { ENC_F64, ENC_F32, ENC_QUANT, ENC_QUANT_REST, ENC_COUNT };
+static const char *enc_name[ENC_COUNT] = {"f64", "f32", "quant", "quant+rest"};
+
+enum { SC_PAPER_PUSH, SC_PAPER_REST, SC_CLOTH64, SC_SPHERES, SC_COUNT };
+static const char *sc_name[SC_COUNT] = {"paper-push", "paper-rest", "cloth64-push", "spheres900"};
+/* the targets, kbit/s per host (0: none) */
+static const double sc_target[SC_COUNT] = {256.0, 16.0, 2000.0, 256.0};
+
+static gs_ghost_desc ghost_desc(int enc) {
+    gs_ghost_desc gd = gs_ghost_desc_default();
+    gd.encoding = enc == ENC_F64 ? GS_ENCODING_F64 : enc == ENC_F32 ? GS_ENCODING_F32
+                                                                     : GS_ENCODING_QUANT;
+    if (enc == ENC_QUANT_REST) gd.rest_threshold = 1e-4;
+    gd.weight = gs_weight_cs;
+    return gd;
+}
+
+typedef struct host {
+    gs_world *w;
+    gs_net *net;
+    gs_scene sc;
+    gs_agent *ball[NSPHERES];
+    int objects;
+} host;
+
+static int host_scene(host *h, uint32_t id, int scene, int enc) {
+    gs_world_desc wd = gs_world_desc_default();
+    gs_ghost_desc gd = ghost_desc(enc);
+    wd.host_id = id;
+    if (gs_world_create(&wd, &h->w) != GS_OK) return -1;
+    if (scene == SC_SPHERES) {
+        int i;
+        gs_world_set_gravity(h->w, v3(0, 0, 0));
+        for (i = 0; i < NSPHERES; ++i) {
+            gs_rigid_desc rd = gs_rigid_desc_default();
+            rd.shape.type = GS_SHAPE_SPHERE;
+            rd.shape.radius = 0.1;
+            rd.position = v3((double)(i % 30), 0.0, (double)(i / 30));
+            if (i % 10 == 0) rd.velocity = v3(0.2, 0.0, 0.0);
+            rd.solver.dt = 0.01;
+            if (gs_rigid_create(h->w, &rd, &h->ball[i]) != GS_OK) return -1;
+            gd.object_id = 1000u + (uint32_t)i;
+            if (gs_ghost_attach(h->ball[i], &gd) != GS_OK) return -1;
+        }
+        h->objects = NSPHERES;
+        return 0;
+    }
+    {
+        gs_scene_desc sd = gs_scene_desc_default();
+        sd.probe_count = 2;
+        if (scene == SC_CLOTH64) {
+            sd.cloth_n = 64;
+            sd.sphere_count = 0;
+        }
+        if (gs_scene_create(h->w, &sd, &h->sc) != GS_OK) return -1;
+        if (gs_scene_attach_ghosts(&h->sc, &gd) != GS_OK) return -1;
+        h->objects = 1 + h->sc.sphere_count + h->sc.probe_count;
+    }
+    return 0;
+}
+
+static void drive(host *h, uint32_t id, int scene, double t) {
+    gs_quat q = {0, 0, 0, 1};
+    gs_vec3 p;
+    if (scene == SC_SPHERES) return;
+    if (scene == SC_PAPER_REST) p = v3(0.3 * ((double)id - 1.5), 0.6, 0.0);
+    else p = gs_scene_probe_path((int)id - 1, t);
+    gs_probe_set_target(h->sc.probes[id - 1], p, q);
+}
+
+typedef struct result {
+    double kbps, kbps_object, divergence;
+    int ok;
+} result;
+
+static result run_scene(int scene, int enc, int quick) {
+    result res;
+    host h[2];
+    gs_simnet *sim = NULL;
+    gs_simnet_desc smd;
+    gs_net_desc nd;
+    gs_peer_stats a, b;
+    double settle = scene == SC_PAPER_REST ? (quick ? 1.0 : 4.0) : (quick ? 0.25 : 1.0);
+    double span = scene == SC_CLOTH64 || scene == SC_SPHERES ? 2.0 : quick ? 1.0 : 4.0;
+    double t = 0.0, wall0 = 0.0, div = 0.0;
+    int i, frames = 0;
+    memset(&res, 0, sizeof res);
+    memset(h, 0, sizeof h);
+    memset(&smd, 0, sizeof smd);
+    memset(&nd, 0, sizeof nd);
+    nd.bandwidth = 1e9;
+    if (gs_simnet_create(&smd, &sim) != GS_OK) return res;
+    for (i = 0; i < 2; ++i) {
+        if (host_scene(&h[i], (uint32_t)i + 1, scene, enc) != 0 ||
+            gs_simnet_join(sim, h[i].w, &nd, &h[i].net) != GS_OK) {
+            fprintf(stderr, "bandwidth: %s %s: setup failed\n", sc_name[scene], enc_name[enc]);
+            return res;
+        }
+    }
+    memset(&a, 0, sizeof a);
+    while (t < settle + span) {
+        for (i = 0; i < 2; ++i) drive(&h[i], (uint32_t)i + 1, scene, t);
+        if (gs_simnet_run(sim, FRAME, FRAME) != GS_OK) break;
+        t += FRAME;
+        if (t >= settle && wall0 == 0.0) {
+            gs_net_peer_stats(h[0].net, 2, &a);
+            wall0 = gs_simnet_time(sim);
+        }
+        if (wall0 > 0.0) {
+            gs_net_peer_stats(h[0].net, 2, &b);
+            div += b.divergence;
+            frames++;
+        }
+    }
+    gs_net_peer_stats(h[0].net, 2, &b);
+    res.kbps = (double)(b.bytes_sent - a.bytes_sent) * 8.0 / (gs_simnet_time(sim) - wall0) / 1e3;
+    res.kbps_object = res.kbps / h[0].objects;
+    res.divergence = frames ? div / frames : 0.0;
+    res.ok = 1;
+    for (i = 0; i < 2; ++i) {
+        gs_net_destroy(h[i].net);
+        gs_world_destroy(h[i].w);
+    }
+    gs_simnet_destroy(sim);
+    return res;
+}
+
+/* ---- CPU: one full paper-scene snapshot encoded and decoded ---- */
+
+#define MAXD 64
+typedef struct cpu_pair {
+    host h[2];
+    unsigned char d[MAXD][GS_WIRE_MAX_DATAGRAM];
+    size_t size[MAXD];
+    int n;
+    double now;
+} cpu_pair;
+
+static gs_result keep(void *user, uint32_t to, const void *data, size_t size) {
+    cpu_pair *c = (cpu_pair *)user;
+    (void)to;
+    if (c->n < MAXD) {
+        memcpy(c->d[c->n], data, size);
+        c->size[c->n++] = size;
+    }
+    return GS_OK;
+}
+
+static void cpu_times(int enc, double *enc_us, double *dec_us, double *bytes) {
+    cpu_pair *c = (cpu_pair *)calloc(1, sizeof *c);
+    double te[200], td[200];
+    int i, k, reps = 200;
+    if (!c) {
+        *enc_us = *dec_us = *bytes = 0.0;
+        return;
+    }
+    gs_net_desc nd;
+    memset(&nd, 0, sizeof nd);
+    nd.send = keep;
+    nd.send_user = c;
+    nd.bandwidth = 1e9;
+    for (i = 0; i < 2; ++i) {
+        host_scene(&c->h[i], (uint32_t)i + 1, SC_PAPER_PUSH, enc);
+        gs_net_create(c->h[i].w, &nd, &c->h[i].net);
+        gs_net_add_peer(c->h[i].net, (uint32_t)(2 - i));
+    }
+    *bytes = 0.0;
+    for (k = 0; k < reps; ++k) {
+        double t0;
+        gs_world_advance(c->h[0].w, FRAME, NULL); /* publishes every ghost */
+        c->n = 0;
+        c->now += FRAME;
+        t0 = bu_now();
+        gs_net_update(c->h[0].net, c->now);
+        te[k] = bu_now() - t0;
+        t0 = bu_now();
+        for (i = 0; i < c->n; ++i) gs_net_deliver(c->h[1].net, c->d[i], c->size[i], c->now, NULL);
+        td[k] = bu_now() - t0;
+        for (i = 0; i < c->n; ++i) *bytes += (double)c->size[i];
+    }
+    *bytes /= reps;
+    *enc_us = 1e6 * bu_median(te, reps);
+    *dec_us = 1e6 * bu_median(td, reps);
+    for (i = 0; i < 2; ++i) {
+        gs_net_destroy(c->h[i].net);
+        gs_world_destroy(c->h[i].w);
+    }
+    free(c);
+}
+
+int main(int argc, char **argv) {
+    bu_args args;
+    bu_json *j;
+    result r[SC_COUNT][ENC_COUNT];
+    double eu[ENC_COUNT], du[ENC_COUNT], by[ENC_COUNT];
+    int s, e, rc = bu_parse_args(argc, argv, "bandwidth", &args);
+    if (rc) return rc < 0 ? 2 : 0;
+    fprintf(stderr, "%-13s %-11s %12s %12s %12s %10s\n", "scene", "encoding", "kbit/s/host",
+            "kbit/s/obj", "divergence", "target");
+    for (s = 0; s < SC_COUNT; ++s)
+        for (e = 0; e < ENC_COUNT; ++e) {
+            if (args.quick && (s == SC_CLOTH64 || s == SC_SPHERES || e == ENC_F32 ||
+                               e == ENC_QUANT)) {
+                memset(&r[s][e], 0, sizeof r[s][e]);
+                continue;
+            }
+            r[s][e] = run_scene(s, e, args.quick);
+            fprintf(stderr, "%-13s %-11s %12.1f %12.3f %12.3g %10.0f %s\n", sc_name[s],
+                    enc_name[e], r[s][e].kbps, r[s][e].kbps_object, r[s][e].divergence,
+                    sc_target[s], r[s][e].kbps <= sc_target[s] ? "met" : "not met");
+        }
+    fprintf(stderr, "\npaper scene, one full snapshot (all 6 objects), median of 200:\n");
+    fprintf(stderr, "%-11s %10s %10s %10s\n", "encoding", "bytes", "encode us", "decode us");
+    for (e = 0; e < ENC_QUANT_REST; ++e) {
+        if (args.quick && e == ENC_F32) {
+            eu[e] = du[e] = by[e] = 0.0;
+            continue;
+        }
+        cpu_times(e, &eu[e], &du[e], &by[e]);
+        fprintf(stderr, "%-11s %10.0f %10.1f %10.1f\n", enc_name[e], by[e], eu[e], du[e]);
+    }
+    j = bu_json_open(args.out);
+    if (!j) return 1;
+    bu_json_obj_begin(j, NULL);
+    bu_json_header(j, "bandwidth", args.quick);
+    bu_json_str(j, "method", "two hosts on gs_simnet (perfect link), 60 Hz frames and ghosts; "
+                "kbit/s of datagram bytes host 1 sent host 2 over the measured span; "
+                "divergence = mean of host 1's peer divergence stat over that span; "
+                "CPU = median gs_net_update / gs_net_deliver time of one full paper-scene "
+                "snapshot");
+    bu_json_arr_begin(j, "results");
+    for (s = 0; s < SC_COUNT; ++s)
+        for (e = 0; e < ENC_COUNT; ++e) {
+            bu_json_obj_begin(j, NULL);
+            bu_json_str(j, "scene", sc_name[s]);
+            bu_json_str(j, "encoding", enc_name[e]);
+            bu_json_num(j, "target_kbit_s", sc_target[s]);
+            if (!r[s][e].ok) { /* not run (--quick) */
+                bu_json_null(j, "kbit_s_per_host");
+                bu_json_obj_end(j);
+                continue;
+            }
+            bu_json_num(j, "kbit_s_per_host", r[s][e].kbps);
+            bu_json_num(j, "kbit_s_per_object", r[s][e].kbps_object);
+            bu_json_num(j, "divergence_m", r[s][e].divergence);
+            bu_json_bool(j, "target_met", r[s][e].kbps <= sc_target[s]);
+            bu_json_obj_end(j);
+        }
+    for (e = 0; e < ENC_QUANT_REST; ++e) {
+        if (by[e] == 0.0) continue; /* not run (--quick) */
+        bu_json_obj_begin(j, NULL);
+        bu_json_str(j, "scene", "cpu-paper-snapshot");
+        bu_json_str(j, "encoding", enc_name[e]);
+        bu_json_num(j, "bytes", by[e]);
+        bu_json_num(j, "encode_us", eu[e]);
+        bu_json_num(j, "decode_us", du[e]);
+        bu_json_obj_end(j);
+    }
+    bu_json_arr_end(j);
+    /* each target against the best encoding measured for it */
+    bu_json_obj_begin(j, "summary");
+    for (s = 0; s < SC_COUNT; ++s) {
+        char k1[64], k2[64], txt[160];
+        double best = -1.0;
+        int be = 0;
+        for (e = 0; e < ENC_COUNT; ++e)
+            if (r[s][e].ok && (best < 0.0 || r[s][e].kbps < best)) { best = r[s][e].kbps; be = e; }
+        if (best < 0.0) continue;
+        snprintf(k1, sizeof k1, "target_%s", sc_name[s]);
+        snprintf(k2, sizeof k2, "target_met_%s", sc_name[s]);
+        snprintf(txt, sizeof txt, "%s <= %.0f kbit/s per host (best: %s, %.1f)", sc_name[s],
+                 sc_target[s], enc_name[be], best);
+        bu_json_str(j, k1, txt);
+        bu_json_bool(j, k2, best <= sc_target[s]);
+    }
+    bu_json_str(j, "target_cpu", "quant encode + decode of the paper scene no slower than f64");
+    bu_json_bool(j, "target_met_cpu", eu[ENC_QUANT] + du[ENC_QUANT] <= eu[ENC_F64] + du[ENC_F64]);
+    bu_json_obj_end(j);
+    bu_json_obj_end(j);
+    return bu_json_close(j) == 0 ? 0 : 1;
+}
