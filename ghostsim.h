@@ -973,7 +973,8 @@ GS_API gs_result gs_scene_attach_ghosts(gs_scene *sc, const gs_ghost_desc *share
        GS_ENCODING_QUANT a segment count u8 (1..GS_WIRE_MAX_SEGMENTS) and
        segments whose value counts add up to the element count:
          scalar (kind 1): count u16, step f64 (> 0), width u8 (0..32),
-           base (a zigzag LEB128 varint, at most 9 bytes, |base| < 2^53),
+           base (a zigzag LEB128 varint, at most 9 bytes, |base| <=
+           2^51 - 2^32),
            then count unsigned integers q of width bits, packed from the
            least significant bit of the first byte on (the segment padded
            to a whole byte); value i = (base + q_i) * step.
@@ -1157,6 +1158,9 @@ GS_API int gs_wire_decode(const unsigned char *buf, size_t size,
 /* Value i of a decoded chunk (quantized: as the sender's state reads
    after the round trip, bit for bit; linear in i there). */
 GS_API double gs_wire_value(const gs_wire_chunk *c, int i);
+/* Every value of a decoded chunk into out (c->elements doubles), in one
+   pass: what gs_wire_value gives for each i. */
+GS_API void gs_wire_values(const gs_wire_chunk *c, double *out);
 
 /* ========================================================================
    >>net
@@ -1394,6 +1398,7 @@ GS_API double gs_udp_now(void);
 
 #include <ccd/ccd.h>
 #include <limits.h>
+#include <float.h> /* FLT_EVAL_METHOD */
 #include <math.h>
 #include <stdarg.h>
 #include <stdio.h>
@@ -6611,8 +6616,8 @@ GS__PRIVATE float gs__getf32(const unsigned char *p) {
 
 /* ---- GS_ENCODING_QUANT: segments of quantized, bit-packed values ---- */
 
-/* Bits appended from the least significant one on (at most 57 at a time:
-   the accumulator keeps whole bytes out as soon as it has them). */
+/* Bits appended from the least significant one on, at most 32 at a time
+   (v < 2^bits): the accumulator goes out 32 bits at once. */
 typedef struct gs__bitw {
     unsigned char *p, *end;
     uint64_t acc;
@@ -6622,23 +6627,37 @@ typedef struct gs__bitw {
 GS__PRIVATE void gs__bitw_put(gs__bitw *b, uint64_t v, int bits) {
     b->acc |= v << b->n;
     b->n += bits;
-    while (b->n >= 8) {
-        if (b->p < b->end) *b->p++ = (unsigned char)b->acc; else b->over = 1;
-        b->acc >>= 8;
-        b->n -= 8;
+    if (b->n >= 32) {
+        if (b->end - b->p >= 4) {
+            gs__put32(b->p, (uint32_t)b->acc);
+            b->p += 4;
+        } else {
+            b->over = 1;
+        }
+        b->acc >>= 32;
+        b->n -= 32;
     }
 }
+/* The bits left, padded to a whole byte. */
 GS__PRIVATE void gs__bitw_flush(gs__bitw *b) {
-    if (b->n > 0) gs__bitw_put(b, 0, 8 - b->n);
+    for (; b->n > 0; b->n -= 8, b->acc >>= 8) {
+        if (b->p < b->end) *b->p++ = (unsigned char)b->acc; else b->over = 1;
+    }
+    b->n = 0;
 }
 typedef struct gs__bitr {
-    const unsigned char *p;
+    const unsigned char *p, *end; /* end: of the segment, never read past */
     uint64_t acc;
     int n;
 } gs__bitr;
 /* Reads bits (<= 32); the caller checked the bytes are there. */
 GS__PRIVATE uint32_t gs__bitr_get(gs__bitr *b, int bits) {
     uint32_t v;
+    if (b->n < bits && b->end - b->p >= 4) {
+        b->acc |= (uint64_t)gs__get32(b->p) << b->n;
+        b->p += 4;
+        b->n += 32;
+    }
     while (b->n < bits) { b->acc |= (uint64_t)*b->p++ << b->n; b->n += 8; }
     v = bits ? (uint32_t)(b->acc & (((uint64_t)1 << bits) - 1)) : 0u;
     b->acc >>= bits;
@@ -6649,31 +6668,53 @@ GS__PRIVATE uint32_t gs__bitr_get(gs__bitr *b, int bits) {
 GS__PRIVATE uint64_t gs__zigzag(int64_t v) { return ((uint64_t)v << 1) ^ (uint64_t)(v >> 63); }
 GS__PRIVATE int64_t gs__unzigzag(uint64_t u) { return (int64_t)(u >> 1) ^ -(int64_t)(u & 1); }
 
+/* x rounded to the nearest integer (ties to even), for |x| < 2^51: adding
+   and taking away 1.5 * 2^52 leaves no fraction bits. Exact IEEE
+   arithmetic, the same on every host, and no library call; where doubles
+   are evaluated wider (x87, FLT_EVAL_METHOD != 0) the sum is forced
+   through memory to be a double. */
+GS__PRIVATE int64_t gs__round(double x) {
+#if defined(FLT_EVAL_METHOD) && FLT_EVAL_METHOD != 0
+    volatile double r = x + 6755399441055744.0;
+#else
+    double r = x + 6755399441055744.0;
+#endif
+    return (int64_t)(r - 6755399441055744.0);
+}
+
 /* The step a scalar segment is sent at: the one asked for, doubled while
-   the values would not fit: |v| / step under 2^52 (exact integers in a
-   double) and their span under 2^32 - 2 steps (32-bit width, with a step
-   either way for the rounding of each end). */
-GS__PRIVATE double gs__quant_step(double step, const double *v, int n) {
-    double lo = v[0], hi = v[0], big;
+   the values would not fit: |v| / step under 2^51 (exact integers in a
+   double, within gs__round's range) and their integers at most 2^32 - 1 apart (32-bit width). Their
+   least and largest integers at that step in *lo and *hi (rounding is
+   monotonic: the ends of the values give them). */
+GS__PRIVATE double gs__quant_step(double step, const double *v, int n, int64_t *lo,
+                                  int64_t *hi) {
+    double vlo = v[0], vhi = v[0], big;
     int i;
-    for (i = 1; i < n; ++i) { lo = v[i] < lo ? v[i] : lo; hi = v[i] > hi ? v[i] : hi; }
-    big = fmax(fabs(lo), fabs(hi));
-    while (big / step >= 4503599627370496.0 || (hi - lo) / step >= 4294967294.0) step *= 2.0;
-    return step;
+    for (i = 1; i < n; ++i) {
+        vlo = v[i] < vlo ? v[i] : vlo;
+        vhi = v[i] > vhi ? v[i] : vhi;
+    }
+    big = fmax(fabs(vlo), fabs(vhi));
+    for (;; step *= 2.0) {
+        double inv = 1.0 / step;
+        if (big * inv >= 2251799813685248.0) continue;
+        *lo = gs__round(vlo * inv);
+        *hi = gs__round(vhi * inv);
+        if (*hi - *lo <= 0xffffffffLL) return step;
+    }
 }
 
 /* A scalar segment at w: header, then the packed values. 0 if it ran out
-   of room. */
+   of room. Each value is rounded as v * (1 / step), a product rather than
+   a quotient: within a unit of the last place of v / step, which the
+   error bound (half a step) does not see. */
 GS__PRIVATE int gs__quant_put_scalar(gs__bitw *w, const gs_wire_segment *s, const double *v) {
-    double step = s->count ? gs__quant_step(s->step, v, s->count) : s->step;
-    int64_t lo = 0, hi = 0, q;
+    int64_t lo = 0, hi = 0;
+    double step = s->count ? gs__quant_step(s->step, v, s->count, &lo, &hi) : s->step;
+    double inv = 1.0 / step;
     uint64_t z;
     int i, width = 0;
-    for (i = 0; i < s->count; ++i) {
-        q = (int64_t)llround(v[i] / step);
-        if (i == 0 || q < lo) lo = q;
-        if (i == 0 || q > hi) hi = q;
-    }
     while (width < 32 && (uint64_t)(hi - lo) >> width) ++width;
     gs__bitw_put(w, GS_WIRE_SCALAR, 8);
     gs__bitw_put(w, s->count, 16);
@@ -6681,8 +6722,7 @@ GS__PRIVATE int gs__quant_put_scalar(gs__bitw *w, const gs_wire_segment *s, cons
     gs__bitw_put(w, (uint64_t)width, 8);
     for (z = gs__zigzag(lo); z >= 0x80; z >>= 7) gs__bitw_put(w, (z & 0x7f) | 0x80, 8);
     gs__bitw_put(w, z, 8);
-    for (i = 0; i < s->count; ++i)
-        gs__bitw_put(w, (uint64_t)((int64_t)llround(v[i] / step) - lo), width);
+    for (i = 0; i < s->count; ++i) gs__bitw_put(w, (uint64_t)(gs__round(v[i] * inv) - lo), width);
     gs__bitw_flush(w);
     return !w->over;
 }
@@ -6756,8 +6796,10 @@ GS__PRIVATE size_t gs__quant_put(unsigned char *p, size_t room, const gs_wire_ch
     return ok && !w.over ? (size_t)(w.p - p) : 0;
 }
 
+GS__PRIVATE int gs__quant_quats_ok(const gs_wire_segment *s);
+
 /* Reads the segments of a quantized payload of len bytes into c, checking
-   every length and bound: the values it gives are finite, under 2^53 *
+   every length and bound: the values it gives are finite, under 2^51 *
    step in size. 0 if anything is off. */
 GS__PRIVATE int gs__quant_parse(gs_wire_chunk *c, const unsigned char *p, size_t len) {
     size_t off = 1, need;
@@ -6786,7 +6828,8 @@ GS__PRIVATE int gs__quant_parse(gs_wire_chunk *c, const unsigned char *p, size_t
                 sh += 7;
             } while (p[off++] & 0x80);
             s->base = gs__unzigzag(z);
-            if (s->base > 4503599627370496LL || s->base < -4503599627370496LL) return 0;
+            /* so that |base + q| < 2^51, as the encoder sends */
+            if (s->base > 2251795518717952LL || s->base < -2251795518717952LL) return 0;
             need = ((size_t)s->count * (size_t)s->width + 7) / 8;
         } else if (s->kind == GS_WIRE_QUATERNION) {
             if (off + 1 > len) return 0;
@@ -6799,9 +6842,17 @@ GS__PRIVATE int gs__quant_parse(gs_wire_chunk *c, const unsigned char *p, size_t
         if (need > len - off) return 0;
         s->data = p + off;
         off += need;
+        if (s->kind == GS_WIRE_QUATERNION && !gs__quant_quats_ok(s)) return 0;
         sum += s->count;
     }
     return off == len && sum == c->elements;
+}
+
+/* The packed bytes of a parsed segment. */
+GS__PRIVATE size_t gs__seg_bytes(const gs_wire_segment *s) {
+    return s->kind == GS_WIRE_SCALAR
+               ? ((size_t)s->count * (size_t)s->width + 7) / 8
+               : ((size_t)(s->count / 4) * (size_t)(3 + 3 * s->bits) + 7) / 8;
 }
 
 /* A quaternion's four values from its packed bits. */
@@ -6817,13 +6868,36 @@ GS__PRIVATE void gs__quant_get_quat(gs__bitr *r, int bits, double *out) {
     if (neg) out[big] = -out[big];
 }
 
+/* Are a segment's quaternions what an encoder sends? The three smaller
+   components of a unit quaternion have squares that add up to at most 3/4
+   (the largest is at least 1/2); rounded, at most 0.7584 at 8 bits. Past
+   0.76 the bits say no rotation (the largest would be made up). */
+GS__PRIVATE int gs__quant_quats_ok(const gs_wire_segment *s) {
+    gs__bitr r;
+    double q[4];
+    int i, k;
+    r.p = s->data; r.end = s->data + gs__seg_bytes(s); r.acc = 0; r.n = 0;
+    for (i = 0; i < s->count; i += 4) {
+        double ss = 0.0;
+        int big = (int)gs__bitr_get(&r, 2);
+        gs__bitr_get(&r, 1);
+        for (k = 0; k < 3; ++k) {
+            q[k] = (double)gs__bitr_get(&r, s->bits) * gs__quat_step(s->bits) - 0.7071067811865476;
+            ss += q[k] * q[k];
+        }
+        (void)big;
+        if (ss > 0.76) return 0;
+    }
+    return 1;
+}
+
 /* Every value of a parsed quantized chunk into out. */
 GS__PRIVATE void gs__quant_get(const gs_wire_chunk *c, double *out) {
     int k, i;
     for (k = 0; k < c->segment_count; ++k) {
         const gs_wire_segment *s = &c->segments[k];
         gs__bitr r;
-        r.p = s->data; r.acc = 0; r.n = 0;
+        r.p = s->data; r.end = s->data + gs__seg_bytes(s); r.acc = 0; r.n = 0;
         if (s->kind == GS_WIRE_SCALAR)
             for (i = 0; i < s->count; ++i)
                 out[i] = (double)(s->base + (int64_t)gs__bitr_get(&r, s->width)) * s->step;
@@ -6841,7 +6915,7 @@ GS__PRIVATE double gs__quant_value(const gs_wire_chunk *c, int i) {
         const gs_wire_segment *s = &c->segments[k];
         gs__bitr r;
         if (i >= s->count) { i -= s->count; continue; }
-        r.p = s->data; r.acc = 0; r.n = 0;
+        r.p = s->data; r.end = s->data + gs__seg_bytes(s); r.acc = 0; r.n = 0;
         if (s->kind == GS_WIRE_SCALAR) {
             uint32_t u = 0;
             for (j = 0; j <= i; ++j) u = gs__bitr_get(&r, s->width);
@@ -6990,6 +7064,11 @@ GS_API double gs_wire_value(const gs_wire_chunk *c, int i) {
     if (c->encoding == GS_ENCODING_QUANT) return gs__quant_value(c, i);
     if (c->encoding == GS_ENCODING_F32) return (double)gs__getf32(c->payload + 4 * (size_t)i);
     return gs__getf64(c->payload + 8 * (size_t)i);
+}
+
+GS__PRIVATE void gs__wire_get_values(const gs_wire_chunk *c, double *out);
+GS_API void gs_wire_values(const gs_wire_chunk *c, double *out) {
+    if (c && out && c->elements) gs__wire_get_values(c, out);
 }
 
 /* Are a chunk's values all finite? A value is NaN or infinite when its

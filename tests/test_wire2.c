@@ -96,6 +96,14 @@ static size_t quant_roundtrip(const double *v, int n, double step, int quat, int
     assert_int_equal(dec->encoding, GS_ENCODING_QUANT);
     assert_true(dec->time == 12.5); /* the time exact */
     for (i = 0; i < n; ++i) out[i] = gs_wire_value(dec, i);
+    {
+        /* the one-pass reader gives the same, bit for bit */
+        double *all = (double *)malloc((size_t)n * sizeof(double));
+        assert_non_null(all);
+        gs_wire_values(dec, all);
+        assert_memory_equal(all, out, (size_t)n * sizeof(double));
+        free(all);
+    }
     free(view);
     return size;
 }
@@ -143,10 +151,11 @@ static void test_quant_scalar_edges(void **state) {
     check_scalars(v, 240, res, res);
     for (i = 0; i < 240; ++i) v[i] = -GS_MAX_COORD + 10.0 * rnd();
     check_scalars(v, 240, res, res);
-    /* the smallest step far from 0: 1e21 steps do not fit in 2^52, the
-       step doubles until they do (1e9 / 2^52 = 2.2e-7: 2^18 * 1e-12) */
+    /* the smallest step far from 0: 1e21 steps do not fit in 2^51 (the
+       encoder's exact rounding), the step doubles until they do (1e9 /
+       2^51 = 4.4e-7: 2^19 * 1e-12) */
     for (i = 0; i < 240; ++i) v[i] = GS_MAX_COORD - 10.0 * rnd();
-    check_scalars(v, 240, 1e-12, 1e-12 * 262144.0);
+    check_scalars(v, 240, 1e-12, 1e-12 * 524288.0);
     /* all equal: width 0, no bits at all */
     for (i = 0; i < 240; ++i) v[i] = 0.125;
     check_scalars(v, 240, res, res);
@@ -283,6 +292,16 @@ static void test_quant_rejects(void **state) {
         }
     }
     print_message("one payload byte changed: %d of 4000 refused\n", rejected);
+    {
+        /* a quaternion whose three smaller components are all 1/sqrt(2):
+           their squares add up to 3/2, no rotation; refused */
+        double q[4] = {0, 0, 0, 1};
+        n = quant_roundtrip(q, 4, 0, 1, 16, out, &d, buf);
+        memcpy(m, buf, n);
+        memset(m + pay + 5, 0xff, 7); /* index, sign, 3 x 16 bits: all ones */
+        recrc(m, n);
+        expect_reject(m, n, GS_REJECT_LAYOUT);
+    }
     free(view);
 }
 

@@ -1,0 +1,248 @@
+/* fuzz_wire2.c - a fast libFuzzer harness over the quantized decoder of wire
+   v2: decode and deliver only, no world step per input.
+
+   The world of tests/fuzz_world.h (host 1; peers 2 and 3; objects 10..15:
+   a cloth, a chain, a sphere, a probe, a custom point, an empty custom)
+   with every ghost in GS_ENCODING_QUANT is built once. So is a sender
+   (host 2, the same objects) whose first snapshots, in quant, are the
+   templates, with a heartbeat of each object besides.
+   An input is either datagrams back to back (it starts with "GSIM": cut
+   before each magic, as tests/fuzz_wire.c does), or an edit: byte 0 picks
+   a template (bit 7 set: the checksum is left as the edits make it), and
+   each following 3 bytes write a byte (offset u16 modulo the datagram's
+   size, value u8); a template's datagram sequence is a counter of the
+   harness's, so a template is not refused as a duplicate the second time.
+   Every datagram: gs_wire_decode on an exact-size heap copy (refused: a
+   reason decode gives; accepted: every chunk's payload inside it, its
+   values finite, a quantized one encodes again to the same values), then
+   gs_net_deliver at a clock moving 1 ms a datagram: GS_OK or
+   GS_ERR_REJECTED, for decode's own reason when decode refused it. Every
+   4096 inputs the world advances 4 ms (the queued snapshots blend) and its
+   states must stay finite: often enough to reach the blend, rarely
+   enough for the harness's speed (the world step is what made the full
+   harness slow). */
+#include <math.h>
+#include <stdint.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "fuzz_world.h"
+
+#define FUZZ_FAIL2(what) \
+    (fprintf(stderr, "fuzz_wire2: %s:%d: check failed: %s\n", __FILE__, __LINE__, what), abort())
+#define CHECK(c) do { if (!(c)) FUZZ_FAIL2(#c); } while (0)
+
+#define TEMPLATES 32
+
+typedef struct harness {
+    fuzz_world rx, tx;
+    unsigned char tpl[TEMPLATES][GS_WIRE_MAX_DATAGRAM];
+    size_t tpl_size[TEMPLATES];
+    int ntpl;
+    uint32_t seq;
+    double now;
+    uint64_t inputs;
+    gs_wire_view view, again;
+} harness;
+
+static uint32_t crc32_bits(const unsigned char *p, size_t n) {
+    uint32_t c = 0xffffffffu;
+    size_t i;
+    int k;
+    for (i = 0; i < n; ++i) {
+        c ^= p[i];
+        for (k = 0; k < 8; ++k) c = (c >> 1) ^ (0xedb88320u & (0u - (c & 1u)));
+    }
+    return c ^ 0xffffffffu;
+}
+static void put32(unsigned char *p, uint32_t v) {
+    p[0] = (unsigned char)v; p[1] = (unsigned char)(v >> 8);
+    p[2] = (unsigned char)(v >> 16); p[3] = (unsigned char)(v >> 24);
+}
+
+static gs_result keep_template(void *user, uint32_t to, const void *data, size_t size) {
+    harness *h = (harness *)user;
+    if (to == FUZZ_HOST && h->ntpl < TEMPLATES) {
+        memcpy(h->tpl[h->ntpl], data, size);
+        h->tpl_size[h->ntpl++] = size;
+    }
+    return GS_OK;
+}
+static gs_result drop(void *user, uint32_t to, const void *data, size_t size) {
+    (void)user; (void)to; (void)data; (void)size;
+    return GS_OK;
+}
+
+/* Every ghost of f in quant: the full harness's desc otherwise. */
+static void requant(fuzz_world *f) {
+    int i;
+    for (i = 0; i < FUZZ_OBJECTS; ++i) {
+        gs_ghost_desc gd = gs_ghost_desc_default();
+        gd.object_id = 10u + (uint32_t)i;
+        gd.encoding = GS_ENCODING_QUANT;
+        gd.queue_size = 4;
+        gd.rest_threshold = i == 2 ? 1e-3 : 0.0;
+        if (i == 3) {
+            gd.owner = FUZZ_PEER_A;
+            gd.weight = gs_weight_owner;
+        }
+        CHECK(gs_ghost_detach(f->agent[i]) == GS_OK);
+        CHECK(gs_ghost_attach(f->agent[i], &gd) == GS_OK);
+    }
+}
+
+/* A heartbeat of each object from host 2. */
+static void heartbeats(harness *h) {
+    gs_wire_header hd;
+    size_t size;
+    int i;
+    memset(&hd, 0, sizeof hd);
+    hd.session = FUZZ_SESSION;
+    hd.sender = FUZZ_PEER_A;
+    for (i = 0; i < FUZZ_OBJECTS && h->ntpl < TEMPLATES; ++i) {
+        gs_wire_chunk c;
+        memset(&c, 0, sizeof c);
+        c.object_id = 10u + (uint32_t)i;
+        c.sequence = 100;
+        c.time = 0.01;
+        c.count = i < 2 ? 2 : 1; /* 294 and 288 values: chunks of 240 */
+        c.encoding = GS_ENCODING_QUANT;
+        c.flags = GS_WIRE_CHUNK_REST;
+        CHECK(gs_wire_begin(h->tpl[h->ntpl], GS_WIRE_MAX_DATAGRAM, &hd, &size) == GS_OK);
+        CHECK(gs_wire_add(h->tpl[h->ntpl], GS_WIRE_MAX_DATAGRAM, &size, &c, NULL) == GS_OK);
+        h->tpl_size[h->ntpl] = gs_wire_end(h->tpl[h->ntpl], size);
+        h->ntpl++;
+    }
+}
+
+static harness *harness_get(void) {
+    static harness *h; /* the harness's one world, built on the first input */
+    if (h) return h;
+    h = (harness *)calloc(1, sizeof *h);
+    CHECK(h != NULL);
+    CHECK(fuzz_world_create(&h->rx, FUZZ_HOST, 0.0, drop, NULL) == GS_OK);
+    CHECK(fuzz_world_create(&h->tx, FUZZ_PEER_A, 0.0, keep_template, h) == GS_OK);
+    requant(&h->rx);
+    requant(&h->tx);
+    CHECK(gs_world_advance(h->tx.w, 0.02, NULL) == GS_OK);
+    CHECK(gs_net_update(h->tx.net, 0.02) == GS_OK);
+    heartbeats(h);
+    fuzz_world_destroy(&h->tx); /* the templates are all it was for */
+    CHECK(h->ntpl > FUZZ_OBJECTS);
+    return h;
+}
+
+/* The reasons gs_wire_decode gives. */
+static int decode_reason(gs_reject r) {
+    return r == GS_REJECT_SHORT || r == GS_REJECT_MAGIC || r == GS_REJECT_VERSION ||
+           r == GS_REJECT_OLD_VERSION || r == GS_REJECT_CHECKSUM || r == GS_REJECT_LAYOUT ||
+           r == GS_REJECT_NOT_FINITE || r == GS_REJECT_TIME;
+}
+
+/* A quantized chunk's values encode again to the same values: scalars
+   exactly; a quaternion (its bits may say one whose largest component is
+   not the one they name, and the encoder then names the other) within two
+   component steps, sqrt(2) / (2^8 - 1) at the fewest bits. */
+static void requant_same(harness *h, const gs_wire_chunk *c) {
+    unsigned char out[GS_WIRE_MAX_DATAGRAM];
+    double v[GS_WIRE_MAX_DATAGRAM], w[GS_WIRE_MAX_DATAGRAM];
+    gs_wire_header hd;
+    gs_reject why;
+    size_t n = 0;
+    int k, g;
+    memset(&hd, 0, sizeof hd);
+    gs_wire_values(c, v);
+    CHECK(gs_wire_begin(out, sizeof out, &hd, &n) == GS_OK);
+    CHECK(gs_wire_add(out, sizeof out, &n, c, v) == GS_OK);
+    n = gs_wire_end(out, n);
+    CHECK(gs_wire_decode(out, n, &h->again, &why) == 1);
+    gs_wire_values(&h->again.chunks[0], w);
+    for (g = 0, k = 0; g < c->segment_count; ++g) {
+        int end = k + c->segments[g].count;
+        for (; k < end; ++k) {
+            double d = fabs(w[k] - v[k]);
+            CHECK(c->segments[g].kind == GS_WIRE_SCALAR ? d == 0.0 : d <= 0.0111);
+        }
+    }
+}
+
+static void one_datagram(harness *h, const unsigned char *src, size_t size) {
+    unsigned char *buf = (unsigned char *)malloc(size ? size : 1);
+    gs_reject dwhy = GS_REJECT_COUNT, why = GS_REJECT_COUNT;
+    gs_result r;
+    int ok, i, k;
+    CHECK(buf != NULL);
+    if (size) memcpy(buf, src, size);
+    ok = gs_wire_decode(buf, size, &h->view, &dwhy);
+    if (!ok) {
+        CHECK(decode_reason(dwhy));
+    } else {
+        for (i = 0; i < h->view.chunk_count; ++i) {
+            const gs_wire_chunk *c = &h->view.chunks[i];
+            CHECK(c->payload >= buf + GS_WIRE_HEADER + GS_WIRE_CHUNK_HEADER);
+            CHECK(c->payload <= buf + size - 4);
+            double v[GS_WIRE_MAX_DATAGRAM];
+            gs_wire_values(c, v);
+            for (k = 0; k < c->elements; ++k) CHECK(isfinite(v[k]));
+            /* the one-value reader agrees, at both ends */
+            if (c->elements) {
+                CHECK(gs_wire_value(c, 0) == v[0]);
+                CHECK(gs_wire_value(c, c->elements - 1) == v[c->elements - 1]);
+            }
+            if (c->encoding == GS_ENCODING_QUANT && !(c->flags & GS_WIRE_CHUNK_REST) &&
+                c->elements <= 240)
+                requant_same(h, c);
+        }
+    }
+    h->now += 0.001;
+    r = gs_net_deliver(h->rx.net, buf, size, h->now, &why);
+    CHECK(r == GS_OK || r == GS_ERR_REJECTED);
+    if (r == GS_OK) CHECK(ok);
+    else if (!ok) CHECK(why == dwhy);
+    else CHECK(!decode_reason(why));
+    free(buf);
+}
+
+static void check_states(harness *h) {
+    double s[1 + 49 * 6];
+    int i;
+    size_t k;
+    for (i = 0; i < FUZZ_OBJECTS; ++i) {
+        size_t n = gs_agent_state_size(h->rx.agent[i]);
+        CHECK(gs_agent_get_state(h->rx.agent[i], s, n) == GS_OK);
+        for (k = 0; k < n; ++k) CHECK(isfinite(s[k]));
+    }
+}
+
+static int fuzz_wire2_one(const uint8_t *data, size_t size) {
+    harness *h = harness_get();
+    if (size >= 4 && memcmp(data, "GSIM", 4) == 0) {
+        size_t start = 0, i;
+        for (i = 4; i + 4 <= size; ++i)
+            if (memcmp(data + i, "GSIM", 4) == 0) {
+                one_datagram(h, data + start, i - start);
+                start = i;
+            }
+        one_datagram(h, data + start, size - start);
+    } else if (size >= 1) {
+        unsigned char buf[GS_WIRE_MAX_DATAGRAM];
+        int t = (data[0] & 0x7f) % h->ntpl;
+        size_t n = h->tpl_size[t], i;
+        memcpy(buf, h->tpl[t], n);
+        put32(buf + 16, h->seq++); /* the datagram sequence */
+        for (i = 1; i + 3 <= size; i += 3) buf[(data[i] | data[i + 1] << 8) % n] = data[i + 2];
+        if (!(data[0] & 0x80)) put32(buf + n - 4, crc32_bits(buf, n - 4));
+        one_datagram(h, buf, n);
+    }
+    if (++h->inputs % 4096 == 0) {
+        gs_world_advance(h->rx.w, 0.004, NULL);
+        check_states(h);
+    }
+    return 0;
+}
+
+int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size);
+int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size) {
+    return fuzz_wire2_one(data, size);
+}
