@@ -919,6 +919,10 @@ typedef struct gs_ghost_desc {
                               not leave a peer a stale state. Default 0:
                               every published state is sent */
     double heartbeat_rate; /* Hz of wall time while at rest; default 4 */
+    double importance;     /* > 0; when a peer's bandwidth budget cannot
+                              carry every ghost due, ghosts go by priority:
+                              the wall time since each was last sent times
+                              this, so that none starves; default 1 */
 } gs_ghost_desc;
 
 GS_API gs_ghost_desc gs_ghost_desc_default(void);
@@ -5653,6 +5657,8 @@ struct gs__ghost {
     int sent_any;         /* 0: send the state whole next (a first send, a
                              peer added or started again) */
     double next_heartbeat;/* s, wall time */
+    double sent_at;       /* s, wall time it was last sent (priority) */
+    size_t wire_bytes;    /* bytes its last snapshot took on the wire */
     struct gs__ghost_peer gp[GS__MAX_PEERS];
 };
 typedef struct gs__ghost gs__ghost;
@@ -5702,6 +5708,8 @@ struct gs_net {
     int published;            /* a ghost published B since gs_udp's scatter
                                  thread last looked (it ticks while they do) */
     double now;               /* s, wall time of the last update/deliver */
+    struct gs__ghost **order; /* the due ghosts of an update, by priority */
+    int order_cap;            /* its room: at least the world's ghosts */
     unsigned char buf[GS_WIRE_MAX_DATAGRAM];
     gs_wire_view view;        /* decode scratch (too big for the stack) */
     gs__net_guard guard;      /* key, nonces, opened datagram (>>net) */
@@ -5728,6 +5736,7 @@ GS_API gs_ghost_desc gs_ghost_desc_default(void) {
     d.velocity_resolution = 1e-3;
     d.orientation_bits = 16;
     d.heartbeat_rate = 4.0;
+    d.importance = 1.0;
     return d;
 }
 
@@ -5799,6 +5808,7 @@ GS__PRIVATE gs_ghost_desc gs__ghost_defaults(const gs_ghost_desc *in) {
     if (d.velocity_resolution == 0.0) d.velocity_resolution = def.velocity_resolution;
     if (d.orientation_bits == 0) d.orientation_bits = def.orientation_bits;
     if (d.heartbeat_rate == 0.0) d.heartbeat_rate = def.heartbeat_rate;
+    if (d.importance == 0.0) d.importance = def.importance;
     return d;
 }
 
@@ -5826,6 +5836,7 @@ GS__PRIVATE gs_result gs__ghost_check(gs_world *w, const gs_ghost_desc *d) {
     gs__check_int(&c, "orientation_bits", d->orientation_bits, 8, 24);
     gs__check_nonneg(&c, "rest_threshold", d->rest_threshold);
     gs__check_positive(&c, "heartbeat_rate", d->heartbeat_rate);
+    gs__check_positive(&c, "importance", d->importance);
     return c.r;
 }
 
@@ -7275,10 +7286,28 @@ GS__PRIVATE void gs__net_forget_key(gs_net *net) {
 #endif
 }
 
+/* Room in net->order for every ghost of the world (allocated here, at
+   attach or create, so that gs_net_update allocates nothing). */
+GS__PRIVATE gs_result gs__net_order_room(gs_net *net) {
+    gs_world *w = net->world;
+    int i, ghosts = 0, cap;
+    struct gs__ghost **o;
+    for (i = 0; i < w->agent_count; ++i) ghosts += gs__ghost_of(w->agents[i]) != NULL;
+    if (ghosts <= net->order_cap) return GS_OK;
+    cap = ghosts < 8 ? 16 : 2 * ghosts;
+    o = (struct gs__ghost **)gs__alloc(w, (size_t)cap * sizeof *o);
+    if (!o) return gs__fail(w, GS_ERR_NO_MEMORY, "net: out of memory for the send order");
+    gs__free(w, net->order);
+    net->order = o;
+    net->order_cap = cap;
+    return GS_OK;
+}
+
 GS__PRIVATE gs_result gs__ghost_queues(gs__ghost *g) {
     gs_net *net = g->agent->world->net;
     int p;
     if (!net) return GS_OK;
+    if (gs__net_order_room(net) != GS_OK) return GS_ERR_NO_MEMORY;
     for (p = 0; p < GS__MAX_PEERS; ++p)
         if (net->peers[p].used) {
             gs_result r = gs__ghost_add_peer(g, p);
@@ -7340,6 +7369,11 @@ GS_API gs_result gs_net_create(gs_world *w, const gs_net_desc *desc,
     net->d.key = NULL; /* the copy below is the net's; the caller's may go */
     net->run = gs__net_run(net);
     if (d.key) gs__net_keep_key(net, d.key);
+    if (gs__net_order_room(net) != GS_OK) {
+        gs__net_forget_key(net);
+        gs__free(w, net);
+        return GS_ERR_NO_MEMORY;
+    }
     w->net = net;
     *out = net;
     return GS_OK;
@@ -7373,6 +7407,7 @@ GS_API void gs_net_destroy(gs_net *net) {
     }
     w->net = NULL;
     gs__net_forget_key(net);
+    gs__free(w, net->order);
     gs__free(w, net);
 }
 
@@ -7500,14 +7535,19 @@ GS_API gs_result gs_net_unknown_stats(const gs_net *net,
 
 /* The budget: a token bucket of bandwidth bytes/s holding at most 50 ms.
    A clock that goes back refills nothing (and drains nothing). */
-GS__PRIVATE int gs__peer_budget(gs_net *net, gs__peer *pe, size_t bytes, double now) {
+/* The bytes a peer's budget allows at wall time now. */
+GS__PRIVATE double gs__peer_refill(gs_net *net, gs__peer *pe, double now) {
     double cap = 0.05 * net->d.bandwidth;
     if (cap < GS_WIRE_MAX_DATAGRAM) cap = GS_WIRE_MAX_DATAGRAM;
     if (pe->tokens < 0.0) { pe->tokens = cap; pe->tokens_at = now; }
     if (now > pe->tokens_at) pe->tokens += (now - pe->tokens_at) * net->d.bandwidth;
     pe->tokens_at = now;
     if (pe->tokens > cap) pe->tokens = cap;
-    if (pe->tokens < (double)bytes) return 0;
+    return pe->tokens;
+}
+
+GS__PRIVATE int gs__peer_budget(gs_net *net, gs__peer *pe, size_t bytes, double now) {
+    if (gs__peer_refill(net, pe, now) < (double)bytes) return 0;
     pe->tokens -= (double)bytes;
     return 1;
 }
@@ -7632,9 +7672,9 @@ GS__PRIVATE int gs__ghost_moved(const gs__ghost *g) {
 
 /* Appends every chunk of a ghost's B to the datagrams for all peers, or a
    heartbeat (rest). */
-GS__PRIVATE void gs__send_ghost(gs_net *net, const gs__ghost *g, double now, size_t *size,
+GS__PRIVATE void gs__send_ghost(gs_net *net, gs__ghost *g, double now, size_t *size,
                                 int rest) {
-    size_t vars = g->n - 1;
+    size_t vars = g->n - 1, bytes = 0, before;
     int c, p;
     for (c = 0; c < (rest ? 1 : g->nchunks); ++c) {
         gs_wire_chunk ch;
@@ -7653,12 +7693,16 @@ GS__PRIVATE void gs__send_ghost(gs_net *net, const gs__ghost *g, double now, siz
         ch.segment_count = 0;
         ch.payload = NULL;
         if (ch.encoding == GS_ENCODING_QUANT && !rest) gs__ghost_segments(g, first, cnt, &ch);
+        before = *size;
         if (gs_wire_add(net->buf, gs__net_cap(net), size, &ch, g->B + 1 + first) ==
             GS_ERR_CAPACITY) {
             gs__datagram_flush(net, now, size);
+            before = *size;
             gs_wire_add(net->buf, gs__net_cap(net), size, &ch, g->B + 1 + first);
         }
+        bytes += *size - before;
     }
+    if (!rest) g->wire_bytes = bytes;
     for (p = 0; p < GS__MAX_PEERS; ++p) {
         if (!net->peers[p].used) continue;
         if (rest) net->peers[p].st.heartbeats_sent++;
@@ -7700,9 +7744,65 @@ GS__PRIVATE int gs__ghost_due(const gs__ghost *g, double now) {
 
 /* Every due ghost is encoded once into datagrams that go to every peer
    (a peer whose budget is spent misses that datagram). */
+/* What a ghost's snapshot will take on the wire (bytes): its last one, or
+   before any its values at 8 bytes with their chunk headers. */
+GS__PRIVATE size_t gs__ghost_estimate(const gs__ghost *g) {
+    if (g->wire_bytes) return g->wire_bytes;
+    return (size_t)g->nchunks * GS_WIRE_CHUNK_HEADER + (g->n - 1) * 8;
+}
+
+/* The bytes datagrams carrying `chunks` bytes of chunks take: each a
+   header and a checksum or seal, and a chunk never split (so one datagram
+   in two may carry a chunk's worth less: counted as half a datagram's
+   room more). */
+GS__PRIVATE double gs__wire_cost(const gs_net *net, double chunks) {
+    double per = (double)GS_WIRE_HEADER + (net->guard.keyed ? GS_WIRE_SEAL_TRAILER : 4);
+    double room = (double)gs__net_cap(net) - per;
+    return chunks + per * ceil((chunks + 0.5 * room * (chunks > room)) / room);
+}
+
+/* The bytes every peer's budget allows now: the least of them. */
+GS__PRIVATE double gs__net_budget(gs_net *net, double now) {
+    double least = HUGE_VAL;
+    int p;
+    for (p = 0; p < GS__MAX_PEERS; ++p)
+        if (net->peers[p].used) least = fmin(least, gs__peer_refill(net, &net->peers[p], now));
+    return least;
+}
+
+/* A ghost's claim on a tight budget: wall time since it was last sent,
+   times its importance. */
+GS__PRIVATE double gs__ghost_priority(const gs__ghost *g, double now) {
+    return (now - g->sent_at) * g->d.importance;
+}
+
+/* Sorts the due ghosts by priority, highest first: a heap sort, in place
+   (qsort may allocate). */
+GS__PRIVATE void gs__sift(struct gs__ghost **o, int root, int n, double now) {
+    for (;;) {
+        int c = 2 * root + 1;
+        struct gs__ghost *t;
+        if (c >= n) return;
+        if (c + 1 < n && gs__ghost_priority(o[c + 1], now) < gs__ghost_priority(o[c], now)) ++c;
+        if (gs__ghost_priority(o[root], now) <= gs__ghost_priority(o[c], now)) return;
+        t = o[root]; o[root] = o[c]; o[c] = t;
+        root = c;
+    }
+}
+GS__PRIVATE void gs__by_priority(struct gs__ghost **o, int n, double now) {
+    int i;
+    for (i = n / 2 - 1; i >= 0; --i) gs__sift(o, i, n, now); /* a min-heap ... */
+    for (i = n - 1; i > 0; --i) { /* ... emptied from the back: descending */
+        struct gs__ghost *t = o[0];
+        o[0] = o[i]; o[i] = t;
+        gs__sift(o, 0, i, now);
+    }
+}
+
 GS_API gs_result gs_net_update(gs_net *net, double now) {
     gs_world *w;
-    int p, i, peers = 0;
+    int p, i, peers = 0, n = 0, tight;
+    double need = 0.0, budget, spent = 0.0;
     size_t size;
     if (!net) return GS_ERR_INVALID_ARG;
     if (!gs__finite(now)) return GS_ERR_NOT_FINITE;
@@ -7717,12 +7817,26 @@ GS_API gs_result gs_net_update(gs_net *net, double now) {
     net->now = now;
     for (p = 0; p < GS__MAX_PEERS; ++p) peers += net->peers[p].used;
     if (peers) gs__datagram_begin(net, now, &size);
-    for (i = 0; i < w->agent_count; ++i) {
+    for (i = 0; i < w->agent_count && n < net->order_cap; ++i) {
         gs__ghost *g = gs__ghost_of(w->agents[i]);
         if (!g || !gs__ghost_due(g, now)) continue;
+        net->order[n++] = g;
+        need += (double)gs__ghost_estimate(g);
+    }
+    budget = peers ? gs__net_budget(net, now) : HUGE_VAL;
+    tight = need > budget;
+    if (tight) gs__by_priority(net->order, n, now);
+    for (i = 0; i < n; ++i) {
+        gs__ghost *g = net->order[i];
+        if (tight) { /* a ghost that does not fit waits, its priority grows */
+            double est = (double)gs__ghost_estimate(g);
+            if (gs__wire_cost(net, spent + est) > budget) continue;
+            spent += est;
+        }
         if (peers) gs__send_due(net, g, now, &size);
         g->sent_seq = g->b_seq;
         g->next_send = now + 1.0 / g->d.send_rate;
+        g->sent_at = now;
     }
     if (peers) gs__datagram_flush(net, now, &size);
     net->inside--;

@@ -523,6 +523,98 @@ static void test_net_send_on_change(void **state) {
     host_free(r);
 }
 
+/* ---- priority within a budget ---- */
+
+#define NPRIO 10
+typedef struct counter {
+    uint64_t chunks[NPRIO];
+    size_t bytes;
+    gs_wire_view v;
+} counter;
+static gs_result count_send(void *user, uint32_t to, const void *data, size_t size) {
+    counter *c = (counter *)user;
+    gs_reject why;
+    int i;
+    (void)to;
+    c->bytes += size;
+    assert_int_equal(gs_wire_decode((const unsigned char *)data, size, &c->v, &why), 1);
+    for (i = 0; i < c->v.chunk_count; ++i) c->chunks[c->v.chunks[i].object_id - 1]++;
+    return GS_OK;
+}
+static gs_result moving_step(void *user, double t, double dt) {
+    box *b = (box *)user;
+    (void)t;
+    b->x[0] += dt; /* always moving: always due */
+    return GS_OK;
+}
+
+/* Ten ghosts of 8 values (one chunk, 96 bytes) due at 60 Hz: 57.6 kB/s
+   wanted, a budget of 12 kB/s. Over 10 s every ghost gets its share (none
+   starves), the one of importance 4 about four times the others', and the
+   bytes keep to the budget. */
+static void test_budget_priority(void **state) {
+    gs_world_desc wd = gs_world_desc_default();
+    gs_net_desc nd;
+    gs_world *w = NULL;
+    gs_net *net = NULL;
+    box b[NPRIO];
+    counter *cnt = (counter *)calloc(1, sizeof *cnt);
+    double now = 0.0, lo = 1e30, hi = 0.0;
+    int i, f;
+    (void)state;
+    assert_non_null(cnt);
+    assert_int_equal(gs_world_create(&wd, &w), GS_OK);
+    for (i = 0; i < NPRIO; ++i) {
+        gs_custom_desc cd;
+        gs_ghost_desc gd = gs_ghost_desc_default();
+        gs_agent *a = NULL;
+        memset(&cd, 0, sizeof cd);
+        memset(&b[i], 0, sizeof b[i]);
+        b[i].n = 8;
+        cd.dt = 0.01;
+        cd.state_size = 8;
+        cd.step = moving_step;
+        cd.get_state = box_get;
+        cd.set_state = box_set;
+        cd.user = &b[i];
+        assert_int_equal(gs_custom_create(w, &cd, &a), GS_OK);
+        gd.object_id = (uint32_t)i + 1;
+        gd.importance = i == NPRIO - 1 ? 4.0 : 0.0; /* 0: the default, 1 */
+        assert_int_equal(gs_ghost_attach(a, &gd), GS_OK);
+    }
+    memset(&nd, 0, sizeof nd);
+    nd.send = count_send;
+    nd.send_user = cnt;
+    nd.bandwidth = 12000.0;
+    assert_int_equal(gs_net_create(w, &nd, &net), GS_OK);
+    assert_int_equal(gs_net_add_peer(net, 2), GS_OK);
+    for (f = 0; f < 600; ++f) {
+        assert_int_equal(gs_world_advance(w, 1.0 / 60.0, NULL), GS_OK);
+        assert_int_equal(gs_net_update(net, now += 1.0 / 60.0), GS_OK);
+    }
+    for (i = 0; i < NPRIO - 1; ++i) {
+        lo = fmin(lo, (double)cnt->chunks[i]);
+        hi = fmax(hi, (double)cnt->chunks[i]);
+    }
+    print_message("10 s at 12 kB/s: %zu bytes; importance 1: %.0f..%.0f snapshots, "
+                  "importance 4: %llu\n", cnt->bytes, lo, hi,
+                  (unsigned long long)cnt->chunks[NPRIO - 1]);
+    /* the budget: 12 kB/s for 10 s plus its 50 ms burst (its floor is one
+       full datagram) */
+    assert_true(cnt->bytes <= 12000.0 * 10.0 + 1200.0);
+    /* none starves, and equal importance shares evenly: priority grows
+       with the wait, so the counts differ by a send or two */
+    assert_true(lo >= 50.0);
+    assert_true(hi - lo <= 3.0);
+    /* four times the importance: a quarter of the wait, within a frame's
+       rounding of the waits (1/60 s on waits of about 0.1 s) */
+    assert_true((double)cnt->chunks[NPRIO - 1] >= 2.5 * lo);
+    assert_true((double)cnt->chunks[NPRIO - 1] <= 5.0 * hi);
+    gs_net_destroy(net);
+    gs_world_destroy(w);
+    free(cnt);
+}
+
 /* The descs: resolutions and heartbeat rate checked at attach. */
 static void test_ghost_desc_quant(void **state) {
     gs_world *w = NULL;
@@ -551,6 +643,9 @@ static void test_ghost_desc_quant(void **state) {
     gd.rest_threshold = -1.0;
     assert_int_equal(gs_ghost_attach(a, &gd), GS_ERR_INVALID_ARG);
     gd.rest_threshold = 0.0;
+    gd.importance = -1.0;
+    assert_int_equal(gs_ghost_attach(a, &gd), GS_ERR_INVALID_ARG);
+    gd.importance = 0.0;
     assert_int_equal(gs_ghost_attach(a, &gd), GS_OK);
     gs_world_destroy(w);
 }
@@ -564,6 +659,7 @@ int main(int argc, char **argv) {
         cmocka_unit_test(test_quant_encode_args),
         cmocka_unit_test(test_net_quant_bit_exact),
         cmocka_unit_test(test_net_send_on_change),
+        cmocka_unit_test(test_budget_priority),
         cmocka_unit_test(test_ghost_desc_quant),
     };
     if (argc > 1) cmocka_set_test_filter(argv[1]);
