@@ -48,9 +48,12 @@
                   behaviour rule moves its priority when it is activated.
        state      A flat array of doubles: [t, then the agent's variables].
                   This is what ghosts blend between hosts.
-       contact    Penalty forces between agents (gs_material): each agent
-                  computes the force on itself from the other agent's state
-                  brought to its own simulation time.
+       contact    Penalty forces between agents (gs_material). Two rigid
+                  bodies: the one that steps over a stretch of their time
+                  first computes it and pushes the other with the opposite
+                  force, so momentum is exchanged, never made. Otherwise
+                  each agent computes the force on itself from the other
+                  agent's state brought to its own simulation time.
        ghost      Wraps an agent under an object id shared by all hosts:
                   publishes its state, blends the snapshots peers send with
                   the paper's weighted mean (gs_weight_fn rules).
@@ -99,7 +102,10 @@
        set_state). A quaternion of any finite size is normalized;
        set_state refuses one of norm under 1e-6. Bodies whose centres
        coincide (closer than 1e-12 of their size) are pushed apart along
-       y, the lower agent index down, so that a pair's forces cancel.
+       y, the lower agent index down. A pile of coincident or deeply
+       overlapping rigid bodies keeps its momentum to rounding and ends
+       with no more kinetic energy than its contact springs stored; one
+       too stiff for max_substeps is refused (GS_ERR_UNSTABLE).
 
    THREADS
        A world and everything in it belongs to the thread that calls into
@@ -4251,9 +4257,10 @@ GS_API double gs_rigid_stable_dt(const gs_agent *a) {
    Narrow phase: exact answers for spheres and boxes against spheres;
    boxes and hulls against each other through libccd's MPR for the normal
    and depth and their vertices inside each other for the points (several,
-   so that a box rests on a face); MPR alone for spheres against hulls. Penalty forces: each
-   agent computes the forces on itself from the other agent's current state,
-   whatever that agent's simulation time.
+   so that a box rests on a face); MPR alone for spheres against hulls. Penalty forces: a
+   rigid pair is computed once and pushed equal and opposite (see "rigid
+   pairs" below); a mesh and a body each compute the forces on themselves
+   from the other's state carried to their own simulation time.
    ======================================================================== */
 /* ---- broad phase: sweep and prune on x ----
    Two lists of the same bodies, kept sorted by bubbling a body that moved
