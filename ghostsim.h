@@ -69,6 +69,9 @@
        GS_MAX_QUEUES            implementation   64: most priority queues
        GHOSTSIM_NO_UDP          before include   off: the POSIX UDP transport
                                                  is in (link -lpthread)
+       GHOSTSIM_NO_SIMD         implementation   off: SSE2 (x86-64) runs two
+                                                 springs at a time; on, plain
+                                                 C, the same bits
        GHOSTSIM_SODIUM          implementation   off: no encryption; on, a key
                                                  in gs_net_desc seals every
                                                  datagram (libsodium AEAD;
@@ -2276,6 +2279,12 @@ typedef struct gs__spring {
     double rest, k, c; /* m, N/m, N s/m */
 } gs__spring;
 
+#define GS__MESH_BATCHES 65 /* 64 conflict-free colours, then the rest */
+#if defined(__SSE2__) && !defined(GHOSTSIM_NO_SIMD)
+#define GS__MESH_SSE2 1
+#include <emmintrin.h>
+#endif
+
 typedef struct gs__mesh {
     gs_agent base;
     int n, ns, npins;
@@ -2283,6 +2292,14 @@ typedef struct gs__mesh {
     gs_vec3 *xn, *vn; /* the next state */
     gs_vec3 *x0, *v0; /* the state before a substepped step, to undo it */
     gs_vec3 *acc;     /* accelerations */
+    double *sf;       /* N; per spring its force on end a, 3 each */
+    /* Springs are ordered by colour: within one batch no two share a
+       particle, so a batch's updates never wait on one another. The last
+       batch (GS__MESH_SERIAL) takes what did not fit and may conflict. */
+    int nbatch;
+    int batch[GS__MESH_BATCHES + 1]; /* first spring of each batch, then ns */
+    uint64_t *colours; /* per particle, the colours of its springs (build) */
+    int *perm;         /* per spring, its place in colour order (build) */
     gs_vec3 *tx, *tv, *sx, *sv; /* RK4 stages, Verlet half-step velocity */
     double *mass, *inv_mass; /* kg, 1/kg (0 for pinned particles) */
     gs__spring *springs;
@@ -2326,6 +2343,9 @@ GS__PRIVATE void gs__mesh_layout(gs__mesh *m, gs__carver *cv) {
     m->xn = (gs_vec3 *)gs__carve(cv, v3);
     m->vn = (gs_vec3 *)gs__carve(cv, v3);
     m->acc = (gs_vec3 *)gs__carve(cv, v3);
+    m->sf = (double *)gs__carve(cv, (size_t)m->ns * 3 * sizeof(double));
+    m->colours = (uint64_t *)gs__carve(cv, n * sizeof(uint64_t));
+    m->perm = (int *)gs__carve(cv, (size_t)m->ns * sizeof(int));
     m->ext = (gs_vec3 *)gs__carve(cv, v3);
     m->mass = (double *)gs__carve(cv, n * sizeof(double));
     m->inv_mass = (double *)gs__carve(cv, n * sizeof(double));
@@ -2361,6 +2381,88 @@ GS__PRIVATE void gs__mesh_layout(gs__mesh *m, gs__carver *cv) {
 
 /* ---- forces ---- */
 
+/* One spring's force on its end a (toward b): f u, u = d / l, f = k (l -
+   rest) + c (v_b - v_a) . u; coincident ends (l = 0) have no direction and
+   give no force. The SSE2 path below computes the same bits. */
+GS__PRIVATE void gs__spring_force(const gs__spring *sp, const gs_vec3 *x,
+                                  const gs_vec3 *v, double *fo) {
+    const gs_vec3 *xa = &x[sp->a], *xb = &x[sp->b], *va = &v[sp->a], *vb = &v[sp->b];
+    double dx = xb->x - xa->x, dy = xb->y - xa->y, dz = xb->z - xa->z;
+    double l = sqrt(dx * dx + dy * dy + dz * dz);
+    double il = l > 0.0 ? 1.0 / l : 0.0, ux = dx * il, uy = dy * il, uz = dz * il;
+    double f = sp->k * (l - sp->rest) +
+               sp->c * ((vb->x - va->x) * ux + (vb->y - va->y) * uy +
+                        (vb->z - va->z) * uz);
+    f = l > 0.0 ? f : 0.0;
+    fo[0] = ux * f;
+    fo[1] = uy * f;
+    fo[2] = uz * f;
+}
+
+GS__PRIVATE void gs__spring_apply(const gs__spring *sp, const double *im,
+                                  const double *f, gs_vec3 *acc) {
+    double ia = im[sp->a], ib = im[sp->b];
+    gs_vec3 *aa = &acc[sp->a], *ab = &acc[sp->b];
+    aa->x += f[0] * ia; aa->y += f[1] * ia; aa->z += f[2] * ia;
+    ab->x -= f[0] * ib; ab->y -= f[1] * ib; ab->z -= f[2] * ib;
+}
+
+#ifdef GS__MESH_SSE2
+#define GS__LD2(p, q, f) _mm_loadh_pd(_mm_load_sd(&(p)->f), &(q)->f)
+/* Two springs of one batch (no shared particle) at once: the sqrt and the
+   division, which bound the plain loop, run two wide. */
+GS__PRIVATE void gs__spring_force2(const gs__spring *s0, const gs__spring *s1,
+                                   const gs_vec3 *x, const gs_vec3 *v,
+                                   double *f0, double *f1) {
+    const gs_vec3 *xa0 = &x[s0->a], *xb0 = &x[s0->b], *xa1 = &x[s1->a], *xb1 = &x[s1->b];
+    const gs_vec3 *va0 = &v[s0->a], *vb0 = &v[s0->b], *va1 = &v[s1->a], *vb1 = &v[s1->b];
+    __m128d dx = _mm_sub_pd(GS__LD2(xb0, xb1, x), GS__LD2(xa0, xa1, x));
+    __m128d dy = _mm_sub_pd(GS__LD2(xb0, xb1, y), GS__LD2(xa0, xa1, y));
+    __m128d dz = _mm_sub_pd(GS__LD2(xb0, xb1, z), GS__LD2(xa0, xa1, z));
+    __m128d l = _mm_sqrt_pd(_mm_add_pd(_mm_add_pd(_mm_mul_pd(dx, dx), _mm_mul_pd(dy, dy)),
+                                       _mm_mul_pd(dz, dz)));
+    __m128d ok = _mm_cmpgt_pd(l, _mm_setzero_pd());
+    __m128d il = _mm_and_pd(ok, _mm_div_pd(_mm_set1_pd(1.0), l));
+    __m128d ux = _mm_mul_pd(dx, il), uy = _mm_mul_pd(dy, il), uz = _mm_mul_pd(dz, il);
+    __m128d k = GS__LD2(s0, s1, k), c = GS__LD2(s0, s1, c), rest = GS__LD2(s0, s1, rest);
+    __m128d w = _mm_add_pd(
+        _mm_add_pd(_mm_mul_pd(_mm_sub_pd(GS__LD2(vb0, vb1, x), GS__LD2(va0, va1, x)), ux),
+                   _mm_mul_pd(_mm_sub_pd(GS__LD2(vb0, vb1, y), GS__LD2(va0, va1, y)), uy)),
+        _mm_mul_pd(_mm_sub_pd(GS__LD2(vb0, vb1, z), GS__LD2(va0, va1, z)), uz));
+    __m128d f = _mm_and_pd(ok, _mm_add_pd(_mm_mul_pd(k, _mm_sub_pd(l, rest)), _mm_mul_pd(c, w)));
+    __m128d fx = _mm_mul_pd(ux, f), fy = _mm_mul_pd(uy, f), fz = _mm_mul_pd(uz, f);
+    _mm_storel_pd(&f0[0], fx); _mm_storeh_pd(&f1[0], fx);
+    _mm_storel_pd(&f0[1], fy); _mm_storeh_pd(&f1[1], fy);
+    _mm_storel_pd(&f0[2], fz); _mm_storeh_pd(&f1[2], fz);
+}
+#undef GS__LD2
+#endif
+
+/* acc += each spring's force / mass at (x, v), batch by batch. */
+GS__PRIVATE void gs__mesh_springs(const gs__mesh *m, const gs_vec3 *x,
+                                  const gs_vec3 *v, gs_vec3 *acc) {
+    const gs__spring *sp = m->springs;
+    const double *im = m->inv_mass;
+    double f0[3];
+    int b, i;
+    for (b = 0; b < m->nbatch; ++b) {
+        i = m->batch[b];
+#ifdef GS__MESH_SSE2
+        if (b < GS__MESH_BATCHES - 1)
+            for (; i + 1 < m->batch[b + 1]; i += 2) {
+                double f1[3];
+                gs__spring_force2(&sp[i], &sp[i + 1], x, v, f0, f1);
+                gs__spring_apply(&sp[i], im, f0, acc);
+                gs__spring_apply(&sp[i + 1], im, f1, acc);
+            }
+#endif
+        for (; i < m->batch[b + 1]; ++i) {
+            gs__spring_force(&sp[i], x, v, f0);
+            gs__spring_apply(&sp[i], im, f0, acc);
+        }
+    }
+}
+
 /* Accelerations at (x, v): gravity, air damping, springs with damping along
    the spring. Pinned particles get none. */
 GS__PRIVATE void gs__mesh_accel(const gs__mesh *m, const gs_vec3 *x,
@@ -2371,17 +2473,7 @@ GS__PRIVATE void gs__mesh_accel(const gs__mesh *m, const gs_vec3 *x,
     for (i = 0; i < m->n; ++i) acc[i] = gs__madd(g, v[i], -m->air);
     if (m->ext_active)
         for (i = 0; i < m->n; ++i) acc[i] = gs__madd(acc[i], m->ext[i], im[i]);
-    for (i = 0; i < m->ns; ++i) {
-        const gs__spring *s = &m->springs[i];
-        gs_vec3 d = gs__sub(x[s->b], x[s->a]), u, fv;
-        double l = gs__len(d), f;
-        if (!(l > 0.0)) continue; /* coincident ends: no direction */
-        u = gs__scale(d, 1.0 / l);
-        f = s->k * (l - s->rest) + s->c * gs__dot(gs__sub(v[s->b], v[s->a]), u);
-        fv = gs__scale(u, f);
-        acc[s->a] = gs__madd(acc[s->a], fv, im[s->a]);
-        acc[s->b] = gs__madd(acc[s->b], fv, -im[s->b]);
-    }
+    gs__mesh_springs(m, x, v, acc);
     for (i = 0; i < m->npins; ++i) acc[m->pins[i]] = gs__v3(0.0, 0.0, 0.0);
 }
 
@@ -2590,16 +2682,31 @@ GS__PRIVATE void gs__int_implicit_euler(gs__mesh *m, double h) {
 
 /* ---- stepping ---- */
 
-/* Finite positions and no particle faster than max_speed: anything else
-   means the step blew up. */
-GS__PRIVATE int gs__mesh_sane(const gs__mesh *m) {
-    double vmax2 = m->solver.max_speed * m->solver.max_speed, sum = 0.0;
+/* Finite positions and no particle faster than max_speed (anything else
+   means the step blew up), and the bounding box of the new positions for
+   the broad phase, in the one pass that reads them. */
+GS__PRIVATE int gs__mesh_sane(gs__mesh *m) {
+    double vmax2 = m->solver.max_speed * m->solver.max_speed, sum = 0.0, w2 = 0.0;
+    const gs_vec3 *xn = m->xn, *vn = m->vn;
+    gs_vec3 lo = xn[0], hi = xn[0], r;
     int i;
     for (i = 0; i < m->n; ++i) {
-        if (!(gs__dot(m->vn[i], m->vn[i]) <= vmax2)) return 0;
-        sum += m->xn[i].x + m->xn[i].y + m->xn[i].z;
+        double s2 = vn[i].x * vn[i].x + vn[i].y * vn[i].y + vn[i].z * vn[i].z;
+        w2 = s2 > w2 ? s2 : w2;
+        w2 = s2 == s2 ? w2 : s2; /* a NaN speed stays NaN */
+        sum += xn[i].x + xn[i].y + xn[i].z;
+        lo.x = xn[i].x < lo.x ? xn[i].x : lo.x;
+        lo.y = xn[i].y < lo.y ? xn[i].y : lo.y;
+        lo.z = xn[i].z < lo.z ? xn[i].z : lo.z;
+        hi.x = xn[i].x > hi.x ? xn[i].x : hi.x;
+        hi.y = xn[i].y > hi.y ? xn[i].y : hi.y;
+        hi.z = xn[i].z > hi.z ? xn[i].z : hi.z;
     }
-    return gs__finite(sum);
+    if (!(w2 <= vmax2) || !gs__finite(sum)) return 0;
+    r = gs__v3(m->radius, m->radius, m->radius);
+    m->lo = gs__sub(lo, r);
+    m->hi = gs__add(hi, r);
+    return 1;
 }
 
 GS__PRIVATE void gs__mesh_contacts(gs__mesh *m, double t);
@@ -2629,7 +2736,6 @@ GS__PRIVATE gs_result gs__mesh_substep(gs__mesh *m, double t0, double h) {
                         m->solver.max_speed);
     t = m->x; m->x = m->xn; m->xn = t;
     t = m->v; m->v = m->vn; m->vn = t;
-    gs__mesh_update_bounds(m);
     return GS_OK;
 }
 
@@ -2660,23 +2766,35 @@ GS__PRIVATE gs_result gs__mesh_plan(gs__mesh *m, double dt, int *n_sub) {
     return GS_OK;
 }
 
+/* A substepped step keeps the state it started from: after the first
+   substep that state sits in the spare buffers (x0, v0) and the substeps
+   alternate between the other two, so undoing a failed step is a pointer
+   swap, not a copy. */
+GS__PRIVATE void gs__mesh_park(gs__mesh *m, const gs_vec3 *x_start) {
+    gs_vec3 *t;
+    if (m->xn != x_start) return;
+    t = m->xn; m->xn = m->x0; m->x0 = t;
+    t = m->vn; m->vn = m->v0; m->v0 = t;
+}
+
 GS__PRIVATE gs_result gs__mesh_step(gs_agent *a, double dt) {
     gs__mesh *m = (gs__mesh *)a;
-    size_t bytes = (size_t)m->n * sizeof(gs_vec3);
+    const gs_vec3 *x_start = m->x;
+    gs_vec3 lo = m->lo, hi = m->hi, *t;
     int n_sub, i;
     gs_result r = gs__mesh_plan(m, dt, &n_sub);
     if (r != GS_OK) return r;
-    if (n_sub > 1) {
-        memcpy(m->x0, m->x, bytes);
-        memcpy(m->v0, m->v, bytes);
-    }
     for (i = 0; i < n_sub; ++i) {
         r = gs__mesh_substep(m, gs__agent_time(a) + i * (dt / n_sub), dt / n_sub);
-        if (r == GS_OK) continue;
-        if (i > 0) {
-            memcpy(m->x, m->x0, bytes);
-            memcpy(m->v, m->v0, bytes);
-            gs__mesh_update_bounds(m); /* the broad phase must see the undone state */
+        if (r == GS_OK) {
+            if (n_sub > 1) gs__mesh_park(m, x_start);
+            continue;
+        }
+        if (i > 0) { /* the start is parked in x0: swap it back */
+            t = m->x; m->x = m->x0; m->x0 = t;
+            t = m->v; m->v = m->v0; m->v0 = t;
+            m->lo = lo; /* the broad phase must see the undone state */
+            m->hi = hi;
         }
         return r;
     }
@@ -2812,6 +2930,51 @@ GS__PRIVATE gs_result gs__mesh_new(gs_world *w, const gs__kind *kind, int n,
     return GS_OK;
 }
 
+/* Greedy colouring in spring order: each spring takes the first colour
+   that neither end has; a particle with 64 colours sends the rest to the
+   serial batch. */
+GS__PRIVATE void gs__mesh_colour(gs__mesh *m, int *count) {
+    int i;
+    memset(m->colours, 0, (size_t)m->n * sizeof *m->colours);
+    for (i = 0; i < GS__MESH_BATCHES; ++i) count[i] = 0;
+    for (i = 0; i < m->ns; ++i) {
+        int a = m->springs[i].a, b = m->springs[i].b, c = 0;
+        uint64_t used = m->colours[a] | m->colours[b];
+        while (c < GS__MESH_BATCHES - 1 && (used >> c & 1u)) ++c;
+        if (c < GS__MESH_BATCHES - 1) {
+            m->colours[a] |= (uint64_t)1 << c;
+            m->colours[b] |= (uint64_t)1 << c;
+        }
+        m->perm[i] = c;
+        count[c]++;
+    }
+}
+
+/* Orders the springs by colour, stably (in place: perm becomes each
+   spring's destination, then its cycles are followed). */
+GS__PRIVATE void gs__mesh_batch(gs__mesh *m) {
+    int count[GS__MESH_BATCHES], next[GS__MESH_BATCHES], i, c;
+    gs__mesh_colour(m, count);
+    m->nbatch = 0;
+    for (c = 0, i = 0; c < GS__MESH_BATCHES; ++c) {
+        if (count[c] == 0) continue;
+        m->batch[m->nbatch++] = i;
+        next[c] = i;
+        i += count[c];
+    }
+    m->batch[m->nbatch] = m->ns;
+    for (i = 0; i < m->ns; ++i) m->perm[i] = next[m->perm[i]]++;
+    for (i = 0; i < m->ns; ++i)
+        while (m->perm[i] != i) {
+            int j = m->perm[i];
+            gs__spring t = m->springs[j];
+            m->springs[j] = m->springs[i];
+            m->springs[i] = t;
+            m->perm[i] = m->perm[j];
+            m->perm[j] = j;
+        }
+}
+
 /* After the arrays are filled: rest lengths, inverse masses, pins, the
    stability bound. `pins` may hold duplicates; they are merged. */
 GS__PRIVATE void gs__mesh_finish(gs__mesh *m, const int *pins, int npins) {
@@ -2826,6 +2989,7 @@ GS__PRIVATE void gs__mesh_finish(gs__mesh *m, const int *pins, int npins) {
         m->pins[k++] = pins[i];
     }
     m->npins = k;
+    gs__mesh_batch(m);
     for (i = 0; i < m->n; ++i) {
         m->inv_mass[i] = m->pinned[i] ? 0.0 : 1.0 / m->mass[i];
         if (m->pinned[i]) m->v[i] = gs__v3(0.0, 0.0, 0.0);
@@ -4685,8 +4849,13 @@ GS__PRIVATE void gs__mesh_update_bounds(gs__mesh *m) {
     gs_vec3 lo = m->x[0], hi = m->x[0], r;
     int i;
     for (i = 1; i < m->n; ++i) {
-        lo = gs__v3(fmin(lo.x, m->x[i].x), fmin(lo.y, m->x[i].y), fmin(lo.z, m->x[i].z));
-        hi = gs__v3(fmax(hi.x, m->x[i].x), fmax(hi.y, m->x[i].y), fmax(hi.z, m->x[i].z));
+        const gs_vec3 *p = &m->x[i];
+        lo.x = p->x < lo.x ? p->x : lo.x;
+        lo.y = p->y < lo.y ? p->y : lo.y;
+        lo.z = p->z < lo.z ? p->z : lo.z;
+        hi.x = p->x > hi.x ? p->x : hi.x;
+        hi.y = p->y > hi.y ? p->y : hi.y;
+        hi.z = p->z > hi.z ? p->z : hi.z;
     }
     r = gs__v3(m->radius, m->radius, m->radius);
     m->lo = gs__sub(lo, r);
