@@ -320,6 +320,12 @@ typedef enum gs_integrator {
     GS_INTEGRATOR_RK4,             /* order 4; 4 force evaluations */
     GS_INTEGRATOR_IMPLICIT_EULER,  /* backward Euler, Baraff-Witkin + CG:
                                       stable at any dt, damps */
+    GS_INTEGRATOR_XPBD,            /* spring-mass only: extended position-
+                                      based dynamics in the small-steps form
+                                      (solver.substeps of one constraint pass
+                                      each); springs keep their N/m and N s/m
+                                      (compliance 1 / k); stable at any
+                                      stiffness, order 1 in the substep */
     GS__INTEGRATOR_COUNT
 } gs_integrator;
 
@@ -345,6 +351,9 @@ typedef struct gs_solver_desc {
     int cg_max_iterations;   /* implicit Euler: default 200 */
     double max_speed;        /* m/s; a faster particle means the step blew
                                 up and is undone; default 1e4 */
+    int substeps;            /* XPBD: substeps per step, one pass over the
+                                springs each, >= 1 (more where contacts
+                                need them); default 4 */
 } gs_solver_desc;
 
 GS_API gs_solver_desc gs_solver_desc_default(void);
@@ -504,7 +513,8 @@ GS_API gs_result gs_mesh_energy(const gs_agent *a, double *kinetic,
 /* The largest stable step of the agent's explicit integrator, in seconds,
    from the bound omega_max^2 <= max_i (sum of k over i's springs, those to
    free particles counted twice) / m_i (Gershgorin) and the damping rate
-   likewise; +inf for implicit Euler. */
+   likewise; +inf for implicit Euler and XPBD (whose springs are stable at
+   any step). */
 GS_API double gs_mesh_stable_dt(const gs_agent *a);
 /* Moves a pinned particle (the application drags a corner) to pos, in
    metres. GS_ERR_INVALID_ARG if the agent is not a spring-mass agent or the
@@ -2020,6 +2030,7 @@ GS_API gs_solver_desc gs_solver_desc_default(void) {
     d.cg_tolerance = 1e-6;
     d.cg_max_iterations = 200;
     d.max_speed = 1e4;
+    d.substeps = 4;
     return d;
 }
 
@@ -2033,6 +2044,7 @@ GS__PRIVATE gs_solver_desc gs__solver_defaults(gs_solver_desc d) {
     if (d.cg_tolerance == 0.0) d.cg_tolerance = def.cg_tolerance;
     if (d.cg_max_iterations == 0) d.cg_max_iterations = def.cg_max_iterations;
     if (d.max_speed == 0.0) d.max_speed = def.max_speed;
+    if (d.substeps == 0) d.substeps = def.substeps;
     return d;
 }
 
@@ -2051,6 +2063,7 @@ GS__PRIVATE void gs__check_solver(gs__check *c, const gs_solver_desc *d) {
     gs__check_int(c, "solver.cg_max_iterations", d->cg_max_iterations, 1,
                   1L << 24);
     gs__check_positive(c, "solver.max_speed", d->max_speed);
+    gs__check_int(c, "solver.substeps", d->substeps, 1, 1L << 20);
 }
 
 GS_API gs_material gs_material_default(void) {
@@ -2352,8 +2365,8 @@ GS__PRIVATE void gs__mesh_layout(gs__mesh *m, gs__carver *cv) {
     m->springs = (gs__spring *)gs__carve(cv, (size_t)m->ns * sizeof(gs__spring));
     m->pins = (int *)gs__carve(cv, (size_t)m->npins * sizeof(int));
     m->pinned = (unsigned char *)gs__carve(cv, n);
-    if (it != GS_INTEGRATOR_IMPLICIT_EULER &&
-        m->solver.stability != GS_STABILITY_UNCHECKED) {
+    if (it == GS_INTEGRATOR_XPBD || (it != GS_INTEGRATOR_IMPLICIT_EULER &&
+                                     m->solver.stability != GS_STABILITY_UNCHECKED)) {
         m->x0 = (gs_vec3 *)gs__carve(cv, v3);
         m->v0 = (gs_vec3 *)gs__carve(cv, v3);
     }
@@ -2680,6 +2693,111 @@ GS__PRIVATE void gs__int_implicit_euler(gs__mesh *m, double h) {
     }
 }
 
+/* ---- XPBD (Macklin, Mueller, Chentanez 2016; small steps, Macklin et al.
+   2019): predict with every force that is not a spring, then one pass that
+   moves each spring's ends along it by dlambda, then v = (x_new - x) / h.
+   For spring s with C = l - rest, compliance alpha = 1 / k and damping c
+   (gamma = alpha~ beta~ / h with alpha~ = alpha / h^2, beta~ = h^2 c),
+   XPBD's dlambda = -(C + gamma u . dx) / ((1 + gamma) W + alpha~), W = w_a +
+   w_b, dx the ends' relative motion this substep. Multiplied through by
+   k h^2 it needs no reciprocal of k: dlambda = -(k h^2 C + c h u . dx) /
+   ((k h^2 + c h) W + 1), whose denominator is >= 1. With lambda from zero
+   every substep, the pass is one Gauss-Seidel sweep batch by batch; in a
+   batch the springs share no particle, so their order is free. Ends move by
+   s d with s = dlambda / l, folded into one division:
+   s = -(k h^2 (l^2 - rest l) + c h d . dx) / (l^2 ((k h^2 + c h) W + 1)). */
+GS__PRIVATE void gs__xpbd_spring(const gs__spring *sp, const double *im,
+                                 const gs_vec3 *x, gs_vec3 *xn, double h) {
+    gs_vec3 *pa = &xn[sp->a], *pb = &xn[sp->b];
+    const gs_vec3 *qa = &x[sp->a], *qb = &x[sp->b];
+    double dx = pb->x - pa->x, dy = pb->y - pa->y, dz = pb->z - pa->z;
+    double l2 = dx * dx + dy * dy + dz * dz, l = sqrt(l2);
+    double kh = sp->k * h * h, ch = sp->c * h, wa = im[sp->a], wb = im[sp->b];
+    double mx = (pb->x - qb->x) - (pa->x - qa->x), my = (pb->y - qb->y) - (pa->y - qa->y),
+           mz = (pb->z - qb->z) - (pa->z - qa->z);
+    double num = kh * (l2 - sp->rest * l) + ch * (dx * mx + dy * my + dz * mz);
+    double den = l2 * ((kh + ch) * (wa + wb) + 1.0);
+    double s = den > 0.0 ? -num / den : 0.0;
+    pa->x -= wa * s * dx; pa->y -= wa * s * dy; pa->z -= wa * s * dz;
+    pb->x += wb * s * dx; pb->y += wb * s * dy; pb->z += wb * s * dz;
+}
+
+#ifdef GS__MESH_SSE2
+#define GS__LD2(p, q, f) _mm_loadh_pd(_mm_load_sd(&(p)->f), &(q)->f)
+#define GS__ST2(p, q, f, v) (_mm_storel_pd(&(p)->f, v), _mm_storeh_pd(&(q)->f, v))
+/* gs__xpbd_spring for two springs of one batch at once, the same bits. */
+GS__PRIVATE void gs__xpbd_spring2(const gs__spring *s0, const gs__spring *s1,
+                                  const double *im, const gs_vec3 *x, gs_vec3 *xn,
+                                  __m128d hh, __m128d h) {
+    gs_vec3 *pa0 = &xn[s0->a], *pb0 = &xn[s0->b], *pa1 = &xn[s1->a], *pb1 = &xn[s1->b];
+    const gs_vec3 *qa0 = &x[s0->a], *qb0 = &x[s0->b], *qa1 = &x[s1->a], *qb1 = &x[s1->b];
+    __m128d ax = GS__LD2(pa0, pa1, x), ay = GS__LD2(pa0, pa1, y), az = GS__LD2(pa0, pa1, z);
+    __m128d bx = GS__LD2(pb0, pb1, x), by = GS__LD2(pb0, pb1, y), bz = GS__LD2(pb0, pb1, z);
+    __m128d dx = _mm_sub_pd(bx, ax), dy = _mm_sub_pd(by, ay), dz = _mm_sub_pd(bz, az);
+    __m128d l2 = _mm_add_pd(_mm_add_pd(_mm_mul_pd(dx, dx), _mm_mul_pd(dy, dy)), _mm_mul_pd(dz, dz));
+    __m128d l = _mm_sqrt_pd(l2);
+    __m128d kh = _mm_mul_pd(_mm_mul_pd(GS__LD2(s0, s1, k), h), h);
+    __m128d ch = _mm_mul_pd(GS__LD2(s0, s1, c), h);
+    __m128d wa = _mm_loadh_pd(_mm_load_sd(&im[s0->a]), &im[s1->a]);
+    __m128d wb = _mm_loadh_pd(_mm_load_sd(&im[s0->b]), &im[s1->b]);
+    __m128d mx = _mm_sub_pd(_mm_sub_pd(bx, GS__LD2(qb0, qb1, x)), _mm_sub_pd(ax, GS__LD2(qa0, qa1, x)));
+    __m128d my = _mm_sub_pd(_mm_sub_pd(by, GS__LD2(qb0, qb1, y)), _mm_sub_pd(ay, GS__LD2(qa0, qa1, y)));
+    __m128d mz = _mm_sub_pd(_mm_sub_pd(bz, GS__LD2(qb0, qb1, z)), _mm_sub_pd(az, GS__LD2(qa0, qa1, z)));
+    __m128d num = _mm_add_pd(
+        _mm_mul_pd(kh, _mm_sub_pd(l2, _mm_mul_pd(GS__LD2(s0, s1, rest), l))),
+        _mm_mul_pd(ch, _mm_add_pd(_mm_add_pd(_mm_mul_pd(dx, mx), _mm_mul_pd(dy, my)),
+                                  _mm_mul_pd(dz, mz))));
+    __m128d den = _mm_mul_pd(l2, _mm_add_pd(_mm_mul_pd(_mm_add_pd(kh, ch), _mm_add_pd(wa, wb)),
+                                            _mm_set1_pd(1.0)));
+    __m128d sa, sb, s = _mm_and_pd(_mm_cmpgt_pd(den, _mm_setzero_pd()),
+                                   _mm_div_pd(_mm_sub_pd(_mm_setzero_pd(), num), den));
+    (void)hh;
+    sa = _mm_mul_pd(wa, s);
+    sb = _mm_mul_pd(wb, s);
+    GS__ST2(pa0, pa1, x, _mm_sub_pd(ax, _mm_mul_pd(sa, dx)));
+    GS__ST2(pa0, pa1, y, _mm_sub_pd(ay, _mm_mul_pd(sa, dy)));
+    GS__ST2(pa0, pa1, z, _mm_sub_pd(az, _mm_mul_pd(sa, dz)));
+    GS__ST2(pb0, pb1, x, _mm_add_pd(bx, _mm_mul_pd(sb, dx)));
+    GS__ST2(pb0, pb1, y, _mm_add_pd(by, _mm_mul_pd(sb, dy)));
+    GS__ST2(pb0, pb1, z, _mm_add_pd(bz, _mm_mul_pd(sb, dz)));
+}
+#undef GS__LD2
+#undef GS__ST2
+#endif
+
+/* One constraint pass, batch by batch. */
+GS__PRIVATE void gs__xpbd_pass(gs__mesh *m, double h) {
+    const gs__spring *sp = m->springs;
+    int b, i;
+    for (b = 0; b < m->nbatch; ++b) {
+        i = m->batch[b];
+#ifdef GS__MESH_SSE2
+        if (b < GS__MESH_BATCHES - 1)
+            for (; i + 1 < m->batch[b + 1]; i += 2)
+                gs__xpbd_spring2(&sp[i], &sp[i + 1], m->inv_mass, m->x, m->xn,
+                                 _mm_set1_pd(h * h), _mm_set1_pd(h));
+#endif
+        for (; i < m->batch[b + 1]; ++i)
+            gs__xpbd_spring(&sp[i], m->inv_mass, m->x, m->xn, h);
+    }
+}
+
+GS__PRIVATE void gs__int_xpbd(gs__mesh *m, double h) {
+    gs_vec3 g = m->base.world->gravity;
+    const double *im = m->inv_mass;
+    double ih = 1.0 / h;
+    int i;
+    for (i = 0; i < m->n; ++i) {
+        gs_vec3 a = gs__madd(g, m->v[i], -m->air);
+        m->vn[i] = im[i] > 0.0 ? gs__madd(m->v[i], a, h) : m->v[i];
+    }
+    if (m->ext_active)
+        for (i = 0; i < m->n; ++i) m->vn[i] = gs__madd(m->vn[i], m->ext[i], im[i] * h);
+    for (i = 0; i < m->n; ++i) m->xn[i] = gs__madd(m->x[i], m->vn[i], h);
+    gs__xpbd_pass(m, h);
+    for (i = 0; i < m->n; ++i) m->vn[i] = gs__scale(gs__sub(m->xn[i], m->x[i]), ih);
+}
+
 /* ---- stepping ---- */
 
 /* Finite positions and no particle faster than max_speed (anything else
@@ -2722,6 +2840,7 @@ GS__PRIVATE gs_result gs__mesh_substep(gs__mesh *m, double t0, double h) {
     case GS_INTEGRATOR_VERLET: gs__int_verlet(m, h); break;
     case GS_INTEGRATOR_RK4: gs__int_rk4(m, h); break;
     case GS_INTEGRATOR_IMPLICIT_EULER: gs__int_implicit_euler(m, h); break;
+    case GS_INTEGRATOR_XPBD: gs__int_xpbd(m, h); break;
     default: gs__int_symplectic_euler(m, h); break;
     }
     for (i = 0; i < m->npins; ++i) {
@@ -2742,10 +2861,33 @@ GS__PRIVATE gs_result gs__mesh_substep(gs__mesh *m, double t0, double h) {
 /* How many substeps a step of dt needs to stay under the stability bound. */
 GS__PRIVATE int gs__world_has_contacts(const gs_world *w);
 
+/* XPBD takes solver.substeps, or more when contacts (explicit penalty
+   forces in its prediction) need a shorter substep. */
+GS__PRIVATE gs_result gs__xpbd_plan(gs__mesh *m, double dt, int *n_sub) {
+    double lim = m->stable_dt_contact * m->solver.safety, k;
+    *n_sub = m->solver.substeps;
+    if (!gs__world_has_contacts(m->base.world) ||
+        m->solver.stability == GS_STABILITY_UNCHECKED || dt <= lim * *n_sub)
+        return GS_OK;
+    k = ceil(dt / lim);
+    if (m->solver.stability == GS_STABILITY_REFUSE || k > (double)m->solver.max_substeps)
+        return gs__fail(m->base.world, GS_ERR_UNSTABLE,
+                        "%s agent %d: dt %g s needs %.0f substeps of the "
+                        "contacts' stable step %g s (stability %s, "
+                        "max_substeps %d)",
+                        m->base.kind->name, m->base.index, dt, k, lim,
+                        m->solver.stability == GS_STABILITY_REFUSE ? "refuse"
+                                                                   : "substep",
+                        m->solver.max_substeps);
+    *n_sub = (int)k;
+    return GS_OK;
+}
+
 GS__PRIVATE gs_result gs__mesh_plan(gs__mesh *m, double dt, int *n_sub) {
     double lim = (gs__world_has_contacts(m->base.world) ? m->stable_dt_contact
                                                         : m->stable_dt) *
                  m->solver.safety, k;
+    if (m->solver.integrator == GS_INTEGRATOR_XPBD) return gs__xpbd_plan(m, dt, n_sub);
     *n_sub = 1;
     if (m->solver.integrator == GS_INTEGRATOR_IMPLICIT_EULER ||
         m->solver.stability == GS_STABILITY_UNCHECKED || dt <= lim)
@@ -2879,8 +3021,10 @@ GS__PRIVATE double gs__mesh_bound(gs__mesh *m, double contact_k,
     double w2 = 0.0, g = 0.0, h;
     int i;
     if (m->solver.integrator == GS_INTEGRATOR_IMPLICIT_EULER) return HUGE_VAL;
+    if (m->solver.integrator == GS_INTEGRATOR_XPBD && contact_k == 0.0) return HUGE_VAL;
     for (i = 0; i < m->n; ++i) m->acc[i] = gs__v3(contact_k, contact_c, 0.0);
-    for (i = 0; i < m->ns; ++i) { /* acc as scratch: x = sum k, y = sum c */
+    for (i = 0; m->solver.integrator != GS_INTEGRATOR_XPBD && i < m->ns; ++i) {
+        /* acc as scratch: x = sum k, y = sum c */
         const gs__spring *s = &m->springs[i];
         double fa = m->pinned[s->b] ? 1.0 : 2.0, fb = m->pinned[s->a] ? 1.0 : 2.0;
         m->acc[s->a].x += fa * s->k; m->acc[s->a].y += fa * s->c;
@@ -3798,10 +3942,12 @@ GS__PRIVATE void gs__rigid_check(gs__check *c, const gs_rigid_desc *d,
     gs__check_material(c, &d->material);
     gs__check_nonneg(c, "rolling", d->rolling);
     gs__check_solver(c, &d->solver);
-    if (c->r == GS_OK && d->solver.integrator == GS_INTEGRATOR_IMPLICIT_EULER)
+    if (c->r == GS_OK && (d->solver.integrator == GS_INTEGRATOR_IMPLICIT_EULER ||
+                          d->solver.integrator == GS_INTEGRATOR_XPBD))
         gs__check_fail(c, GS_ERR_INVALID_ARG,
-                       "solver.integrator: implicit Euler is for spring-mass "
-                       "agents; rigid bodies substep under stiff contact");
+                       "solver.integrator: implicit Euler and XPBD are for "
+                       "spring-mass agents; rigid bodies substep under stiff "
+                       "contact");
 }
 
 /* Mass and body inertia from the desc: given values win over the shape's. */
