@@ -510,10 +510,13 @@ GS_API const gs_vec3 *gs_mesh_velocities(const gs_agent *a);
    the origin), in joules. Either pointer may be NULL. */
 GS_API gs_result gs_mesh_energy(const gs_agent *a, double *kinetic,
                                 double *potential);
-/* The largest stable step of the agent's explicit integrator, in seconds,
-   from the bound omega_max^2 <= max_i (sum of k over i's springs, those to
-   free particles counted twice) / m_i (Gershgorin) and the damping rate
-   likewise; +inf for implicit Euler and XPBD (whose springs are stable at
+/* The largest stable step of the agent's explicit integrator, in seconds:
+   h = 4 / (gamma + sqrt(gamma^2 + 4 omega_max^2)) (RK4 1.39 times it), with
+   omega_max^2 estimated at creation by power iteration on the springs'
+   stiffness (within 10% under the measured limit of a cloth), never above
+   Gershgorin's bound max_i (sum of k over i's springs, those to free
+   particles counted twice) / m_i, which stands where the iteration does not
+   converge; +inf for implicit Euler and XPBD (whose springs are stable at
    any step). */
 GS_API double gs_mesh_stable_dt(const gs_agent *a);
 /* Moves a pinned particle (the application drags a corner) to pos, in
@@ -2321,6 +2324,9 @@ typedef struct gs__mesh {
     double air;       /* 1/s */
     gs_solver_desc solver;
     double stable_dt; /* s; the explicit integrator's bound */
+    double omega2;    /* 1/s^2; the highest omega^2 of the springs by power
+                         iteration, 0 = not converged (Gershgorin is used) */
+    double gamma;     /* 1/s; the springs' damping rate of that mode */
     double stable_dt_contact; /* s; the same with a contact on every particle */
     /* contacts */
     gs_vec3 *ext;     /* N; contact force on each particle this substep */
@@ -3009,6 +3015,93 @@ GS__PRIVATE gs__mesh *gs__as_mesh(const gs_agent *a) {
 
 /* ---- building ---- */
 
+/* q = K p for the springs linearized about the positions (k u u^T each: a
+   spring at its rest length has no geometric stiffness), pinned rows and
+   columns removed; returns p . K p. With `damping`, the same for the
+   damping matrix D (c u u^T). */
+GS__PRIVATE double gs__mesh_stiffness_apply(const gs__mesh *m, const gs_vec3 *p,
+                                            gs_vec3 *q, int damping) {
+    double pkp = 0.0;
+    int i;
+    memset(q, 0, (size_t)m->n * sizeof *q);
+    for (i = 0; i < m->ns; ++i) {
+        const gs__spring *s = &m->springs[i];
+        gs_vec3 d = gs__sub(m->x[s->b], m->x[s->a]);
+        double l = gs__len(d), e, w;
+        if (!(l > 0.0)) continue;
+        d = gs__scale(d, 1.0 / l);
+        e = gs__dot(d, gs__sub(p[s->b], p[s->a]));
+        w = (damping ? s->c : s->k) * e;
+        pkp += w * e;
+        q[s->a] = gs__madd(q[s->a], d, -w);
+        q[s->b] = gs__madd(q[s->b], d, w);
+    }
+    for (i = 0; i < m->npins; ++i) q[m->pins[i]] = gs__v3(0.0, 0.0, 0.0);
+    return pkp;
+}
+
+/* The highest omega^2 of M^-1 K by power iteration (Rayleigh quotient
+   p.Kp / p.Mp, which approaches it from below), from a seeded start, until
+   it changes by under 1e-4 relative, times 1.15: it stalls a little below
+   the top of a cloth's dense spectrum, and a stiff cloth in motion runs up
+   to 6% (in dt) past its rest frequency, measured; so symplectic Euler's
+   step comes out 0-8% under the measured limit (m->gamma gets that mode's
+   damping rate p.Dp / p.Mp); 0 when it does not within an
+   iteration budget of about 2e7 spring visits (then Gershgorin's bound
+   stands). A cloth's Gershgorin bound is 1.4-1.5x too cautious in dt; this
+   one is cached, since only creation and pinning change it. xn and vn are
+   scratch: this runs before the first step. */
+GS__PRIVATE double gs__mesh_power_omega2(gs__mesh *m) {
+    gs_vec3 *p = m->xn, *q = m->vn;
+    uint32_t seed = 0x9e3779b9u;
+    double lam = 0.0, prev = 0.0;
+    int i, it, iters = m->ns > 0 ? (int)(2e7 / m->ns) : 0;
+    if (iters > 200) iters = 200;
+    for (i = 0; i < m->n; ++i) {
+        double r[3];
+        int c;
+        for (c = 0; c < 3; ++c) {
+            seed = seed * 1664525u + 1013904223u;
+            r[c] = (double)(seed >> 8) / 8388608.0 - 1.0;
+        }
+        p[i] = m->pinned[i] ? gs__v3(0.0, 0.0, 0.0) : gs__v3(r[0], r[1], r[2]);
+    }
+    for (it = 0; it < iters; ++it) {
+        double pkp = gs__mesh_stiffness_apply(m, p, q, 0), pmp = 0.0, qq = 0.0;
+        for (i = 0; i < m->n; ++i) pmp += m->mass[i] * gs__dot(p[i], p[i]);
+        if (!(pmp > 0.0) || !(pkp > 0.0)) return 0.0;
+        lam = pkp / pmp;
+        if (it > 8 && fabs(lam - prev) <= 1e-4 * lam) {
+            /* that mode's own damping rate */
+            m->gamma = gs__mesh_stiffness_apply(m, p, q, 1) / pmp;
+            return 1.15 * lam;
+        }
+        prev = lam;
+        for (i = 0; i < m->n; ++i) {
+            q[i] = gs__scale(q[i], m->inv_mass[i]);
+            qq += gs__dot(q[i], q[i]);
+        }
+        qq = 1.0 / sqrt(qq);
+        for (i = 0; i < m->n; ++i) p[i] = gs__scale(q[i], qq);
+    }
+    return 0.0;
+}
+
+GS__PRIVATE double gs__mesh_bound(gs__mesh *m, double contact_k, double contact_c);
+
+/* Refreshes the cached frequency and both stable steps; for creation and
+   pinning, which are all that change the springs' matrix. */
+GS__PRIVATE void gs__mesh_refresh_bounds(gs__mesh *m) {
+    m->omega2 = m->solver.integrator == GS_INTEGRATOR_IMPLICIT_EULER ||
+                        m->solver.integrator == GS_INTEGRATOR_XPBD
+                    ? 0.0
+                    : gs__mesh_power_omega2(m);
+    memset(m->xn, 0, (size_t)m->n * sizeof *m->xn);
+    memset(m->vn, 0, (size_t)m->n * sizeof *m->vn);
+    m->stable_dt = gs__mesh_bound(m, 0.0, 0.0);
+    m->stable_dt_contact = gs__mesh_bound(m, m->mat.stiffness, m->mat.damping);
+}
+
 /* The largest stable explicit step. Per free particle i, Gershgorin on
    M^-1 K bounds omega^2 by (sum of k over its springs, plus k again for each
    spring to a free particle) / m_i, and the damping rate gamma likewise (plus
@@ -3036,6 +3129,14 @@ GS__PRIVATE double gs__mesh_bound(gs__mesh *m, double contact_k,
         if (m->acc[i].y * m->inv_mass[i] > g) g = m->acc[i].y * m->inv_mass[i];
     }
     g += m->air;
+    if (m->omega2 > 0.0) { /* the power iteration's, plus the contacts' (Weyl) */
+        double imax = 0.0;
+        for (i = 0; i < m->n; ++i) imax = m->inv_mass[i] > imax ? m->inv_mass[i] : imax;
+        if (m->omega2 + contact_k * imax < w2) {
+            w2 = m->omega2 + contact_k * imax;
+            g = m->gamma + contact_c * imax + m->air;
+        }
+    }
     if (w2 == 0.0 && g == 0.0) return HUGE_VAL;
     h = 4.0 / (g + sqrt(g * g + 4.0 * w2));
     return m->solver.integrator == GS_INTEGRATOR_RK4 ? 1.39 * h : h;
@@ -3138,8 +3239,7 @@ GS__PRIVATE void gs__mesh_finish(gs__mesh *m, const int *pins, int npins) {
         m->inv_mass[i] = m->pinned[i] ? 0.0 : 1.0 / m->mass[i];
         if (m->pinned[i]) m->v[i] = gs__v3(0.0, 0.0, 0.0);
     }
-    m->stable_dt = gs__mesh_bound(m, 0.0, 0.0);
-    m->stable_dt_contact = gs__mesh_bound(m, m->mat.stiffness, m->mat.damping);
+    gs__mesh_refresh_bounds(m);
     gs__mesh_update_bounds(m);
 }
 
@@ -3438,8 +3538,7 @@ GS_API gs_result gs_cloth_create(gs_world *w, const gs_cloth_desc *desc,
                 m->pins[m->npins++] = d.pins[i];
                 m->inv_mass[d.pins[i]] = 0.0;
             }
-        m->stable_dt = gs__mesh_bound(m, 0.0, 0.0);
-        m->stable_dt_contact = gs__mesh_bound(m, m->mat.stiffness, m->mat.damping);
+        gs__mesh_refresh_bounds(m);
     }
     *out = &m->base;
     return GS_OK;
