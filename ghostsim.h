@@ -2301,6 +2301,18 @@ typedef struct gs__spring {
 #include <emmintrin.h>
 #endif
 
+/* The distance between the rows of a transposed copy, in doubles: past n,
+   and never a multiple of 4 KiB, where nine rows would share cache sets
+   and every store would wait (18 ns a particle at n = 4096, measured). */
+GS__PRIVATE size_t gs__soa_stride(size_t n) {
+    size_t s = ((n + 7) & ~(size_t)7) + 8;
+    return s % 512 == 0 ? s + 8 : s;
+}
+
+typedef struct gs__run {
+    int s0, a0, off, len; /* springs s0.., particles a0.. and a0 + off.. */
+} gs__run;
+
 typedef struct gs__mesh {
     gs_agent base;
     int n, ns, npins;
@@ -2312,6 +2324,15 @@ typedef struct gs__mesh {
     /* Springs are ordered by colour: within one batch no two share a
        particle, so a batch's updates never wait on one another. The last
        batch (GS__MESH_SERIAL) takes what did not fit and may conflict. */
+    /* Symplectic Euler on a mesh whose springs come in runs (spring s0 + j
+       joins particles a0 + j and a0 + j + off, as a cloth's families do)
+       works on a transposed copy of the state, so that both ends of a
+       run's springs are contiguous loads: r* are the runs (0 = none), s*
+       the copy (x y z, vx vy vz, ax ay az, n each), sp* the springs'
+       k, c, rest and force on end a (x y z), ns each. */
+    gs__run *runs;
+    int nruns;
+    double *soa, *sp_soa;
     int nbatch;
     int batch[GS__MESH_BATCHES + 1]; /* first spring of each batch, then ns */
     uint64_t *colours; /* per particle, the colours of its springs (build) */
@@ -2364,6 +2385,11 @@ GS__PRIVATE void gs__mesh_layout(gs__mesh *m, gs__carver *cv) {
     m->acc = (gs_vec3 *)gs__carve(cv, v3);
     m->sf = (double *)gs__carve(cv, (size_t)m->ns * 3 * sizeof(double));
     m->colours = (uint64_t *)gs__carve(cv, n * sizeof(uint64_t));
+    if (it == GS_INTEGRATOR_SYMPLECTIC_EULER) {
+        m->runs = (gs__run *)gs__carve(cv, (size_t)m->ns * sizeof(gs__run));
+        m->soa = (double *)gs__carve(cv, 9 * gs__soa_stride(n) * sizeof(double));
+        m->sp_soa = (double *)gs__carve(cv, gs__soa_stride((size_t)m->ns) * 6 * sizeof(double));
+    }
     m->perm = (int *)gs__carve(cv, (size_t)m->ns * sizeof(int));
     m->ext = (gs_vec3 *)gs__carve(cv, v3);
     m->mass = (double *)gs__carve(cv, n * sizeof(double));
@@ -2506,8 +2532,142 @@ GS__PRIVATE void gs__int_explicit_euler(gs__mesh *m, double h) {
     }
 }
 
+/* ---- symplectic Euler over runs of springs (see gs__mesh.runs) ---- */
+
+/* Forces of run r's springs on their ends a, into fx, fy, fz. */
+GS__PRIVATE void gs__run_forces(const gs__mesh *m, const gs__run *r) {
+    size_t n = gs__soa_stride((size_t)m->n), ns = gs__soa_stride((size_t)m->ns);
+    const double *X = m->soa, *Y = X + n, *Z = Y + n, *VX = Z + n, *VY = VX + n, *VZ = VY + n;
+    const double *K = m->sp_soa, *C = K + ns, *R = C + ns;
+    double *FX = m->sp_soa + 3 * ns, *FY = FX + ns, *FZ = FY + ns;
+    int j = 0, a = r->a0, b = r->a0 + r->off, s = r->s0;
+#ifdef GS__MESH_SSE2
+    for (; j + 1 < r->len; j += 2) {
+        __m128d dx = _mm_sub_pd(_mm_loadu_pd(X + b + j), _mm_loadu_pd(X + a + j));
+        __m128d dy = _mm_sub_pd(_mm_loadu_pd(Y + b + j), _mm_loadu_pd(Y + a + j));
+        __m128d dz = _mm_sub_pd(_mm_loadu_pd(Z + b + j), _mm_loadu_pd(Z + a + j));
+        __m128d l = _mm_sqrt_pd(_mm_add_pd(_mm_add_pd(_mm_mul_pd(dx, dx), _mm_mul_pd(dy, dy)),
+                                           _mm_mul_pd(dz, dz)));
+        __m128d ok = _mm_cmpgt_pd(l, _mm_setzero_pd());
+        __m128d il = _mm_and_pd(ok, _mm_div_pd(_mm_set1_pd(1.0), l));
+        __m128d ux = _mm_mul_pd(dx, il), uy = _mm_mul_pd(dy, il), uz = _mm_mul_pd(dz, il);
+        __m128d w = _mm_add_pd(
+            _mm_add_pd(_mm_mul_pd(_mm_sub_pd(_mm_loadu_pd(VX + b + j), _mm_loadu_pd(VX + a + j)), ux),
+                       _mm_mul_pd(_mm_sub_pd(_mm_loadu_pd(VY + b + j), _mm_loadu_pd(VY + a + j)), uy)),
+            _mm_mul_pd(_mm_sub_pd(_mm_loadu_pd(VZ + b + j), _mm_loadu_pd(VZ + a + j)), uz));
+        __m128d f = _mm_and_pd(ok, _mm_add_pd(_mm_mul_pd(_mm_loadu_pd(K + s + j),
+                                                         _mm_sub_pd(l, _mm_loadu_pd(R + s + j))),
+                                              _mm_mul_pd(_mm_loadu_pd(C + s + j), w)));
+        _mm_storeu_pd(FX + s + j, _mm_mul_pd(ux, f));
+        _mm_storeu_pd(FY + s + j, _mm_mul_pd(uy, f));
+        _mm_storeu_pd(FZ + s + j, _mm_mul_pd(uz, f));
+    }
+#endif
+    for (; j < r->len; ++j) {
+        double dx = X[b + j] - X[a + j], dy = Y[b + j] - Y[a + j], dz = Z[b + j] - Z[a + j];
+        double l = sqrt(dx * dx + dy * dy + dz * dz);
+        double il = l > 0.0 ? 1.0 / l : 0.0, ux = dx * il, uy = dy * il, uz = dz * il;
+        double f = K[s + j] * (l - R[s + j]) +
+                   C[s + j] * ((VX[b + j] - VX[a + j]) * ux + (VY[b + j] - VY[a + j]) * uy +
+                               (VZ[b + j] - VZ[a + j]) * uz);
+        f = l > 0.0 ? f : 0.0;
+        FX[s + j] = ux * f;
+        FY[s + j] = uy * f;
+        FZ[s + j] = uz * f;
+    }
+}
+
+/* acc[p0 + j] += sign * f[j] / m over a run's ends: one stream each, no
+   two elements alike, so it runs two wide; the same bits either way. */
+GS__PRIVATE void gs__run_add(double *acc, const double *f, const double *im, int p0,
+                             int len, double sign) {
+    int j = 0;
+#ifdef GS__MESH_SSE2
+    __m128d sg = _mm_set1_pd(sign);
+    for (; j + 1 < len; j += 2)
+        _mm_storeu_pd(acc + p0 + j,
+                      _mm_add_pd(_mm_loadu_pd(acc + p0 + j),
+                                 _mm_mul_pd(_mm_mul_pd(_mm_loadu_pd(f + j), sg),
+                                            _mm_loadu_pd(im + p0 + j))));
+#endif
+    for (; j < len; ++j) acc[p0 + j] += f[j] * sign * im[p0 + j];
+}
+
+/* Symplectic Euler through the transposed copy: copy in, accelerations,
+   springs run by run (forces, then their ends a, then their ends b), then
+   the update back into (xn, vn). */
+GS__PRIVATE void gs__int_symplectic_runs(gs__mesh *m, double h) {
+    size_t n = (size_t)m->n, ns = gs__soa_stride((size_t)m->ns), i;
+    size_t st = gs__soa_stride(n);
+    double *X = m->soa, *Y = X + st, *Z = Y + st, *VX = Z + st, *VY = VX + st, *VZ = VY + st;
+    double *AX = VZ + st, *AY = AX + st, *AZ = AY + st;
+    const double *F = m->sp_soa + 3 * ns, *im = m->inv_mass;
+    gs_vec3 g = m->base.world->gravity;
+    int r;
+    for (i = 0; i < n; ++i) {
+        X[i] = m->x[i].x; Y[i] = m->x[i].y; Z[i] = m->x[i].z;
+        VX[i] = m->v[i].x; VY[i] = m->v[i].y; VZ[i] = m->v[i].z;
+        AX[i] = g.x + VX[i] * -m->air;
+        AY[i] = g.y + VY[i] * -m->air;
+        AZ[i] = g.z + VZ[i] * -m->air;
+    }
+    if (m->ext_active)
+        for (i = 0; i < n; ++i) {
+            AX[i] += m->ext[i].x * im[i];
+            AY[i] += m->ext[i].y * im[i];
+            AZ[i] += m->ext[i].z * im[i];
+        }
+    for (r = 0; r < m->nruns; ++r) {
+        const gs__run *u = &m->runs[r];
+        gs__run_forces(m, u);
+        gs__run_add(AX, F + u->s0, im, u->a0, u->len, 1.0);
+        gs__run_add(AY, F + ns + u->s0, im, u->a0, u->len, 1.0);
+        gs__run_add(AZ, F + 2 * ns + u->s0, im, u->a0, u->len, 1.0);
+        gs__run_add(AX, F + u->s0, im, u->a0 + u->off, u->len, -1.0);
+        gs__run_add(AY, F + ns + u->s0, im, u->a0 + u->off, u->len, -1.0);
+        gs__run_add(AZ, F + 2 * ns + u->s0, im, u->a0 + u->off, u->len, -1.0);
+    }
+    for (i = 0; i < (size_t)m->npins; ++i) AX[m->pins[i]] = AY[m->pins[i]] = AZ[m->pins[i]] = 0.0;
+    for (i = 0; i < n; ++i) {
+        double vx = VX[i] + AX[i] * h, vy = VY[i] + AY[i] * h, vz = VZ[i] + AZ[i] * h;
+        m->vn[i] = gs__v3(vx, vy, vz);
+        m->xn[i] = gs__v3(X[i] + vx * h, Y[i] + vy * h, Z[i] + vz * h);
+    }
+}
+
+/* Finds the runs in spring order; 0 (the batched path) unless they average
+   8 springs or more. Springs' k, c, rest go to the transposed copy. */
+GS__PRIVATE void gs__mesh_find_runs(gs__mesh *m) {
+    size_t ns = gs__soa_stride((size_t)m->ns);
+    int i = 0, nr = 0;
+    if (!m->runs || m->ns == 0) return;
+    while (i < m->ns) {
+        const gs__spring *s = &m->springs[i];
+        int len = 1;
+        while (i + len < m->ns && m->springs[i + len].a == s->a + len &&
+               m->springs[i + len].b == s->b + len)
+            ++len;
+        m->runs[nr].s0 = i;
+        m->runs[nr].a0 = s->a;
+        m->runs[nr].off = s->b - s->a;
+        m->runs[nr].len = len;
+        ++nr;
+        i += len;
+    }
+    m->nruns = m->ns >= 8 * nr ? nr : 0;
+    for (i = 0; i < m->ns; ++i) {
+        m->sp_soa[i] = m->springs[i].k;
+        m->sp_soa[ns + (size_t)i] = m->springs[i].c;
+        m->sp_soa[2 * ns + (size_t)i] = m->springs[i].rest;
+    }
+}
+
 GS__PRIVATE void gs__int_symplectic_euler(gs__mesh *m, double h) {
     int i;
+    if (m->nruns > 0) {
+        gs__int_symplectic_runs(m, h);
+        return;
+    }
     gs__mesh_accel(m, m->x, m->v, m->acc);
     for (i = 0; i < m->n; ++i) {
         m->vn[i] = gs__madd(m->v[i], m->acc[i], h);
@@ -3234,7 +3394,8 @@ GS__PRIVATE void gs__mesh_finish(gs__mesh *m, const int *pins, int npins) {
         m->pins[k++] = pins[i];
     }
     m->npins = k;
-    gs__mesh_batch(m);
+    gs__mesh_find_runs(m);
+    if (m->nruns == 0) gs__mesh_batch(m);
     for (i = 0; i < m->n; ++i) {
         m->inv_mass[i] = m->pinned[i] ? 0.0 : 1.0 / m->mass[i];
         if (m->pinned[i]) m->v[i] = gs__v3(0.0, 0.0, 0.0);
