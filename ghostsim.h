@@ -2299,6 +2299,13 @@ typedef struct gs__spring {
 #if defined(__SSE2__) && !defined(GHOSTSIM_NO_SIMD)
 #define GS__MESH_SSE2 1
 #include <emmintrin.h>
+/* Four wide where the CPU has AVX (asked at creation), whatever -m flags
+   the user builds with; IEEE sqrt, division, products and sums give the
+   same bits at any width. */
+#if (defined(__GNUC__) || defined(__clang__)) && (defined(__x86_64__) || defined(__i386__))
+#define GS__MESH_AVX 1
+#include <immintrin.h>
+#endif
 #endif
 
 /* The distance between the rows of a transposed copy, in doubles: past n,
@@ -2332,6 +2339,9 @@ typedef struct gs__mesh {
        k, c, rest and force on end a (x y z), ns each. */
     gs__run *runs;
     int nruns;
+    int avx;          /* the CPU runs AVX: the runs go four wide */
+    int checked;      /* the integrator ran gs__mesh_sane's checks itself */
+    int check_ok;     /* and their outcome (lo, hi already set if 1) */
     double *soa, *sp_soa;
     int nbatch;
     int batch[GS__MESH_BATCHES + 1]; /* first spring of each batch, then ns */
@@ -2534,6 +2544,54 @@ GS__PRIVATE void gs__int_explicit_euler(gs__mesh *m, double h) {
 
 /* ---- symplectic Euler over runs of springs (see gs__mesh.runs) ---- */
 
+#ifdef GS__MESH_AVX
+/* gs__run_forces four springs at a time; returns how many it did. */
+__attribute__((target("avx"))) GS__PRIVATE int gs__run_forces4(const gs__mesh *m,
+                                                                const gs__run *r) {
+    size_t n = gs__soa_stride((size_t)m->n), ns = gs__soa_stride((size_t)m->ns);
+    const double *X = m->soa, *Y = X + n, *Z = Y + n, *VX = Z + n, *VY = VX + n, *VZ = VY + n;
+    const double *K = m->sp_soa, *C = K + ns, *R = C + ns;
+    double *FX = m->sp_soa + 3 * ns, *FY = FX + ns, *FZ = FY + ns;
+    int j = 0, a = r->a0, b = r->a0 + r->off, s = r->s0;
+    for (; j + 3 < r->len; j += 4) {
+        __m256d dx = _mm256_sub_pd(_mm256_loadu_pd(X + b + j), _mm256_loadu_pd(X + a + j));
+        __m256d dy = _mm256_sub_pd(_mm256_loadu_pd(Y + b + j), _mm256_loadu_pd(Y + a + j));
+        __m256d dz = _mm256_sub_pd(_mm256_loadu_pd(Z + b + j), _mm256_loadu_pd(Z + a + j));
+        __m256d l = _mm256_sqrt_pd(_mm256_add_pd(
+            _mm256_add_pd(_mm256_mul_pd(dx, dx), _mm256_mul_pd(dy, dy)), _mm256_mul_pd(dz, dz)));
+        __m256d ok = _mm256_cmp_pd(l, _mm256_setzero_pd(), _CMP_GT_OQ);
+        __m256d il = _mm256_and_pd(ok, _mm256_div_pd(_mm256_set1_pd(1.0), l));
+        __m256d ux = _mm256_mul_pd(dx, il), uy = _mm256_mul_pd(dy, il), uz = _mm256_mul_pd(dz, il);
+        __m256d w = _mm256_add_pd(
+            _mm256_add_pd(
+                _mm256_mul_pd(_mm256_sub_pd(_mm256_loadu_pd(VX + b + j), _mm256_loadu_pd(VX + a + j)), ux),
+                _mm256_mul_pd(_mm256_sub_pd(_mm256_loadu_pd(VY + b + j), _mm256_loadu_pd(VY + a + j)), uy)),
+            _mm256_mul_pd(_mm256_sub_pd(_mm256_loadu_pd(VZ + b + j), _mm256_loadu_pd(VZ + a + j)), uz));
+        __m256d f = _mm256_and_pd(
+            ok, _mm256_add_pd(_mm256_mul_pd(_mm256_loadu_pd(K + s + j),
+                                            _mm256_sub_pd(l, _mm256_loadu_pd(R + s + j))),
+                              _mm256_mul_pd(_mm256_loadu_pd(C + s + j), w)));
+        _mm256_storeu_pd(FX + s + j, _mm256_mul_pd(ux, f));
+        _mm256_storeu_pd(FY + s + j, _mm256_mul_pd(uy, f));
+        _mm256_storeu_pd(FZ + s + j, _mm256_mul_pd(uz, f));
+    }
+    return j;
+}
+
+__attribute__((target("avx"))) GS__PRIVATE int gs__run_add4(double *acc, const double *f,
+                                                             const double *im, int p0,
+                                                             int len, double sign) {
+    __m256d sg = _mm256_set1_pd(sign);
+    int j = 0;
+    for (; j + 3 < len; j += 4)
+        _mm256_storeu_pd(acc + p0 + j,
+                         _mm256_add_pd(_mm256_loadu_pd(acc + p0 + j),
+                                       _mm256_mul_pd(_mm256_mul_pd(_mm256_loadu_pd(f + j), sg),
+                                                     _mm256_loadu_pd(im + p0 + j))));
+    return j;
+}
+#endif
+
 /* Forces of run r's springs on their ends a, into fx, fy, fz. */
 GS__PRIVATE void gs__run_forces(const gs__mesh *m, const gs__run *r) {
     size_t n = gs__soa_stride((size_t)m->n), ns = gs__soa_stride((size_t)m->ns);
@@ -2541,6 +2599,9 @@ GS__PRIVATE void gs__run_forces(const gs__mesh *m, const gs__run *r) {
     const double *K = m->sp_soa, *C = K + ns, *R = C + ns;
     double *FX = m->sp_soa + 3 * ns, *FY = FX + ns, *FZ = FY + ns;
     int j = 0, a = r->a0, b = r->a0 + r->off, s = r->s0;
+#ifdef GS__MESH_AVX
+    if (m->avx) j = gs__run_forces4(m, r);
+#endif
 #ifdef GS__MESH_SSE2
     for (; j + 1 < r->len; j += 2) {
         __m128d dx = _mm_sub_pd(_mm_loadu_pd(X + b + j), _mm_loadu_pd(X + a + j));
@@ -2579,9 +2640,14 @@ GS__PRIVATE void gs__run_forces(const gs__mesh *m, const gs__run *r) {
 
 /* acc[p0 + j] += sign * f[j] / m over a run's ends: one stream each, no
    two elements alike, so it runs two wide; the same bits either way. */
-GS__PRIVATE void gs__run_add(double *acc, const double *f, const double *im, int p0,
-                             int len, double sign) {
+GS__PRIVATE void gs__run_add(int avx, double *acc, const double *f, const double *im,
+                             int p0, int len, double sign) {
     int j = 0;
+#ifdef GS__MESH_AVX
+    if (avx) j = gs__run_add4(acc, f, im, p0, len, sign);
+#else
+    (void)avx;
+#endif
 #ifdef GS__MESH_SSE2
     __m128d sg = _mm_set1_pd(sign);
     for (; j + 1 < len; j += 2)
@@ -2591,6 +2657,35 @@ GS__PRIVATE void gs__run_add(double *acc, const double *f, const double *im, int
                                             _mm_loadu_pd(im + p0 + j))));
 #endif
     for (; j < len; ++j) acc[p0 + j] += f[j] * sign * im[p0 + j];
+}
+
+/* The update into (xn, vn), with gs__mesh_sane's checks and bounds in the
+   same pass (a pinned particle comes out where it was, at rest, as the
+   substep's pin pass will set it). */
+GS__PRIVATE void gs__runs_update(gs__mesh *m, double h) {
+    size_t n = (size_t)m->n, st = gs__soa_stride(n), i;
+    const double *X = m->soa, *Y = X + st, *Z = Y + st, *VX = Z + st, *VY = VX + st, *VZ = VY + st;
+    const double *AX = VZ + st, *AY = AX + st, *AZ = AY + st;
+    double vmax2 = m->solver.max_speed * m->solver.max_speed, sum = 0.0, w2 = 0.0;
+    double lx = HUGE_VAL, ly = HUGE_VAL, lz = HUGE_VAL, hx = -HUGE_VAL, hy = -HUGE_VAL, hz = -HUGE_VAL;
+    for (i = 0; i < n; ++i) {
+        double vx = VX[i] + AX[i] * h, vy = VY[i] + AY[i] * h, vz = VZ[i] + AZ[i] * h;
+        double px = X[i] + vx * h, py = Y[i] + vy * h, pz = Z[i] + vz * h;
+        double s2 = vx * vx + vy * vy + vz * vz;
+        m->vn[i] = gs__v3(vx, vy, vz);
+        m->xn[i] = gs__v3(px, py, pz);
+        w2 = s2 > w2 ? s2 : w2;
+        w2 = s2 == s2 ? w2 : s2; /* a NaN speed stays NaN */
+        sum += px + py + pz;
+        lx = px < lx ? px : lx; ly = py < ly ? py : ly; lz = pz < lz ? pz : lz;
+        hx = px > hx ? px : hx; hy = py > hy ? py : hy; hz = pz > hz ? pz : hz;
+    }
+    m->checked = 1;
+    m->check_ok = w2 <= vmax2 && gs__finite(sum);
+    if (m->check_ok) {
+        m->lo = gs__v3(lx - m->radius, ly - m->radius, lz - m->radius);
+        m->hi = gs__v3(hx + m->radius, hy + m->radius, hz + m->radius);
+    }
 }
 
 /* Symplectic Euler through the transposed copy: copy in, accelerations,
@@ -2620,19 +2715,15 @@ GS__PRIVATE void gs__int_symplectic_runs(gs__mesh *m, double h) {
     for (r = 0; r < m->nruns; ++r) {
         const gs__run *u = &m->runs[r];
         gs__run_forces(m, u);
-        gs__run_add(AX, F + u->s0, im, u->a0, u->len, 1.0);
-        gs__run_add(AY, F + ns + u->s0, im, u->a0, u->len, 1.0);
-        gs__run_add(AZ, F + 2 * ns + u->s0, im, u->a0, u->len, 1.0);
-        gs__run_add(AX, F + u->s0, im, u->a0 + u->off, u->len, -1.0);
-        gs__run_add(AY, F + ns + u->s0, im, u->a0 + u->off, u->len, -1.0);
-        gs__run_add(AZ, F + 2 * ns + u->s0, im, u->a0 + u->off, u->len, -1.0);
+        gs__run_add(m->avx, AX, F + u->s0, im, u->a0, u->len, 1.0);
+        gs__run_add(m->avx, AY, F + ns + u->s0, im, u->a0, u->len, 1.0);
+        gs__run_add(m->avx, AZ, F + 2 * ns + u->s0, im, u->a0, u->len, 1.0);
+        gs__run_add(m->avx, AX, F + u->s0, im, u->a0 + u->off, u->len, -1.0);
+        gs__run_add(m->avx, AY, F + ns + u->s0, im, u->a0 + u->off, u->len, -1.0);
+        gs__run_add(m->avx, AZ, F + 2 * ns + u->s0, im, u->a0 + u->off, u->len, -1.0);
     }
     for (i = 0; i < (size_t)m->npins; ++i) AX[m->pins[i]] = AY[m->pins[i]] = AZ[m->pins[i]] = 0.0;
-    for (i = 0; i < n; ++i) {
-        double vx = VX[i] + AX[i] * h, vy = VY[i] + AY[i] * h, vz = VZ[i] + AZ[i] * h;
-        m->vn[i] = gs__v3(vx, vy, vz);
-        m->xn[i] = gs__v3(X[i] + vx * h, Y[i] + vy * h, Z[i] + vz * h);
-    }
+    gs__runs_update(m, h);
 }
 
 /* Finds the runs in spring order; 0 (the batched path) unless they average
@@ -2655,6 +2746,9 @@ GS__PRIVATE void gs__mesh_find_runs(gs__mesh *m) {
         i += len;
     }
     m->nruns = m->ns >= 8 * nr ? nr : 0;
+#ifdef GS__MESH_AVX
+    m->avx = __builtin_cpu_supports("avx") ? 1 : 0;
+#endif
     for (i = 0; i < m->ns; ++i) {
         m->sp_soa[i] = m->springs[i].k;
         m->sp_soa[ns + (size_t)i] = m->springs[i].c;
@@ -3001,6 +3095,7 @@ GS__PRIVATE gs_result gs__mesh_substep(gs__mesh *m, double t0, double h) {
     gs_vec3 *t;
     int i;
     gs__mesh_contacts(m, t0);
+    m->checked = 0;
     switch (m->solver.integrator) {
     case GS_INTEGRATOR_EXPLICIT_EULER: gs__int_explicit_euler(m, h); break;
     case GS_INTEGRATOR_VERLET: gs__int_verlet(m, h); break;
@@ -3013,7 +3108,7 @@ GS__PRIVATE gs_result gs__mesh_substep(gs__mesh *m, double t0, double h) {
         m->xn[m->pins[i]] = m->x[m->pins[i]];
         m->vn[m->pins[i]] = gs__v3(0.0, 0.0, 0.0);
     }
-    if (!gs__mesh_sane(m))
+    if (!(m->checked ? m->check_ok : gs__mesh_sane(m)))
         return gs__fail(m->base.world, GS_ERR_UNSTABLE,
                         "%s agent %d: a step of %g s blew up (non-finite "
                         "state or a speed over %g m/s); state kept",
