@@ -323,9 +323,10 @@ typedef enum gs_integrator {
     GS_INTEGRATOR_XPBD,            /* spring-mass only: extended position-
                                       based dynamics in the small-steps form
                                       (solver.substeps of one constraint pass
-                                      each); springs keep their N/m and N s/m
-                                      (compliance 1 / k); stable at any
-                                      stiffness, order 1 in the substep */
+                                      each); springs and contacts keep their
+                                      N/m and N s/m (compliance 1 / k);
+                                      stable at any stiffness, order 1 in
+                                      the substep */
     GS__INTEGRATOR_COUNT
 } gs_integrator;
 
@@ -352,8 +353,8 @@ typedef struct gs_solver_desc {
     double max_speed;        /* m/s; a faster particle means the step blew
                                 up and is undone; default 1e4 */
     int substeps;            /* XPBD: substeps per step, one pass over the
-                                springs each, >= 1 (more where contacts
-                                need them); default 4 */
+                                springs and contacts each, >= 1;
+                                default 4 */
 } gs_solver_desc;
 
 GS_API gs_solver_desc gs_solver_desc_default(void);
@@ -2363,6 +2364,8 @@ typedef struct gs__mesh {
     gs_vec3 *ext;     /* N; contact force on each particle this substep */
     gs_vec3 *cn;      /* implicit Euler: contact normal per particle, */
     double *ck, *cc;  /* its stiffness (N/m) and damping (N s/m), 0 = none */
+    double *cdepth;   /* XPBD: the deepest contact's depth (m) at x, */
+    gs_vec3 *cvel;    /* and the velocity of what it touches (m/s) */
     int ext_active;   /* ext holds a non-zero force */
     double radius;    /* m, particle radius for contacts */
     gs_material mat;
@@ -2418,6 +2421,13 @@ GS__PRIVATE void gs__mesh_layout(gs__mesh *m, gs__carver *cv) {
         m->tx = (gs_vec3 *)gs__carve(cv, v3);
         m->sx = (gs_vec3 *)gs__carve(cv, v3);
         m->sv = (gs_vec3 *)gs__carve(cv, v3);
+    }
+    if (it == GS_INTEGRATOR_XPBD) {
+        m->cn = (gs_vec3 *)gs__carve(cv, v3);
+        m->cvel = (gs_vec3 *)gs__carve(cv, v3);
+        m->ck = (double *)gs__carve(cv, n * sizeof(double));
+        m->cc = (double *)gs__carve(cv, n * sizeof(double));
+        m->cdepth = (double *)gs__carve(cv, n * sizeof(double));
     }
     if (it == GS_INTEGRATOR_IMPLICIT_EULER) {
         m->jac = (double *)gs__carve(cv, (size_t)m->ns * 6 * sizeof(double));
@@ -3042,6 +3052,27 @@ GS__PRIVATE void gs__xpbd_pass(gs__mesh *m, double h) {
     }
 }
 
+/* Contacts as XPBD constraints: the deepest contact of each particle is a
+   penalty spring of its stiffness and damping along the normal (C = -depth,
+   compliance 1 / k), so contact is as stable at any substep as the springs
+   are; it only pushes. The depth follows the particle's motion this
+   substep relative to what it touches. */
+GS__PRIVATE void gs__xpbd_contacts(gs__mesh *m, double h) {
+    int i;
+    for (i = 0; i < m->n; ++i) {
+        double w = m->inv_mass[i], kh, ch, vn, d, dl;
+        gs_vec3 n = m->cn[i];
+        if (m->ck[i] == 0.0 || w == 0.0) continue;
+        vn = gs__dot(n, gs__madd(gs__sub(m->xn[i], m->x[i]), m->cvel[i], -h));
+        d = m->cdepth[i] - vn;
+        if (!(d > 0.0)) continue;
+        kh = m->ck[i] * h * h;
+        ch = m->cc[i] * h;
+        dl = (kh * d - ch * vn) / ((kh + ch) * w + 1.0);
+        if (dl > 0.0) m->xn[i] = gs__madd(m->xn[i], n, w * dl);
+    }
+}
+
 GS__PRIVATE void gs__int_xpbd(gs__mesh *m, double h) {
     gs_vec3 g = m->base.world->gravity;
     const double *im = m->inv_mass;
@@ -3055,6 +3086,7 @@ GS__PRIVATE void gs__int_xpbd(gs__mesh *m, double h) {
         for (i = 0; i < m->n; ++i) m->vn[i] = gs__madd(m->vn[i], m->ext[i], im[i] * h);
     for (i = 0; i < m->n; ++i) m->xn[i] = gs__madd(m->x[i], m->vn[i], h);
     gs__xpbd_pass(m, h);
+    if (m->ext_active) gs__xpbd_contacts(m, h);
     for (i = 0; i < m->n; ++i) m->vn[i] = gs__scale(gs__sub(m->xn[i], m->x[i]), ih);
 }
 
@@ -3122,34 +3154,12 @@ GS__PRIVATE gs_result gs__mesh_substep(gs__mesh *m, double t0, double h) {
 /* How many substeps a step of dt needs to stay under the stability bound. */
 GS__PRIVATE int gs__world_has_contacts(const gs_world *w);
 
-/* XPBD takes solver.substeps, or more when contacts (explicit penalty
-   forces in its prediction) need a shorter substep. */
-GS__PRIVATE gs_result gs__xpbd_plan(gs__mesh *m, double dt, int *n_sub) {
-    double lim = m->stable_dt_contact * m->solver.safety, k;
-    *n_sub = m->solver.substeps;
-    if (!gs__world_has_contacts(m->base.world) ||
-        m->solver.stability == GS_STABILITY_UNCHECKED || dt <= lim * *n_sub)
-        return GS_OK;
-    k = ceil(dt / lim);
-    if (m->solver.stability == GS_STABILITY_REFUSE || k > (double)m->solver.max_substeps)
-        return gs__fail(m->base.world, GS_ERR_UNSTABLE,
-                        "%s agent %d: dt %g s needs %.0f substeps of the "
-                        "contacts' stable step %g s (stability %s, "
-                        "max_substeps %d)",
-                        m->base.kind->name, m->base.index, dt, k, lim,
-                        m->solver.stability == GS_STABILITY_REFUSE ? "refuse"
-                                                                   : "substep",
-                        m->solver.max_substeps);
-    *n_sub = (int)k;
-    return GS_OK;
-}
-
 GS__PRIVATE gs_result gs__mesh_plan(gs__mesh *m, double dt, int *n_sub) {
     double lim = (gs__world_has_contacts(m->base.world) ? m->stable_dt_contact
                                                         : m->stable_dt) *
                  m->solver.safety, k;
-    if (m->solver.integrator == GS_INTEGRATOR_XPBD) return gs__xpbd_plan(m, dt, n_sub);
-    *n_sub = 1;
+    *n_sub = m->solver.integrator == GS_INTEGRATOR_XPBD ? m->solver.substeps : 1;
+    if (m->solver.integrator == GS_INTEGRATOR_XPBD) return GS_OK; /* stable at any step */
     if (m->solver.integrator == GS_INTEGRATOR_IMPLICIT_EULER ||
         m->solver.stability == GS_STABILITY_UNCHECKED || dt <= lim)
         return GS_OK;
@@ -3369,7 +3379,7 @@ GS__PRIVATE double gs__mesh_bound(gs__mesh *m, double contact_k,
     double w2 = 0.0, g = 0.0, h;
     int i;
     if (m->solver.integrator == GS_INTEGRATOR_IMPLICIT_EULER) return HUGE_VAL;
-    if (m->solver.integrator == GS_INTEGRATOR_XPBD && contact_k == 0.0) return HUGE_VAL;
+    if (m->solver.integrator == GS_INTEGRATOR_XPBD) return HUGE_VAL; /* contacts too */
     for (i = 0; i < m->n; ++i) m->acc[i] = gs__v3(contact_k, contact_c, 0.0);
     for (i = 0; m->solver.integrator != GS_INTEGRATOR_XPBD && i < m->ns; ++i) {
         /* acc as scratch: x = sum k, y = sum c */
@@ -5393,8 +5403,20 @@ GS__PRIVATE void gs__mesh_touch(gs__mesh *m, int i, const gs_contact *c,
                                 double other_reach2) {
     double slope = gs__friction_slope(1.0 / m->mass[i], other_reach2, m->base.dt);
     gs_vec3 f = gs__penalty(c, gs__sub(m->v[i], v_other), &m->mat, other, slope);
-    m->ext[i] = gs__add(m->ext[i], f);
     m->ext_active = 1;
+    if (m->cdepth) { /* XPBD: friction is a force, the normal spring a constraint */
+        m->ext[i] = gs__madd(m->ext[i], c->normal, -gs__dot(f, c->normal));
+        m->ext[i] = gs__add(m->ext[i], f);
+        if (m->ck[i] == 0.0 || c->depth > m->cdepth[i]) {
+            m->cn[i] = c->normal;
+            m->cvel[i] = v_other;
+            m->cdepth[i] = c->depth;
+            m->ck[i] = 0.5 * (m->mat.stiffness + other->stiffness);
+            m->cc[i] = 0.5 * (m->mat.damping + other->damping);
+        }
+        return;
+    }
+    m->ext[i] = gs__add(m->ext[i], f);
     if (m->ck && m->ck[i] == 0.0) { /* the first contact's spring */
         m->cn[i] = c->normal;
         m->ck[i] = 0.5 * (m->mat.stiffness + other->stiffness);

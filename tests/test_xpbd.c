@@ -276,7 +276,8 @@ static void test_deterministic_bit_for_bit(void **state) {
    (air damping 3 /s; the penalty contact keeps it bobbing by a few cm under
    every integrator) it rides, on average, within 10 mm of where it rides
    on the same cloth under symplectic Euler: the same scene, the same
-   physics. */
+   physics. XPBD's contacts are constraints of the same stiffness, so it
+   keeps its 4 substeps a step where symplectic Euler substeps for them. */
 static void test_contact_with_sphere(void **state) {
     double mean[2], depth[2], below[2];
     int k, f, i;
@@ -302,6 +303,11 @@ static void test_contact_with_sphere(void **state) {
                 CHECK(isfinite(x[i].x + x[i].y + x[i].z), "particle %d not finite\n", i);
                 if (d > depth[k]) depth[k] = d;
             }
+        }
+        if (k == 0) { /* contacts are constraints too: no substeps beyond the 4 */
+            gs_agent_stats st = gs_agent_get_stats(c);
+            CHECK(st.substeps == 4 * st.steps, "XPBD took %llu substeps in %llu steps\n",
+                  (unsigned long long)st.substeps, (unsigned long long)st.steps);
         }
         print_message("%s: sphere rides at y %.4f m on average over the last second; "
                       "deepest particle %.2f mm inside it; cloth middle at most %.4f m "
