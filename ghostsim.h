@@ -8744,13 +8744,18 @@ GS__PRIVATE int gs__peer_run(gs_net *net, int p, uint32_t run) {
         for (i = 0; i < w->agent_count; ++i) {
             gs__ghost *g = gs__ghost_of(w->agents[i]);
             if (g) g->gp[p].resting = 0;
-            if (g) g->sent_any = 0; /* it knows nothing of our states */
             for (k = 0; g && g->q[p] && k <= g->d.queue_size; ++k) {
                 g->q[p][k].used = 0;
                 g->q[p][k].chunks = 0;
                 memset(g->q[p][k].got, 0, (size_t)g->nchunks);
             }
         }
+    }
+    /* a peer heard first or started again may have none of our states:
+       the next ones go whole, resting or not (send on change) */
+    for (i = 0; i < w->agent_count; ++i) {
+        gs__ghost *g = gs__ghost_of(w->agents[i]);
+        if (g) g->sent_any = 0;
     }
     pe->prev_run = pe->run;
     pe->run = run;

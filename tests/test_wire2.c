@@ -615,6 +615,47 @@ static void test_budget_priority(void **state) {
     free(cnt);
 }
 
+/* Send on change under loss and a restart. The first snapshot is lost:
+   the two repeats that go with the first heartbeats bring the state. Then
+   the receiver starts again (a new run): the sender sees the new run in
+   its next datagram and sends the state whole, although it has not moved. */
+static void test_rest_loss_and_restart(void **state) {
+    host *s = host_new(1, 3, GS_ENCODING_QUANT, 1e-4), *r = host_new(2, 3, GS_ENCODING_QUANT, 1e-4);
+    gs_peer_stats ps, pr;
+    double now = 0.0;
+    int f, i;
+    (void)state;
+    /* frame one: its datagrams are dropped */
+    assert_int_equal(gs_world_advance(s->w, 1.0 / 60.0, NULL), GS_OK);
+    assert_int_equal(gs_net_update(s->net, now += 1.0 / 60.0), GS_OK);
+    assert_true(s->kept > 0);
+    s->kept = 0;
+    for (f = 0; f < 60; ++f) frame(s, r, now += 1.0 / 60.0);
+    for (i = 0; i < 3; ++i) /* half the 0.05 mm step */
+        assert_true(fabs(r->b.x[i] - s->b.x[i]) <= 2.5e-5 + 1e-15);
+    /* the receiver is heard (its run known), then starts again and says so
+       in a datagram of its own (made while the old one lives, so that the
+       two nets, whose address goes into the run number, differ) */
+    assert_int_equal(gs_net_update(r->net, now), GS_OK);
+    hand_over(r, s, now);
+    for (f = 0; f < 60; ++f) frame(s, r, now += 1.0 / 60.0); /* at rest again */
+    {
+        host *r2 = host_new(2, 3, GS_ENCODING_QUANT, 1e-4);
+        host_free(r);
+        r = r2;
+    }
+    assert_int_equal(gs_world_advance(r->w, 1.0 / 60.0, NULL), GS_OK);
+    assert_int_equal(gs_net_update(r->net, now), GS_OK);
+    hand_over(r, s, now);
+    assert_int_equal(gs_net_peer_stats(s->net, 2, &ps), GS_OK);
+    for (f = 0; f < 3; ++f) frame(s, r, now += 1.0 / 60.0);
+    assert_int_equal(gs_net_peer_stats(s->net, 2, &pr), GS_OK);
+    assert_true(pr.snapshots_sent > ps.snapshots_sent); /* whole, not a heartbeat */
+    for (i = 0; i < 3; ++i) assert_true(fabs(r->b.x[i] - s->b.x[i]) <= 2.5e-5 + 1e-15);
+    host_free(s);
+    host_free(r);
+}
+
 /* The descs: resolutions and heartbeat rate checked at attach. */
 static void test_ghost_desc_quant(void **state) {
     gs_world *w = NULL;
@@ -659,6 +700,7 @@ int main(int argc, char **argv) {
         cmocka_unit_test(test_quant_encode_args),
         cmocka_unit_test(test_net_quant_bit_exact),
         cmocka_unit_test(test_net_send_on_change),
+        cmocka_unit_test(test_rest_loss_and_restart),
         cmocka_unit_test(test_budget_priority),
         cmocka_unit_test(test_ghost_desc_quant),
     };
