@@ -164,6 +164,9 @@
        0.1.0 (2026-11-23)  world, scheduler, spring-mass agents, integrators,
                            rigid bodies, probes, contacts, the paper's scene,
                            ghosts, wire format v1, simnet, POSIX UDP.
+       unreleased          wire format v2 (v1 refused as GS_REJECT_OLD_VERSION):
+                           GS_ENCODING_QUANT, send on change with heartbeats,
+                           priority within a peer's budget, gs_wire_values.
 
    LICENSE: MIT, at the end of this file.
 */
