@@ -7609,7 +7609,24 @@ GS__PRIVATE int gs__quant_put_scalar(gs__bitw *w, const gs_wire_segment *s, cons
     gs__bitw_put(w, (uint64_t)width, 8);
     for (z = gs__zigzag(lo); z >= 0x80; z >>= 7) gs__bitw_put(w, (z & 0x7f) | 0x80, 8);
     gs__bitw_put(w, z, 8);
-    for (i = 0; i < s->count; ++i) gs__bitw_put(w, (uint64_t)(gs__round(v[i] * inv) - lo), width);
+    /* the writer's fields in locals: its stores are of bytes, which may
+       alias anything, and would make it reload them for every value */
+    gs__bitw_flush(w); /* whole bytes: the values start on one */
+    {
+        unsigned char *p = w->p, *end = w->end;
+        uint64_t acc = 0;
+        int n = 0, over = 0;
+        for (i = 0; i < s->count; ++i) {
+            acc |= (uint64_t)(gs__round(v[i] * inv) - lo) << n;
+            n += width;
+            if (n >= 32) {
+                if (end - p >= 4) { gs__put32(p, (uint32_t)acc); p += 4; } else over = 1;
+                acc >>= 32;
+                n -= 32;
+            }
+        }
+        w->p = p; w->acc = acc; w->n = n; w->over |= over;
+    }
     gs__bitw_flush(w);
     return !w->over;
 }
@@ -7785,10 +7802,25 @@ GS__PRIVATE void gs__quant_get(const gs_wire_chunk *c, double *out) {
         const gs_wire_segment *s = &c->segments[k];
         gs__bitr r;
         r.p = s->data; r.end = s->data + gs__seg_bytes(s); r.acc = 0; r.n = 0;
-        if (s->kind == GS_WIRE_SCALAR)
-            for (i = 0; i < s->count; ++i)
-                out[i] = (double)(s->base + (int64_t)gs__bitr_get(&r, s->width)) * s->step;
-        else
+        if (s->kind == GS_WIRE_SCALAR) {
+            const unsigned char *p = r.p;
+            uint64_t acc = 0, mask = ((uint64_t)1 << s->width) - 1;
+            int n = 0, wd = s->width;
+            for (i = 0; i < s->count; ++i) {
+                if (n < wd) {
+                    if (r.end - p >= 4) {
+                        acc |= (uint64_t)gs__get32(p) << n;
+                        p += 4;
+                        n += 32;
+                    } else {
+                        while (n < wd) { acc |= (uint64_t)*p++ << n; n += 8; }
+                    }
+                }
+                out[i] = (double)(s->base + (int64_t)(acc & mask)) * s->step;
+                acc >>= wd;
+                n -= wd;
+            }
+        } else
             for (i = 0; i < s->count; i += 4) gs__quant_get_quat(&r, s->bits, out + i);
         out += s->count;
     }
