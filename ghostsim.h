@@ -198,6 +198,34 @@ GS_API const char *gs_result_str(gs_result r);
 typedef struct gs_world gs_world;
 typedef struct gs_agent gs_agent;
 
+/* How a world keeps time with its peers and what it remembers to re-run
+   (the sync layer, >>sync). */
+typedef enum gs_sync_clock {
+    GS_SYNC_CLOCK_DEFAULT = 0, /* local */
+    GS_SYNC_CLOCK_LOCAL,       /* the target moves on by the seconds each
+                                  gs_world_advance is given (as before) */
+    GS_SYNC_CLOCK_SESSION,     /* the target follows the session's timeline:
+                                  the local clock plus an origin taken from
+                                  the session's timekeeper (the lowest host
+                                  id on the timeline), so that hosts in step
+                                  are at the same simulation time at the
+                                  same wall instant; ghosts publish at the
+                                  end of each advance */
+    GS__SYNC_CLOCK_COUNT
+} gs_sync_clock;
+
+typedef struct gs_sync_desc {
+    gs_sync_clock clock;   /* default local */
+    gs_clock_fn now;       /* the wall clock the session clock reads (s);
+                              default the world's clock; gs_simnet_join
+                              sets the simnet's clock of the host */
+    void *now_user;
+    int history_frames;    /* advances the world history keeps, to re-run
+                              from (gs_world_sync_test); default 16, a
+                              200 ms round trip plus a send period at 60 Hz;
+                              at most 1024; -1: no history */
+} gs_sync_desc;
+
 typedef struct gs_world_desc {
     uint32_t host_id;      /* this host's id in a session; default 1 */
     int queue_count;       /* N+1 priority queues Q_0..Q_N; default 8,
@@ -213,6 +241,7 @@ typedef struct gs_world_desc {
     gs_clock_fn clock;     /* for the budget; default CLOCK_MONOTONIC */
     void *clock_user;
     gs_allocator allocator; /* default GS_MALLOC / GS_FREE */
+    gs_sync_desc sync;     /* default: local clock, 16 frames of history */
 } gs_world_desc;
 
 /* What one gs_world_advance call did. */
@@ -800,6 +829,53 @@ GS_API gs_result gs_ghost_render_state(const gs_agent *a, double *out,
 GS_API gs_result gs_scene_attach_ghosts(gs_scene *sc, const gs_ghost_desc *shared);
 
 /* ========================================================================
+   >>sync
+   Between the world and the net. The world calls it at the start of an
+   advance, after each step and at the end of an advance; the scheduler
+   knows nothing of it. It keeps the session clock (gs_sync_desc.clock) and
+   the world history: at the start of each advance, every agent's state,
+   its step count, time offset, priority and counters, what the contacts
+   remember (rigid bodies' previous velocities, a probe's target, the broad
+   phase's order), and a log of the inputs applied since (states set by
+   hand, blended snapshots, at the dispatch they came), so that a re-run
+   from a recorded moment is bitwise the run that happened.
+   ======================================================================== */
+
+/* What the sync layer did (gs_world_sync_stats). */
+typedef struct gs_sync_stats {
+    double session_time;   /* s; the target of the last advance */
+    double origin;         /* s; session time minus the local clock */
+    uint32_t timekeeper;   /* host whose timeline this one follows (this
+                              host when it keeps the time itself) */
+    double lag;            /* s; the target less the slowest agent after the
+                              last advance: above the tolerance, this host
+                              cannot keep pace (it falls behind alone) */
+    double lag_max;        /* s; the largest lag seen */
+    uint64_t behind;       /* advances that ended more than the tolerance
+                              behind the target */
+    uint64_t joins;        /* times the origin jumped to a peer's timeline
+                              (a late joiner takes the session's) */
+    uint64_t clock_steps;  /* local clock steps detected and absorbed */
+    int history;           /* frames recorded now (re-runnable) */
+    uint64_t rerun_steps;  /* agent steps re-run (gs_world_sync_test) */
+} gs_sync_stats;
+
+/* The sync layer's counters. Returns GS_ERR_INVALID_ARG for NULL. */
+GS_API gs_result gs_world_sync_stats(const gs_world *w, gs_sync_stats *out);
+
+/* A determinism check in the spirit of GGPO's SyncTest: goes back `frames`
+   advances in the history, re-runs them with the inputs recorded, and
+   compares every agent's state, step count and time bit for bit with the
+   present. *bad_agent is -1 when the re-run matched, else the index of the
+   first agent that differs (a custom agent whose step depends on
+   something its state does not hold); either way the world is left
+   exactly as it was. Call between advances. Returns GS_OK, GS_ERR_BUSY
+   inside an advance, GS_ERR_OUT_OF_RANGE when fewer than `frames` (>= 1)
+   re-runnable advances are recorded (the history is cleared when an agent
+   is created or destroyed, and an input log that overflowed ends it). */
+GS_API gs_result gs_world_sync_test(gs_world *w, int frames, int *bad_agent);
+
+/* ========================================================================
    >>wire
    Wire format v1, little-endian. A datagram (at most GS_WIRE_MAX_DATAGRAM
    bytes) is a header, whole chunks, and a CRC-32 of everything before it:
@@ -1076,6 +1152,19 @@ GS_API gs_result gs_simnet_link(gs_simnet *sim, uint32_t a, uint32_t b,
    what has arrived. */
 GS_API gs_result gs_simnet_run(gs_simnet *sim, double seconds, double frame);
 GS_API double gs_simnet_time(const gs_simnet *sim);
+/* A host's own clock on the simnet (tests of the session clock): the
+   simnet's time t reads as offset + rate * t, plus step_by from step_at on. */
+typedef struct gs_sim_clock {
+    double offset;   /* s */
+    double rate;     /* default 1; 1.0001 runs 100 ppm fast */
+    double step_at;  /* s of simnet time */
+    double step_by;  /* s; 0 = no step */
+} gs_sim_clock;
+/* Sets host's clock: its net's send and receive times and its world's
+   session clock read it. GS_ERR_INVALID_ARG for an unknown host or a rate
+   <= 0, GS_ERR_NOT_FINITE for a non-finite field. */
+GS_API gs_result gs_simnet_set_clock(gs_simnet *sim, uint32_t host,
+                                     const gs_sim_clock *clock);
 /* Datagrams the simnet dropped (loss, outage, full), duplicated, delivered. */
 GS_API void gs_simnet_counts(const gs_simnet *sim, uint64_t *dropped,
                              uint64_t *duplicated, uint64_t *delivered);
@@ -1430,6 +1519,7 @@ struct gs_world {
     double ground_height;
     gs_material ground_material;
     gs__queue queues[GS_MAX_QUEUES];
+    struct gs__sync *sync; /* session clock and history (>>sync) */
     char error[256];
 };
 
@@ -1468,6 +1558,8 @@ GS_API gs_world_desc gs_world_desc_default(void) {
     d.tolerance = 0.01;
     d.aging_limit = 64;
     d.gravity = gs__v3(0.0, -9.81, 0.0);
+    d.sync.clock = GS_SYNC_CLOCK_LOCAL;
+    d.sync.history_frames = 16;
     return d;
 }
 
@@ -1480,6 +1572,8 @@ GS__PRIVATE gs_world_desc gs__world_defaults(const gs_world_desc *in) {
     if (d.tolerance == 0.0) d.tolerance = def.tolerance;
     if (d.aging_limit == 0) d.aging_limit = def.aging_limit;
     if (gs__is_zero3(d.gravity)) d.gravity = def.gravity;
+    if (d.sync.clock == GS_SYNC_CLOCK_DEFAULT) d.sync.clock = def.sync.clock;
+    if (d.sync.history_frames == 0) d.sync.history_frames = def.sync.history_frames;
     return d;
 }
 
@@ -1490,11 +1584,16 @@ GS__PRIVATE gs_result gs__world_check(const gs_world_desc *d) {
     gs__check_int(&c, "aging_limit", d->aging_limit, 1, 1L << 30);
     gs__check_nonneg(&c, "budget", d->budget);
     gs__check_vec(&c, "gravity", d->gravity);
+    gs__check_int(&c, "sync.clock", (long)d->sync.clock, 1, GS__SYNC_CLOCK_COUNT - 1);
+    if (d->sync.history_frames != -1)
+        gs__check_int(&c, "sync.history_frames", d->sync.history_frames, 1, 1024);
     if (!d->allocator.alloc != !d->allocator.free)
         gs__check_fail(&c, GS_ERR_INVALID_ARG,
                        "allocator needs both alloc and free, or neither");
     return c.r;
 }
+
+GS__PRIVATE gs_result gs__sync_create(gs_world *w, const gs_sync_desc *d);
 
 GS_API gs_result gs_world_create(const gs_world_desc *desc, gs_world **out) {
     gs_world_desc d;
@@ -1523,12 +1622,17 @@ GS_API gs_result gs_world_create(const gs_world_desc *desc, gs_world **out) {
     w->gravity = d.gravity;
     w->clock = d.clock ? d.clock : gs__default_clock;
     w->clock_user = d.clock ? d.clock_user : NULL;
+    if (gs__sync_create(w, &d.sync) != GS_OK) {
+        al.free(w, al.user);
+        return GS_ERR_NO_MEMORY;
+    }
     *out = w;
     return GS_OK;
 }
 
 struct gs__ghost;
 GS__PRIVATE void gs__ghost_free(struct gs__ghost *g);
+GS__PRIVATE void gs__sync_destroy(gs_world *w);
 
 GS_API void gs_world_destroy(gs_world *w) {
     int i;
@@ -1542,6 +1646,7 @@ GS_API void gs_world_destroy(gs_world *w) {
     gs__free(w, w->agents);
     gs__free(w, w->span_lo);
     gs__free(w, w->bodies);
+    gs__sync_destroy(w);
     w->alloc.free(w, w->alloc.user);
 }
 
@@ -1863,17 +1968,16 @@ GS__PRIVATE void gs__activate(gs_world *w, gs_agent *a, double t_min,
     a->stats.activations++;
 }
 
-GS__PRIVATE void gs__ghost_after_step(gs_agent *a);
-GS__PRIVATE void gs__world_blend(gs_world *w);
+GS__PRIVATE void gs__sync_after_step(gs_agent *a);
 
-/* One step; then the agent's ghost, if any, publishes and blends. */
+/* One step; then the sync layer sees it (ghosts publish and blend). */
 GS__PRIVATE gs_result gs__agent_step(gs_agent *a) {
     gs_result r = a->kind->step(a, a->dt);
     a->result = r;
     if (r == GS_OK) {
         a->steps++;
         a->stats.steps++;
-        if (a->ghost) gs__ghost_after_step(a);
+        gs__sync_after_step(a);
     }
     return r;
 }
@@ -1966,11 +2070,40 @@ GS__PRIVATE void gs__world_follow(gs_world *w) {
     }
 }
 
+GS__PRIVATE void gs__sync_begin(gs_world *w, double seconds);
+GS__PRIVATE void gs__sync_target(gs_world *w, double seconds, double before);
+GS__PRIVATE void gs__sync_end(gs_world *w, double seconds, const gs_advance_report *rep);
+
+/* The dispatch loop of one advance, from the target set on: runs until
+   every agent is done or `budget` (s, 0 = none) of the world's clock is
+   spent. */
+GS__PRIVATE gs_result gs__world_run(gs_world *w, double budget, gs_advance_report *rep) {
+    gs_result first_error = GS_OK;
+    double start = 0.0;
+    gs__sap_refresh(w);
+    if (budget > 0.0) start = w->clock(w->clock_user);
+    gs__queue_all(w);
+    gs__span_build(w);
+    rep->reached = 1;
+    for (;;) {
+        if (budget > 0.0 && w->clock(w->clock_user) - start >= budget) {
+            rep->reached = 0;
+            break;
+        }
+        if (!gs__dispatch(w, &first_error, rep)) break;
+    }
+    if (rep->failed_agents) rep->reached = 0;
+    gs__unqueue_all(w);
+    rep->target = w->target;
+    gs__span_get(w, &rep->t_min, &rep->t_max);
+    return first_error;
+}
+
 GS_API gs_result gs_world_advance(gs_world *w, double seconds,
                                   gs_advance_report *report) {
     gs_advance_report rep;
     gs_result first_error = GS_OK;
-    double start = 0.0;
+    double before;
     memset(&rep, 0, sizeof rep);
     if (w->busy)
         return gs__fail(w, GS_ERR_BUSY, "gs_world_advance: already advancing");
@@ -1980,24 +2113,13 @@ GS_API gs_result gs_world_advance(gs_world *w, double seconds,
                         "gs_world_advance: seconds is %g, must be finite and "
                         ">= 0", seconds);
     w->busy = 1;
+    gs__sync_begin(w, seconds);
     gs__world_follow(w);
+    before = w->target;
     w->target += seconds;
-    gs__sap_refresh(w);
-    if (w->budget > 0.0) start = w->clock(w->clock_user);
-    gs__queue_all(w);
-    gs__span_build(w);
-    rep.reached = 1;
-    for (;;) {
-        if (w->budget > 0.0 && w->clock(w->clock_user) - start >= w->budget) {
-            rep.reached = 0;
-            break;
-        }
-        if (!gs__dispatch(w, &first_error, &rep)) break;
-    }
-    if (rep.failed_agents) rep.reached = 0;
-    gs__unqueue_all(w);
-    rep.target = w->target;
-    gs__span_get(w, &rep.t_min, &rep.t_max);
+    gs__sync_target(w, seconds, before);
+    first_error = gs__world_run(w, w->budget, &rep);
+    gs__sync_end(w, seconds, &rep);
     w->busy = 0;
     if (report) *report = rep;
     return first_error;
@@ -2073,6 +2195,9 @@ GS__PRIVATE void gs__check_material(gs__check *c, const gs_material *m) {
 }
 
 /* Common part of every create call: fills the agent header, registers it. */
+GS__PRIVATE gs_result gs__sync_relayout(gs_world *w);
+GS__PRIVATE gs_result gs__sync_added(gs_world *w, gs_agent *a, gs_agent **out);
+
 GS__PRIVATE gs_result gs__agent_init(gs_world *w, gs_agent *a,
                                      const gs__kind *kind, double dt) {
     memset(a, 0, sizeof *a);
@@ -2122,7 +2247,10 @@ GS__PRIVATE gs_result gs__agent_put_state(gs_agent *a, const double *in) {
     return GS_OK;
 }
 
+GS__PRIVATE void gs__sync_log(gs_agent *a, const double *in);
+
 GS_API gs_result gs_agent_set_state(gs_agent *a, const double *in, size_t n) {
+    gs_result r;
     size_t i;
     if (n != gs_agent_state_size(a))
         return gs__fail(a->world, GS_ERR_SIZE_MISMATCH,
@@ -2137,7 +2265,9 @@ GS_API gs_result gs_agent_set_state(gs_agent *a, const double *in, size_t n) {
             return gs__fail(a->world, GS_ERR_NOT_FINITE,
                             "gs_agent_set_state: element %lu is %g",
                             (unsigned long)i, in[i]);
-    return gs__agent_put_state(a, in);
+    r = gs__agent_put_state(a, in);
+    if (r == GS_OK) gs__sync_log(a, in);
+    return r;
 }
 
 GS_API gs_result gs_agent_step(gs_agent *a) {
@@ -2180,6 +2310,7 @@ GS_API gs_result gs_agent_destroy(gs_agent *a) {
     }
     w->agent_count--;
     gs__free(w, a);
+    gs__sync_relayout(w);
     return GS_OK;
 }
 
@@ -2261,8 +2392,7 @@ GS_API gs_result gs_custom_create(gs_world *w, const gs_custom_desc *desc,
     }
     a->d = *desc;
     a->scratch = (double *)(a + 1);
-    *out = &a->base;
-    return GS_OK;
+    return gs__sync_added(w, &a->base, out);
 }
 
 /* ========================================================================
@@ -2971,8 +3101,7 @@ GS_API gs_result gs_mesh_create(gs_world *w, const gs_mesh_desc *desc,
     m->radius = d.particle_radius;
     m->mat = d.material;
     gs__mesh_finish(m, d.pins, d.pin_count);
-    *out = &m->base;
-    return GS_OK;
+    return gs__sync_added(w, &m->base, out);
 }
 
 /* ---- the cloth generator ---- */
@@ -3133,8 +3262,7 @@ GS_API gs_result gs_cloth_create(gs_world *w, const gs_cloth_desc *desc,
         m->stable_dt = gs__mesh_bound(m, 0.0, 0.0);
         m->stable_dt_contact = gs__mesh_bound(m, m->mat.stiffness, m->mat.damping);
     }
-    *out = &m->base;
-    return GS_OK;
+    return gs__sync_added(w, &m->base, out);
 }
 
 /* ---- accessors ---- */
@@ -3869,8 +3997,7 @@ GS__PRIVATE gs_result gs__rigid_register(gs_world *w, gs__rigid *r, gs_agent **o
         gs__free(w, r);
         return res;
     }
-    *out = &r->base;
-    return GS_OK;
+    return gs__sync_added(w, &r->base, out);
 }
 
 GS_API gs_result gs_rigid_create(gs_world *w, const gs_rigid_desc *desc,
@@ -5268,15 +5395,20 @@ GS_API gs_result gs_scene_attach_ghosts(gs_scene *sc, const gs_ghost_desc *share
 
 /* After a step: the latest state goes to B at the ghost's rate (simulation
    time stands in for wall time here: the world keeps pace with it). */
-GS__PRIVATE void gs__ghost_publish(gs__ghost *g, gs_net *net) {
+GS__PRIVATE void gs__ghost_publish_now(gs__ghost *g, gs_net *net) {
     double t = gs__agent_time(g->agent);
-    if (t < g->next_publish && g->next_publish - t < 1.0 / g->d.send_rate) return;
     gs__lock(net);
     gs_agent_get_state(g->agent, g->B, g->n);
     g->b_seq++;
     if (net) net->published = 1;
     gs__unlock(net);
     g->next_publish = t + 1.0 / g->d.send_rate;
+}
+
+GS__PRIVATE void gs__ghost_publish(gs__ghost *g, gs_net *net) {
+    double t = gs__agent_time(g->agent);
+    if (t < g->next_publish && g->next_publish - t < 1.0 / g->d.send_rate) return;
+    gs__ghost_publish_now(g, net);
 }
 
 GS__PRIVATE double gs__sane_weight(gs__ghost *g, double w) {
@@ -5693,16 +5825,24 @@ GS__PRIVATE uint32_t gs__ghost_divergence(gs__ghost *g) {
    the age does not count): applied at every blend it would push the time on, and the agent
    would skip steps to stay on its world's clock. A host far behind (one
    that joins late) is pulled to the others at once. */
+GS__PRIVATE int gs__sync_session(const gs_world *w);
+
 GS__PRIVATE double gs__time_correction(const gs__ghost *g, double gap, double dt) {
+    /* on the session clock time is the clock's, not the blend's: a stepped
+       clock misreads the ages until the net measures the offset again */
+    if (gs__sync_session(g->agent->world)) return 0.0;
     return fabs(gap) > gs__time_band(g) ? dt : 0.0;
 }
 
 /* Applies a blended state (scratch) that the pass found finite: the kind
    may still refuse it (a zero quaternion), and then nothing moves. */
+GS__PRIVATE void gs__sync_log_blend(gs_agent *a, const double *in);
+
 GS__PRIVATE int gs__blend_apply(gs__ghost *g, double t_i) {
     double *t;
     int e;
     if (gs__agent_put_state(g->agent, g->scratch) != GS_OK) return 0;
+    gs__sync_log_blend(g->agent, g->scratch);
     for (e = 0; e < GS__MAX_PEERS; ++e) g->lead[e] -= g->scratch[0] - t_i;
     t = g->offset; /* the next offsets are now the offsets */
     g->offset = g->offset_next;
@@ -5750,6 +5890,8 @@ GS__PRIVATE uint32_t gs__ghost_blend(gs__ghost *g, gs_net *net) {
     return seen;
 }
 
+GS__PRIVATE void gs__world_blend(gs_world *w);
+
 /* Any snapshot waiting? Read under the lock by the caller. */
 GS__PRIVATE int gs__ghost_pending(const gs__ghost *g) {
     int p, k;
@@ -5770,7 +5912,9 @@ GS__PRIVATE void gs__ghost_after_step(gs_agent *a) {
     gs__ghost *g = gs__ghost_of(a);
     gs_net *net = a->world->net;
     int pending;
-    gs__ghost_publish(g, net);
+    /* on the session clock, ghosts publish at the end of the advance (all
+       at the target time: the send time then tells the session's time) */
+    if (!gs__sync_session(a->world)) gs__ghost_publish(g, net);
     if (!net) return;
     gs__lock(net);
     g->t_local = gs__agent_time(a);
@@ -5799,6 +5943,584 @@ GS__PRIVATE void gs__world_blend(gs_world *w) {
     for (i = 0; i < GS__MAX_PEERS; ++i)
         if (seen & ((uint32_t)1 << i)) w->net->peers[i].st.divergence = gs__peer_divergence(w, i);
     gs__unlock(w->net);
+}
+
+/* ========================================================================
+   >>sync
+   The session clock: each peer's datagrams tell its timeline, the
+   simulation time of its ghosts (published at the end of its advance, at
+   its target) less their send time brought to our clock by the offset of
+   the least-delayed round trip (>>net): est = session time - our clock.
+   The session follows the timekeeper, the lowest host id among this host
+   and the live peers whose timeline is within GS__SYNC_BAND of ours; a
+   peer ahead by more for GS__SYNC_HOLD is a session this host joined late,
+   and it takes that timeline at once; one behind by more is a late joiner
+   or a host that cannot keep pace, and is not followed.
+   The history: a ring of frames, each the world at the start of one
+   advance, and a log of the inputs applied since (states set by hand
+   between advances; blends, at the dispatch they came). Re-running a frame
+   is the advance it recorded: the same follow, target and dispatches.
+   ======================================================================== */
+#define GS__SYNC_WINDOW 9   /* a peer's timeline: median of its last 9
+                               datagrams (one delayed or mis-timed
+                               datagram does not move it) */
+#define GS__SYNC_BAND 0.1   /* s; timelines closer than this are one */
+#define GS__SYNC_HOLD 0.25  /* s; a timeline ahead this long is joined (a
+                               round trip or two: a peer's stepped clock
+                               looks ahead until the net re-measures the
+                               offset) */
+#define GS__SYNC_SLEW 0.05  /* s/s; a follower moves its origin at most 5%
+                               of the time advanced, so it never skips or
+                               repeats a visible step */
+#define GS__SYNC_LIVE 0.5   /* s of local clock: a peer heard this recently
+                               counts */
+#define GS__SYNC_STEP 0.05  /* s; a local clock that moved this much more or
+                               less than the seconds advanced was stepped */
+#define GS__SYNC_AGENT 9    /* doubles per agent before its state: steps,
+                               t_offset, priority, 6 counters */
+#define GS__SYNC_RIGID 13   /* v_prev, w_prev, target, target_q */
+#define GS__SYNC_NONE UINT64_MAX /* a log entry applied before the advance */
+
+typedef struct gs__sync_peer {
+    uint32_t host;
+    double est[GS__SYNC_WINDOW]; /* s; session time - our clock */
+    int n, next;
+    double heard;       /* s, our clock at the latest datagram */
+    double ahead_since; /* s, our clock since it is ahead by a band */
+} gs__sync_peer;
+
+typedef struct gs__hframe {
+    uint64_t seq;
+    double seconds;      /* s; given to the advance */
+    double target;       /* s; w->target at its start */
+    double target_run;   /* s; the target its dispatches ran to */
+    uint64_t dispatches; /* w->dispatches at its start */
+    uint64_t log_at;     /* the log's head at its start */
+} gs__hframe;
+
+typedef struct gs__sync {
+    gs_sync_desc d;
+    int started;         /* the session clock has read its first time */
+    double origin;       /* s; session time - local clock */
+    double last_now;     /* s; the local clock at the last advance */
+    gs__sync_peer mail[GS__MAX_PEERS]; /* written by the net, under its lock */
+    gs__sync_peer peer[GS__MAX_PEERS]; /* taken from mail at each advance */
+    gs_sync_stats st;
+    int cap;             /* frames in the ring, 0: no history */
+    int agents;          /* the agent count the layout was made for */
+    size_t stride;       /* doubles per frame */
+    double *ring;        /* cap + 2 frames: the last two keep the present
+                            and a re-run's end (gs_world_sync_test) */
+    gs__hframe *frames;  /* cap */
+    uint64_t seq;        /* frames recorded (the next one's number) */
+    uint64_t valid_from; /* the first frame recorded with this layout */
+    double *log;         /* the input log, a ring of doubles */
+    uint64_t log_cap, log_head, log_tail; /* head and tail only grow */
+    int joined;          /* the origin jumped to a session ahead */
+    int replaying;       /* inside a re-run: ghosts and the clock rest */
+    uint64_t replay_seq; /* the frame being re-run */
+    uint64_t log_read;   /* the next entry a re-run applies */
+} gs__sync;
+
+GS__PRIVATE gs_result gs__sync_create(gs_world *w, const gs_sync_desc *d) {
+    gs__sync *sy = (gs__sync *)gs__alloc(w, sizeof *sy);
+    if (!sy) return GS_ERR_NO_MEMORY;
+    memset(sy, 0, sizeof *sy);
+    sy->d = *d;
+    sy->st.timekeeper = w->host_id;
+    w->sync = sy;
+    return GS_OK;
+}
+
+GS__PRIVATE void gs__sync_destroy(gs_world *w) {
+    if (!w->sync) return;
+    gs__free(w, w->sync->ring);
+    gs__free(w, w->sync);
+    w->sync = NULL;
+}
+
+GS__PRIVATE int gs__sync_session(const gs_world *w) {
+    return w->sync->d.clock == GS_SYNC_CLOCK_SESSION;
+}
+
+/* ---- the history's layout: per agent GS__SYNC_AGENT doubles, what its
+   kind keeps beyond its state, its state without the time; then the
+   broad phase's two orders (agent indices) ---- */
+GS__PRIVATE size_t gs__sync_extra(const gs_agent *a) {
+    return gs__as_rigid(a) ? GS__SYNC_RIGID : 0;
+}
+
+GS__PRIVATE size_t gs__sync_agent_size(const gs_agent *a) {
+    return GS__SYNC_AGENT + gs__sync_extra(a) + a->kind->state_size(a);
+}
+
+GS__PRIVATE double gs__u2d(uint64_t u) { double d; memcpy(&d, &u, sizeof d); return d; }
+GS__PRIVATE uint64_t gs__d2u(double d) { uint64_t u; memcpy(&u, &d, sizeof u); return u; }
+
+/* Allocates the ring for the agents there are now (create time only: an
+   agent created or destroyed). The history starts again. */
+GS__PRIVATE gs_result gs__sync_relayout(gs_world *w) {
+    gs__sync *sy = w->sync;
+    size_t stride = 2 * (size_t)w->nbodies, bytes;
+    int i, cap = sy->d.history_frames > 0 ? sy->d.history_frames : 0;
+    char *block;
+    for (i = 0; i < w->agent_count; ++i) stride += gs__sync_agent_size(w->agents[i]);
+    sy->valid_from = sy->seq;
+    sy->agents = w->agent_count;
+    if (cap == 0) return GS_OK;
+    if (sy->ring && stride <= sy->stride) {
+        sy->stride = stride;
+        return GS_OK;
+    }
+    /* the log holds two worlds' worth of entries per frame: a blend of
+       every ghost once or twice a frame */
+    sy->log_cap = 2 * (uint64_t)cap * (stride + 4 * (size_t)w->agent_count) + 64;
+    bytes = ((size_t)cap + 2) * stride * sizeof(double) + (size_t)cap * sizeof(gs__hframe) +
+            (size_t)sy->log_cap * sizeof(double);
+    block = (char *)gs__alloc(w, bytes);
+    if (!block) return gs__fail(w, GS_ERR_NO_MEMORY, "world history: out of memory");
+    gs__free(w, sy->ring);
+    sy->ring = (double *)block;
+    sy->log = sy->ring + ((size_t)cap + 2) * stride;
+    sy->frames = (gs__hframe *)(sy->log + sy->log_cap);
+    sy->cap = cap;
+    sy->stride = stride;
+    sy->log_head = sy->log_tail = 0;
+    return GS_OK;
+}
+
+GS__PRIVATE gs_result gs__sync_added(gs_world *w, gs_agent *a, gs_agent **out) {
+    gs_result r = gs__sync_relayout(w);
+    if (r != GS_OK) {
+        gs_agent_destroy(a);
+        gs__fail(w, r, "agent create: out of memory for the world history");
+        return r;
+    }
+    *out = a;
+    return GS_OK;
+}
+
+GS__PRIVATE double *gs__sync_slot(const gs__sync *sy, uint64_t seq) {
+    return sy->ring + (size_t)(seq % (uint64_t)sy->cap) * sy->stride;
+}
+
+/* One agent into p (what gs__sync_agent_size counts). */
+GS__PRIVATE double *gs__sync_save_agent(const gs_agent *a, double *p) {
+    const gs__rigid *r = gs__as_rigid(a);
+    const uint64_t *st = &a->stats.steps;
+    int i;
+    p[0] = gs__u2d(a->steps);
+    p[1] = a->t_offset;
+    p[2] = (double)a->priority;
+    for (i = 0; i < 6; ++i) p[3 + i] = gs__u2d(st[i]);
+    p += GS__SYNC_AGENT;
+    if (r) {
+        p[0] = r->v_prev.x; p[1] = r->v_prev.y; p[2] = r->v_prev.z;
+        p[3] = r->w_prev.x; p[4] = r->w_prev.y; p[5] = r->w_prev.z;
+        p[6] = r->target.x; p[7] = r->target.y; p[8] = r->target.z;
+        p[9] = r->target_q.x; p[10] = r->target_q.y; p[11] = r->target_q.z;
+        p[12] = r->target_q.w;
+        p += GS__SYNC_RIGID;
+    }
+    a->kind->get_state(a, p);
+    return p + a->kind->state_size(a);
+}
+
+/* The agent back from p, exactly: its kind's set_state, then what that
+   derives (a rigid body's previous velocities, a probe's target) as it
+   was. Returns the end of its record. */
+GS__PRIVATE const double *gs__sync_load_agent(gs_agent *a, const double *p) {
+    gs__rigid *r = gs__as_rigid(a);
+    uint64_t *st = &a->stats.steps;
+    const double *e = p + GS__SYNC_AGENT + gs__sync_extra(a);
+    int i;
+    a->kind->set_state(a, e); /* a state it gave: its own set_state takes it */
+    a->steps = gs__d2u(p[0]);
+    a->t_offset = p[1];
+    a->priority = (int)p[2];
+    for (i = 0; i < 6; ++i) st[i] = gs__d2u(p[3 + i]);
+    if (r) {
+        const double *x = p + GS__SYNC_AGENT;
+        r->v_prev = gs__v3(x[0], x[1], x[2]);
+        r->w_prev = gs__v3(x[3], x[4], x[5]);
+        r->target = gs__v3(x[6], x[7], x[8]);
+        r->target_q = gs__quat(x[9], x[10], x[11], x[12]);
+        r->q = gs__quat(e[3], e[4], e[5], e[6]); /* set_state renormalizes */
+        gs__sap_update(r);
+    }
+    return e + a->kind->state_size(a);
+}
+
+GS__PRIVATE void gs__sync_save(const gs_world *w, double *p) {
+    int i;
+    for (i = 0; i < w->agent_count; ++i) p = gs__sync_save_agent(w->agents[i], p);
+    for (i = 0; i < w->nbodies; ++i) {
+        p[i] = (double)w->bodies[i]->base.index;
+        p[w->nbodies + i] = (double)w->near[i]->base.index;
+    }
+}
+
+/* The broad phase's orders decide the order contacts are summed in, and
+   an insertion sort keeps ties as they were: they come back too. */
+GS__PRIVATE void gs__sync_load(gs_world *w, const double *p) {
+    int i;
+    for (i = 0; i < w->agent_count; ++i) p = gs__sync_load_agent(w->agents[i], p);
+    for (i = 0; i < w->nbodies; ++i) {
+        gs__rigid *b = (gs__rigid *)w->agents[(int)p[i]];
+        gs__rigid *n = (gs__rigid *)w->agents[(int)p[w->nbodies + i]];
+        w->bodies[i] = b;
+        b->sap = i;
+        w->near[i] = n;
+        n->near = i;
+    }
+}
+
+/* ---- the input log: entries [frame, dispatch, agent, n, n values] ---- */
+GS__PRIVATE double gs__log_get(const gs__sync *sy, uint64_t at) {
+    return sy->log[at % sy->log_cap];
+}
+
+/* Drops the oldest entry; the frames that needed it can no longer re-run. */
+GS__PRIVATE void gs__log_drop(gs__sync *sy) {
+    sy->log_tail += 4 + (uint64_t)gs__log_get(sy, sy->log_tail + 3);
+}
+
+GS__PRIVATE void gs__log_put(gs__sync *sy, uint64_t frame, uint64_t dispatch, int agent,
+                             const double *v, size_t n) {
+    uint64_t need = 4 + (uint64_t)n, i;
+    if (need > sy->log_cap) { /* too big for any re-run: none is left */
+        sy->log_tail = sy->log_head;
+        sy->valid_from = sy->seq + 1;
+        return;
+    }
+    while (sy->log_head + need - sy->log_tail > sy->log_cap) gs__log_drop(sy);
+    sy->log[sy->log_head % sy->log_cap] = gs__u2d(frame);
+    sy->log[(sy->log_head + 1) % sy->log_cap] = gs__u2d(dispatch);
+    sy->log[(sy->log_head + 2) % sy->log_cap] = (double)agent;
+    sy->log[(sy->log_head + 3) % sy->log_cap] = (double)n;
+    for (i = 0; i < n; ++i) sy->log[(sy->log_head + 4 + i) % sy->log_cap] = v[i];
+    sy->log_head += need;
+}
+
+/* A state set by hand between advances: an input of the next frame. */
+GS__PRIVATE void gs__sync_log(gs_agent *a, const double *in) {
+    gs__sync *sy = a->world->sync;
+    if (!sy->cap || a->world->busy || sy->replaying) return;
+    gs__log_put(sy, sy->seq, GS__SYNC_NONE, a->index, in, gs_agent_state_size(a));
+}
+
+/* A blend, at the dispatch it followed: an input of the frame running. */
+GS__PRIVATE void gs__sync_log_blend(gs_agent *a, const double *in) {
+    gs__sync *sy = a->world->sync;
+    if (!sy->cap || !a->world->busy || sy->replaying || sy->seq == 0) return;
+    gs__log_put(sy, sy->seq - 1, a->world->dispatches, a->index, in, gs_agent_state_size(a));
+}
+
+/* A re-run: applies the entries of frame `frame` logged at `dispatch`,
+   in order, as they were applied. */
+GS__PRIVATE void gs__sync_apply_log(gs_world *w, uint64_t frame, uint64_t dispatch) {
+    gs__sync *sy = w->sync;
+    while (sy->log_read < sy->log_head) {
+        uint64_t at = sy->log_read, f = gs__d2u(gs__log_get(sy, at));
+        uint64_t d = gs__d2u(gs__log_get(sy, at + 1));
+        int ai = (int)gs__log_get(sy, at + 2);
+        size_t n = (size_t)gs__log_get(sy, at + 3), i;
+        gs_agent *a;
+        if (f > frame || (f == frame && d != dispatch)) return;
+        sy->log_read += 4 + n;
+        if (f < frame || ai < 0 || ai >= w->agent_count) continue;
+        a = w->agents[ai];
+        if (n != gs_agent_state_size(a)) continue;
+        /* an entry that wraps around the ring is put together in the
+           last slot of the ring (a re-run's end, free until then) */
+        if ((at + 4) % sy->log_cap + n <= sy->log_cap) {
+            gs__agent_put_state(a, sy->log + (at + 4) % sy->log_cap);
+        } else {
+            double *buf = sy->ring + ((size_t)sy->cap + 1) * sy->stride;
+            for (i = 0; i < n; ++i) buf[i] = gs__log_get(sy, at + 4 + i);
+            gs__agent_put_state(a, buf);
+        }
+    }
+}
+
+/* Is frame seq still re-runnable (in the ring, its inputs in the log)? */
+GS__PRIVATE int gs__sync_have(const gs__sync *sy, uint64_t seq) {
+    const gs__hframe *f;
+    if (!sy->cap || seq >= sy->seq || seq < sy->valid_from || sy->seq - seq > (uint64_t)sy->cap)
+        return 0;
+    f = &sy->frames[seq % (uint64_t)sy->cap];
+    return f->seq == seq && f->log_at >= sy->log_tail;
+}
+
+/* ---- the hooks the world calls ---- */
+
+/* At the start of an advance: the world as it is (inputs by hand applied)
+   becomes a frame of the history. */
+GS__PRIVATE void gs__sync_begin(gs_world *w, double seconds) {
+    gs__sync *sy = w->sync;
+    gs__hframe *f;
+    if (!sy->cap || sy->replaying) return;
+    if (sy->agents != w->agent_count) { sy->valid_from = sy->seq + 1; sy->seq++; return; }
+    f = &sy->frames[sy->seq % (uint64_t)sy->cap];
+    f->seq = sy->seq;
+    f->seconds = seconds;
+    f->target = w->target;
+    f->target_run = w->target + seconds;
+    f->dispatches = w->dispatches;
+    f->log_at = sy->log_head;
+    gs__sync_save(w, gs__sync_slot(sy, sy->seq));
+    sy->seq++;
+}
+
+/* The median of a peer's recent timeline estimates. */
+GS__PRIVATE double gs__sync_median(const gs__sync_peer *pe) {
+    double v[GS__SYNC_WINDOW], t;
+    int i, j, n = pe->n;
+    memcpy(v, pe->est, (size_t)n * sizeof *v);
+    for (i = 1; i < n; ++i)
+        for (j = i; j > 0 && v[j - 1] > v[j]; --j) { t = v[j]; v[j] = v[j - 1]; v[j - 1] = t; }
+    return n % 2 ? v[n / 2] : 0.5 * (v[n / 2 - 1] + v[n / 2]);
+}
+
+/* Moves the origin toward the timekeeper's timeline, or to a session ahead
+   that this host joined late. */
+GS__PRIVATE void gs__sync_follow(gs_world *w, double now, double seconds) {
+    gs__sync *sy = w->sync;
+    double best = sy->origin, ahead = -HUGE_VAL, step;
+    uint32_t tk = w->host_id;
+    int p;
+    if (w->net) {
+        gs__lock(w->net);
+        memcpy(sy->peer, sy->mail, sizeof sy->peer);
+        gs__unlock(w->net);
+    }
+    for (p = 0; p < GS__MAX_PEERS; ++p) {
+        gs__sync_peer *pe = &sy->peer[p], *m = &sy->mail[p];
+        double e;
+        if (pe->n == 0 || !(now - pe->heard <= GS__SYNC_LIVE)) continue;
+        e = gs__sync_median(pe);
+        if (e > sy->origin + GS__SYNC_BAND) {
+            if (!(m->ahead_since <= now)) m->ahead_since = now;
+            if (now - m->ahead_since >= GS__SYNC_HOLD && e > ahead) ahead = e;
+        } else {
+            m->ahead_since = HUGE_VAL;
+        }
+        if (fabs(e - sy->origin) <= GS__SYNC_BAND && pe->host < tk) {
+            tk = pe->host;
+            best = e;
+        }
+    }
+    if (ahead > -HUGE_VAL) {
+        sy->origin = ahead;
+        sy->st.joins++;
+        sy->joined = 1;
+        for (p = 0; p < GS__MAX_PEERS; ++p) sy->mail[p].ahead_since = HUGE_VAL;
+        return;
+    }
+    sy->st.timekeeper = tk;
+    step = GS__SYNC_SLEW * seconds;
+    sy->origin += fmax(-step, fmin(step, best - sy->origin));
+}
+
+/* After a join: an agent left more than GS__FOLLOW_STEPS of its steps
+   behind takes the session's time (as gs__world_follow does), rather than
+   buying a step per dt of catching up; blends then bring its state. */
+GS__PRIVATE void gs__sync_catch_up(gs_world *w) {
+    int i;
+    w->sync->joined = 0;
+    for (i = 0; i < w->agent_count; ++i) {
+        gs_agent *a = w->agents[i];
+        double lag = w->target - gs__agent_time(a);
+        if (lag > GS__FOLLOW_STEPS * a->dt) a->t_offset += lag;
+    }
+}
+
+/* After follow and target += seconds: on the session clock the target is
+   the session's time now. It never goes back (the agents are there); a
+   target that blending took ahead (every agent moved to a later session
+   time) takes the clock with it. */
+GS__PRIVATE void gs__sync_target(gs_world *w, double seconds, double before) {
+    gs__sync *sy = w->sync;
+    double now, want;
+    if (sy->replaying) {
+        w->target = sy->frames[sy->replay_seq % (uint64_t)sy->cap].target_run;
+        return;
+    }
+    if (gs__sync_session(w)) {
+        now = sy->d.now ? sy->d.now(sy->d.now_user) : w->clock(w->clock_user);
+        if (gs__finite(now)) {
+            if (!sy->started) {
+                sy->started = 1;
+                sy->origin = w->target - now;
+            } else if (fabs((now - sy->last_now) - seconds) > GS__SYNC_STEP) {
+                sy->origin -= (now - sy->last_now) - seconds;
+                sy->st.clock_steps++;
+            }
+            sy->last_now = now;
+            gs__sync_follow(w, now, seconds);
+            want = now + sy->origin;
+            if (w->target > want + GS__SYNC_BAND) {
+                sy->origin = w->target - now;
+                sy->st.joins++;
+            } else {
+                w->target = fmax(want, before);
+            }
+            if (sy->joined) gs__sync_catch_up(w);
+            sy->st.origin = sy->origin;
+        }
+    }
+    if (sy->cap && sy->seq > 0 && sy->agents == w->agent_count)
+        sy->frames[(sy->seq - 1) % (uint64_t)sy->cap].target_run = w->target;
+}
+
+/* After a step: in a re-run the logged inputs of this dispatch; else the
+   agent's ghost publishes and blends. */
+GS__PRIVATE void gs__sync_after_step(gs_agent *a) {
+    gs_world *w = a->world;
+    gs__sync *sy = w->sync;
+    if (sy->replaying) {
+        gs__sync_apply_log(w, sy->replay_seq, w->dispatches);
+        return;
+    }
+    if (a->ghost) gs__ghost_after_step(a);
+}
+
+/* At the end of an advance: on the session clock every ghost due
+   publishes its state at the target; the lag says whether this host
+   keeps pace. */
+GS__PRIVATE void gs__sync_end(gs_world *w, double seconds, const gs_advance_report *rep) {
+    gs__sync *sy = w->sync;
+    int i;
+    if (sy->replaying) return;
+    if (gs__sync_session(w))
+        for (i = 0; i < w->agent_count; ++i) {
+            gs__ghost *g = gs__ghost_of(w->agents[i]);
+            if (g && gs__agent_time(g->agent) + 0.5 * seconds >= g->next_publish)
+                gs__ghost_publish_now(g, w->net);
+        }
+    sy->st.session_time = w->target;
+    sy->st.lag = w->agent_count ? w->target - rep->t_min : 0.0;
+    if (sy->st.lag > sy->st.lag_max) sy->st.lag_max = sy->st.lag;
+    if (sy->st.lag > w->tolerance) sy->st.behind++;
+}
+
+/* From the net, under its lock: one accepted datagram tells the peer's
+   timeline, the mean over its snapshots' times less its send time on our
+   clock (clock_offset: ours minus theirs). */
+GS__PRIVATE void gs__sync_heard(gs_net *net, int p, const gs_wire_view *v, double now) {
+    const gs__peer *pe = &net->peers[p];
+    gs__sync_peer *m = &net->world->sync->mail[p];
+    double sum = 0.0, send = v->header.send_time + pe->clock_offset;
+    int i, n = 0;
+    if (!pe->clock_known) return;
+    for (i = 0; i < v->chunk_count; ++i)
+        if (v->chunks[i].index == 0) {
+            sum += v->chunks[i].time - send;
+            n++;
+        }
+    if (n == 0 || !gs__finite(sum)) return;
+    if (m->host != pe->host) {
+        memset(m, 0, sizeof *m);
+        m->host = pe->host;
+        m->ahead_since = HUGE_VAL;
+    }
+    m->est[m->next] = sum / n;
+    m->next = (m->next + 1) % GS__SYNC_WINDOW;
+    if (m->n < GS__SYNC_WINDOW) m->n++;
+    m->heard = now;
+}
+
+/* Re-runs frames [from, sy->seq): the advance each recorded. */
+GS__PRIVATE void gs__sync_rerun(gs_world *w, uint64_t from) {
+    gs__sync *sy = w->sync;
+    uint64_t j;
+    sy->replaying = 1;
+    gs__sync_load(w, gs__sync_slot(sy, from));
+    sy->log_read = sy->frames[from % (uint64_t)sy->cap].log_at;
+    for (j = from; j < sy->seq; ++j) {
+        const gs__hframe *f = &sy->frames[j % (uint64_t)sy->cap];
+        gs_advance_report rep;
+        int i;
+        if (j > from) { /* the inputs between advances: probe targets, states by hand */
+            const double *p = gs__sync_slot(sy, j);
+            for (i = 0; i < w->agent_count; ++i) {
+                gs__rigid *r = gs__as_rigid(w->agents[i]);
+                if (r && r->probe) {
+                    const double *x = p + GS__SYNC_AGENT;
+                    r->target = gs__v3(x[6], x[7], x[8]);
+                    r->target_q = gs__quat(x[9], x[10], x[11], x[12]);
+                }
+                p += gs__sync_agent_size(w->agents[i]);
+            }
+        }
+        gs__sync_apply_log(w, j, GS__SYNC_NONE);
+        w->target = f->target;
+        w->dispatches = f->dispatches;
+        sy->replay_seq = j;
+        memset(&rep, 0, sizeof rep);
+        w->busy = 1;
+        gs__world_follow(w);
+        gs__sync_target(w, f->seconds, w->target);
+        gs__world_run(w, 0.0, &rep);
+        w->busy = 0;
+        sy->st.rerun_steps += rep.steps;
+    }
+    sy->replaying = 0;
+}
+
+GS_API gs_result gs_world_sync_stats(const gs_world *w, gs_sync_stats *out) {
+    const gs__sync *sy;
+    uint64_t k;
+    if (!w || !out) return GS_ERR_INVALID_ARG;
+    sy = w->sync;
+    *out = sy->st;
+    out->history = 0;
+    for (k = 1; k <= sy->seq && k <= (uint64_t)sy->cap; ++k)
+        if (gs__sync_have(sy, sy->seq - k)) out->history++;
+        else break;
+    return GS_OK;
+}
+
+GS_API gs_result gs_world_sync_test(gs_world *w, int frames, int *bad_agent) {
+    gs__sync *sy;
+    double *present, *rerun, target;
+    uint64_t dispatches, from;
+    int i;
+    gs_result r = gs__world_unlocked(w, "gs_world_sync_test");
+    if (r != GS_OK) return r;
+    if (!bad_agent) return gs__fail(w, GS_ERR_INVALID_ARG, "gs_world_sync_test: bad_agent is NULL");
+    sy = w->sync;
+    *bad_agent = -1;
+    if (frames < 1 || (uint64_t)frames > sy->seq || !gs__sync_have(sy, sy->seq - (uint64_t)frames))
+        return gs__fail(w, GS_ERR_OUT_OF_RANGE,
+                        "gs_world_sync_test: %d frames asked, the history holds fewer", frames);
+    from = sy->seq - (uint64_t)frames;
+    present = sy->ring + (size_t)sy->cap * sy->stride;
+    rerun = present + sy->stride;
+    target = w->target;
+    dispatches = w->dispatches;
+    gs__sync_save(w, present);
+    gs__sync_rerun(w, from);
+    gs__sync_save(w, rerun);
+    {
+        const double *a = present, *b = rerun;
+        for (i = 0; i < w->agent_count && *bad_agent < 0; ++i) {
+            size_t n = gs__sync_agent_size(w->agents[i]);
+            if (memcmp(a, b, n * sizeof *a) != 0) *bad_agent = i;
+            a += n;
+            b += n;
+        }
+    }
+    gs__sync_load(w, present);
+    w->target = target;
+    w->dispatches = dispatches;
+    return GS_OK;
+}
+
+/* The simnet's virtual clock of the host replaces the session clock's. */
+GS__PRIVATE void gs__sync_set_clock(gs_world *w, gs_clock_fn fn, void *user) {
+    w->sync->d.now = fn;
+    w->sync->d.now_user = user;
 }
 
 /* ========================================================================
@@ -6728,6 +7450,8 @@ GS__PRIVATE int gs__receive(gs_net *net, const unsigned char *buf, size_t size, 
     return gs__receive_sender(net, net->view.header.session, net->view.header.sender, p, why);
 }
 
+GS__PRIVATE void gs__sync_heard(gs_net *net, int p, const gs_wire_view *v, double now);
+
 /* gs_net_deliver under the net lock. */
 GS__PRIVATE gs_result gs__deliver_locked(gs_net *net, const void *data, size_t size, double now,
                                          gs_reject *why) {
@@ -6755,6 +7479,7 @@ GS__PRIVATE gs_result gs__deliver_locked(gs_net *net, const void *data, size_t s
         pe->st.datagrams_received++;
         pe->st.bytes_received += size;
         for (i = 0; i < v->chunk_count; ++i) gs__queue_chunk(net, ghosts[i], p, &v->chunks[i], age);
+        gs__sync_heard(net, p, v, now);
     }
     return res;
 }
@@ -6793,6 +7518,7 @@ typedef struct gs__sim_host {
     gs_net *net;
     uint32_t host;
     double busy_until[GS__SIM_MAX_HOSTS]; /* bandwidth: link free again at */
+    gs_sim_clock clock;  /* the host's own clock (rate 1, offset 0 at first) */
 } gs__sim_host;
 
 struct gs_simnet {
@@ -6940,6 +7666,8 @@ GS__PRIVATE gs_result gs__sim_send(void *user, uint32_t host, const void *data, 
     return GS_OK;
 }
 
+GS__PRIVATE double gs__sim_clock_fn(void *user);
+
 GS_API gs_result gs_simnet_join(gs_simnet *s, gs_world *w, const gs_net_desc *desc,
                                 gs_net **out) {
     gs_net_desc d;
@@ -6958,6 +7686,7 @@ GS_API gs_result gs_simnet_join(gs_simnet *s, gs_world *w, const gs_net_desc *de
     h->sim = s;
     h->world = w;
     h->host = w->host_id;
+    h->clock.rate = 1.0;
     d.send = gs__sim_send;
     d.send_user = h;
     r = gs_net_create(w, &d, &h->net);
@@ -6972,6 +7701,7 @@ GS_API gs_result gs_simnet_join(gs_simnet *s, gs_world *w, const gs_net_desc *de
         }
     }
     s->hosts++;
+    gs__sync_set_clock(w, gs__sim_clock_fn, h);
     *out = h->net;
     return GS_OK;
 }
@@ -6992,11 +7722,38 @@ GS_API gs_result gs_simnet_link(gs_simnet *s, uint32_t a, uint32_t b,
     return GS_OK;
 }
 
+/* The simnet's time as host h's clock reads it. */
+GS__PRIVATE double gs__sim_host_now(const gs__sim_host *h) {
+    const gs_sim_clock *c = &h->clock;
+    double t = h->sim->now;
+    return c->offset + c->rate * t + (c->step_by != 0.0 && t >= c->step_at ? c->step_by : 0.0);
+}
+
+GS__PRIVATE double gs__sim_clock_fn(void *user) {
+    return gs__sim_host_now((const gs__sim_host *)user);
+}
+
+GS_API gs_result gs_simnet_set_clock(gs_simnet *s, uint32_t host, const gs_sim_clock *clock) {
+    gs_sim_clock c;
+    int i;
+    if (!s || !clock) return GS_ERR_INVALID_ARG;
+    i = gs__sim_slot(s, host);
+    if (i < 0) return GS_ERR_INVALID_ARG;
+    c = *clock;
+    if (c.rate == 0.0) c.rate = 1.0;
+    if (!gs__finite(c.offset) || !gs__finite(c.rate) || !gs__finite(c.step_at) ||
+        !gs__finite(c.step_by))
+        return GS_ERR_NOT_FINITE;
+    if (c.rate < 0.0) return GS_ERR_INVALID_ARG;
+    s->host[i].clock = c;
+    return GS_OK;
+}
+
 GS__PRIVATE void gs__sim_deliver_due(gs_simnet *s) {
     while (s->count > 0 && s->heap[0].at <= s->now) {
         gs__flight f = gs__heap_pop(s);
         gs__sim_host *to = &s->host[f.to];
-        gs_net_deliver(to->net, f.data, f.size, s->now, NULL);
+        gs_net_deliver(to->net, f.data, f.size, gs__sim_host_now(to), NULL);
         s->free_slots[s->nfree++] = (int)((f.data - s->pool) / GS_WIRE_MAX_DATAGRAM);
         s->delivered++;
     }
@@ -7014,7 +7771,7 @@ GS_API gs_result gs_simnet_run(gs_simnet *s, double seconds, double frame) {
         for (i = 0; i < s->hosts; ++i) {
             gs_result r = gs_world_advance(s->host[i].world, frame, NULL);
             if (r != GS_OK && first == GS_OK) first = r;
-            gs_net_update(s->host[i].net, s->now);
+            gs_net_update(s->host[i].net, gs__sim_host_now(&s->host[i]));
         }
         gs__sim_deliver_due(s);
     }
