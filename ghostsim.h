@@ -214,7 +214,22 @@ typedef enum gs_sync_clock {
     GS__SYNC_CLOCK_COUNT
 } gs_sync_clock;
 
+typedef enum gs_sync_mode {
+    GS_SYNC_DEFAULT = 0,   /* present */
+    GS_SYNC_PRESENT,       /* the paper: a snapshot blends at the local
+                              present, after the next step of its agent */
+    GS_SYNC_REPLAY,        /* a snapshot whose time lies in the history
+                              blends when its agent reaches that time, in a
+                              re-run from the last recorded moment before
+                              it, then on to the present, inside the same
+                              gs_world_advance; older ones, or past the
+                              replay budget, blend at the present. Meant
+                              with the session clock; time is not blended */
+    GS__SYNC_COUNT
+} gs_sync_mode;
+
 typedef struct gs_sync_desc {
+    gs_sync_mode mode;     /* default present */
     gs_sync_clock clock;   /* default local */
     gs_clock_fn now;       /* the wall clock the session clock reads (s);
                               default the world's clock; gs_simnet_join
@@ -224,6 +239,10 @@ typedef struct gs_sync_desc {
                               from (gs_world_sync_test); default 16, a
                               200 ms round trip plus a send period at 60 Hz;
                               at most 1024; -1: no history */
+    int replay_budget;     /* agent steps a replay may re-run per advance
+                              (estimated from the last advance's steps per
+                              frame); default 4096; past it the snapshots
+                              blend at the present and are counted */
 } gs_sync_desc;
 
 typedef struct gs_world_desc {
@@ -858,6 +877,11 @@ typedef struct gs_sync_stats {
     uint64_t clock_steps;  /* local clock steps detected and absorbed */
     int history;           /* frames recorded now (re-runnable) */
     uint64_t rerun_steps;  /* agent steps re-run (gs_world_sync_test) */
+    uint64_t replays;      /* advances that re-ran the past to blend */
+    uint64_t replay_steps; /* agent steps those replays ran */
+    uint64_t fallbacks;    /* advances whose snapshots (replay mode) were
+                              older than the history or past the budget, and
+                              blended at the present */
 } gs_sync_stats;
 
 /* The sync layer's counters. Returns GS_ERR_INVALID_ARG for NULL. */
@@ -1559,7 +1583,9 @@ GS_API gs_world_desc gs_world_desc_default(void) {
     d.aging_limit = 64;
     d.gravity = gs__v3(0.0, -9.81, 0.0);
     d.sync.clock = GS_SYNC_CLOCK_LOCAL;
+    d.sync.mode = GS_SYNC_PRESENT;
     d.sync.history_frames = 16;
+    d.sync.replay_budget = 4096;
     return d;
 }
 
@@ -1573,6 +1599,8 @@ GS__PRIVATE gs_world_desc gs__world_defaults(const gs_world_desc *in) {
     if (d.aging_limit == 0) d.aging_limit = def.aging_limit;
     if (gs__is_zero3(d.gravity)) d.gravity = def.gravity;
     if (d.sync.clock == GS_SYNC_CLOCK_DEFAULT) d.sync.clock = def.sync.clock;
+    if (d.sync.mode == GS_SYNC_DEFAULT) d.sync.mode = def.sync.mode;
+    if (d.sync.replay_budget == 0) d.sync.replay_budget = def.sync.replay_budget;
     if (d.sync.history_frames == 0) d.sync.history_frames = def.sync.history_frames;
     return d;
 }
@@ -1585,6 +1613,8 @@ GS__PRIVATE gs_result gs__world_check(const gs_world_desc *d) {
     gs__check_nonneg(&c, "budget", d->budget);
     gs__check_vec(&c, "gravity", d->gravity);
     gs__check_int(&c, "sync.clock", (long)d->sync.clock, 1, GS__SYNC_CLOCK_COUNT - 1);
+    gs__check_int(&c, "sync.mode", (long)d->sync.mode, 1, GS__SYNC_COUNT - 1);
+    gs__check_int(&c, "sync.replay_budget", d->sync.replay_budget, 1, 1L << 30);
     if (d->sync.history_frames != -1)
         gs__check_int(&c, "sync.history_frames", d->sync.history_frames, 1, 1024);
     if (!d->allocator.alloc != !d->allocator.free)
@@ -5826,11 +5856,12 @@ GS__PRIVATE uint32_t gs__ghost_divergence(gs__ghost *g) {
    would skip steps to stay on its world's clock. A host far behind (one
    that joins late) is pulled to the others at once. */
 GS__PRIVATE int gs__sync_session(const gs_world *w);
+GS__PRIVATE int gs__sync_replay(const gs_world *w);
 
 GS__PRIVATE double gs__time_correction(const gs__ghost *g, double gap, double dt) {
     /* on the session clock time is the clock's, not the blend's: a stepped
        clock misreads the ages until the net measures the offset again */
-    if (gs__sync_session(g->agent->world)) return 0.0;
+    if (gs__sync_session(g->agent->world) || gs__sync_replay(g->agent->world)) return 0.0;
     return fabs(gap) > gs__time_band(g) ? dt : 0.0;
 }
 
@@ -5980,6 +6011,8 @@ GS__PRIVATE void gs__world_blend(gs_world *w) {
                                t_offset, priority, 6 counters */
 #define GS__SYNC_RIGID 13   /* v_prev, w_prev, target, target_q */
 #define GS__SYNC_NONE UINT64_MAX /* a log entry applied before the advance */
+#define GS__RERUN_TEST 1    /* a re-run that checks (gs_world_sync_test) */
+#define GS__RERUN_BLEND 2   /* a replay: blends, records the frames again */
 
 typedef struct gs__sync_peer {
     uint32_t host;
@@ -6017,9 +6050,11 @@ typedef struct gs__sync {
     double *log;         /* the input log, a ring of doubles */
     uint64_t log_cap, log_head, log_tail; /* head and tail only grow */
     int joined;          /* the origin jumped to a session ahead */
-    int replaying;       /* inside a re-run: ghosts and the clock rest */
+    int replaying;       /* inside a re-run (GS__RERUN_*): the clock rests */
+    double due;          /* s; the oldest snapshot waiting (replay mode):
+                            every ghost blends when an agent reaches it */
+    uint64_t frame_steps; /* agent steps of the last advance */
     uint64_t replay_seq; /* the frame being re-run */
-    uint64_t log_read;   /* the next entry a re-run applies */
 } gs__sync;
 
 GS__PRIVATE gs_result gs__sync_create(gs_world *w, const gs_sync_desc *d) {
@@ -6028,6 +6063,7 @@ GS__PRIVATE gs_result gs__sync_create(gs_world *w, const gs_sync_desc *d) {
     memset(sy, 0, sizeof *sy);
     sy->d = *d;
     sy->st.timekeeper = w->host_id;
+    sy->due = HUGE_VAL;
     w->sync = sy;
     return GS_OK;
 }
@@ -6041,6 +6077,10 @@ GS__PRIVATE void gs__sync_destroy(gs_world *w) {
 
 GS__PRIVATE int gs__sync_session(const gs_world *w) {
     return w->sync->d.clock == GS_SYNC_CLOCK_SESSION;
+}
+
+GS__PRIVATE int gs__sync_replay(const gs_world *w) {
+    return w->sync->d.mode == GS_SYNC_REPLAY;
 }
 
 /* ---- the history's layout: per agent GS__SYNC_AGENT doubles, what its
@@ -6209,26 +6249,27 @@ GS__PRIVATE void gs__sync_log(gs_agent *a, const double *in) {
     gs__log_put(sy, sy->seq, GS__SYNC_NONE, a->index, in, gs_agent_state_size(a));
 }
 
-/* A blend, at the dispatch it followed: an input of the frame running. */
+/* A blend, at the dispatch it followed: an input of the frame running
+   (in a replay, of the frame re-run). */
 GS__PRIVATE void gs__sync_log_blend(gs_agent *a, const double *in) {
     gs__sync *sy = a->world->sync;
-    if (!sy->cap || !a->world->busy || sy->replaying || sy->seq == 0) return;
-    gs__log_put(sy, sy->seq - 1, a->world->dispatches, a->index, in, gs_agent_state_size(a));
+    uint64_t frame = sy->replaying ? sy->replay_seq : sy->seq - 1;
+    if (!sy->cap || !a->world->busy || sy->replaying == GS__RERUN_TEST || sy->seq == 0) return;
+    gs__log_put(sy, frame, a->world->dispatches, a->index, in, gs_agent_state_size(a));
 }
 
 /* A re-run: applies the entries of frame `frame` logged at `dispatch`,
-   in order, as they were applied. */
+   in the order they were logged. A replay logs blends of frames past, so
+   the log is searched, not read in order (it holds a few dozen entries). */
 GS__PRIVATE void gs__sync_apply_log(gs_world *w, uint64_t frame, uint64_t dispatch) {
     gs__sync *sy = w->sync;
-    while (sy->log_read < sy->log_head) {
-        uint64_t at = sy->log_read, f = gs__d2u(gs__log_get(sy, at));
-        uint64_t d = gs__d2u(gs__log_get(sy, at + 1));
+    uint64_t at;
+    for (at = sy->log_tail; at < sy->log_head; at += 4 + (uint64_t)gs__log_get(sy, at + 3)) {
+        uint64_t f = gs__d2u(gs__log_get(sy, at)), d = gs__d2u(gs__log_get(sy, at + 1));
         int ai = (int)gs__log_get(sy, at + 2);
         size_t n = (size_t)gs__log_get(sy, at + 3), i;
         gs_agent *a;
-        if (f > frame || (f == frame && d != dispatch)) return;
-        sy->log_read += 4 + n;
-        if (f < frame || ai < 0 || ai >= w->agent_count) continue;
+        if (f != frame || d != dispatch || ai < 0 || ai >= w->agent_count) continue;
         a = w->agents[ai];
         if (n != gs_agent_state_size(a)) continue;
         /* an entry that wraps around the ring is put together in the
@@ -6254,13 +6295,17 @@ GS__PRIVATE int gs__sync_have(const gs__sync *sy, uint64_t seq) {
 
 /* ---- the hooks the world calls ---- */
 
+GS__PRIVATE void gs__sync_take(gs_world *w);
+
 /* At the start of an advance: the world as it is (inputs by hand applied)
-   becomes a frame of the history. */
+   becomes a frame of the history; in replay mode, after the snapshots
+   waiting were blended into the past (gs__sync_take). */
 GS__PRIVATE void gs__sync_begin(gs_world *w, double seconds) {
     gs__sync *sy = w->sync;
     gs__hframe *f;
     if (!sy->cap || sy->replaying) return;
     if (sy->agents != w->agent_count) { sy->valid_from = sy->seq + 1; sy->seq++; return; }
+    if (sy->d.mode == GS_SYNC_REPLAY && w->net) gs__sync_take(w);
     f = &sy->frames[sy->seq % (uint64_t)sy->cap];
     f->seq = sy->seq;
     f->seconds = seconds;
@@ -6378,11 +6423,17 @@ GS__PRIVATE void gs__sync_target(gs_world *w, double seconds, double before) {
 GS__PRIVATE void gs__sync_after_step(gs_agent *a) {
     gs_world *w = a->world;
     gs__sync *sy = w->sync;
-    if (sy->replaying) {
-        gs__sync_apply_log(w, sy->replay_seq, w->dispatches);
+    if (sy->replaying) gs__sync_apply_log(w, sy->replay_seq, w->dispatches);
+    if (sy->replaying == GS__RERUN_TEST) return;
+    if (sy->d.mode != GS_SYNC_REPLAY) {
+        if (a->ghost) gs__ghost_after_step(a);
         return;
     }
-    if (a->ghost) gs__ghost_after_step(a);
+    if (a->ghost && !sy->replaying && !gs__sync_session(w)) gs__ghost_publish(gs__ghost_of(a), w->net);
+    if (gs__agent_time(a) >= sy->due) {
+        sy->due = HUGE_VAL;
+        gs__world_blend(w);
+    }
 }
 
 /* At the end of an advance: on the session clock every ghost due
@@ -6398,6 +6449,7 @@ GS__PRIVATE void gs__sync_end(gs_world *w, double seconds, const gs_advance_repo
             if (g && gs__agent_time(g->agent) + 0.5 * seconds >= g->next_publish)
                 gs__ghost_publish_now(g, w->net);
         }
+    sy->frame_steps = rep->steps;
     sy->st.session_time = w->target;
     sy->st.lag = w->agent_count ? w->target - rep->t_min : 0.0;
     if (sy->st.lag > sy->st.lag_max) sy->st.lag_max = sy->st.lag;
@@ -6430,30 +6482,36 @@ GS__PRIVATE void gs__sync_heard(gs_net *net, int p, const gs_wire_view *v, doubl
     m->heard = now;
 }
 
-/* Re-runs frames [from, sy->seq): the advance each recorded. */
-GS__PRIVATE void gs__sync_rerun(gs_world *w, uint64_t from) {
+/* The probes' targets from a record p (the inputs between advances). */
+GS__PRIVATE void gs__sync_load_targets(gs_world *w, const double *p) {
+    int i;
+    for (i = 0; i < w->agent_count; ++i) {
+        gs__rigid *r = gs__as_rigid(w->agents[i]);
+        if (r && r->probe) {
+            const double *x = p + GS__SYNC_AGENT;
+            r->target = gs__v3(x[6], x[7], x[8]);
+            r->target_q = gs__quat(x[9], x[10], x[11], x[12]);
+        }
+        p += gs__sync_agent_size(w->agents[i]);
+    }
+}
+
+/* Re-runs frames [from, sy->seq): the advance each recorded. A replay
+   (GS__RERUN_BLEND) records each frame again as it now starts. */
+GS__PRIVATE uint64_t gs__sync_rerun(gs_world *w, uint64_t from, int how) {
     gs__sync *sy = w->sync;
-    uint64_t j;
-    sy->replaying = 1;
+    uint64_t j, steps = 0;
+    int busy = w->busy; /* a replay runs inside an advance */
+    sy->replaying = how;
     gs__sync_load(w, gs__sync_slot(sy, from));
-    sy->log_read = sy->frames[from % (uint64_t)sy->cap].log_at;
     for (j = from; j < sy->seq; ++j) {
         const gs__hframe *f = &sy->frames[j % (uint64_t)sy->cap];
         gs_advance_report rep;
-        int i;
         if (j > from) { /* the inputs between advances: probe targets, states by hand */
-            const double *p = gs__sync_slot(sy, j);
-            for (i = 0; i < w->agent_count; ++i) {
-                gs__rigid *r = gs__as_rigid(w->agents[i]);
-                if (r && r->probe) {
-                    const double *x = p + GS__SYNC_AGENT;
-                    r->target = gs__v3(x[6], x[7], x[8]);
-                    r->target_q = gs__quat(x[9], x[10], x[11], x[12]);
-                }
-                p += gs__sync_agent_size(w->agents[i]);
-            }
+            gs__sync_load_targets(w, gs__sync_slot(sy, j));
+            gs__sync_apply_log(w, j, GS__SYNC_NONE);
+            if (how == GS__RERUN_BLEND) gs__sync_save(w, gs__sync_slot(sy, j));
         }
-        gs__sync_apply_log(w, j, GS__SYNC_NONE);
         w->target = f->target;
         w->dispatches = f->dispatches;
         sy->replay_seq = j;
@@ -6462,10 +6520,59 @@ GS__PRIVATE void gs__sync_rerun(gs_world *w, uint64_t from) {
         gs__world_follow(w);
         gs__sync_target(w, f->seconds, w->target);
         gs__world_run(w, 0.0, &rep);
-        w->busy = 0;
-        sy->st.rerun_steps += rep.steps;
+        w->busy = busy;
+        steps += rep.steps;
     }
     sy->replaying = 0;
+    return steps;
+}
+
+/* Replay mode, at the start of an advance: the snapshots waiting get no
+   wire age (they blend at their own time), and the oldest one's time is
+   when every ghost blends. If it lies in the history, the frames from the
+   last one that starts before it are run again with that blend in them,
+   and the world is at its present again, corrected; the inputs of this
+   frame (probe targets now, states set by hand since) are applied again.
+   Weight rules run in the re-run, outside the net's lock. */
+GS__PRIVATE void gs__sync_take(gs_world *w) {
+    gs__sync *sy = w->sync;
+    double t = HUGE_VAL, *present;
+    uint64_t k, from = 0, dispatches = w->dispatches;
+    int i, p, q, found = 0;
+    gs__lock(w->net);
+    for (i = 0; i < w->agent_count; ++i) {
+        gs__ghost *g = gs__ghost_of(w->agents[i]);
+        for (p = 0; g && p < GS__MAX_PEERS; ++p)
+            for (q = 0; g->q[p] && q < g->d.queue_size; ++q)
+                if (g->q[p][q].used) {
+                    g->q[p][q].age = 0.0;
+                    if (g->q[p][q].time < t) t = g->q[p][q].time;
+                }
+    }
+    gs__unlock(w->net);
+    sy->due = t;
+    if (t >= w->target) return; /* none, or not yet due: the advance blends it */
+    for (k = 1; k <= (uint64_t)sy->cap && k <= sy->seq; ++k) {
+        uint64_t j = sy->seq - k;
+        if (!gs__sync_have(sy, j)) break;
+        if (sy->frames[j % (uint64_t)sy->cap].target < t) {
+            from = j;
+            found = 1;
+            break;
+        }
+    }
+    if (!found || (sy->seq - from) * sy->frame_steps > (uint64_t)sy->d.replay_budget) {
+        sy->st.fallbacks++; /* older than the history or past the budget */
+        return;
+    }
+    present = sy->ring + (size_t)sy->cap * sy->stride;
+    gs__sync_save(w, present);
+    sy->st.replay_steps += gs__sync_rerun(w, from, GS__RERUN_BLEND);
+    sy->st.replays++;
+    sy->due = HUGE_VAL; /* blended in the replay (or left for the present) */
+    gs__sync_load_targets(w, present);
+    gs__sync_apply_log(w, sy->seq, GS__SYNC_NONE);
+    w->dispatches = dispatches;
 }
 
 GS_API gs_result gs_world_sync_stats(const gs_world *w, gs_sync_stats *out) {
@@ -6500,7 +6607,7 @@ GS_API gs_result gs_world_sync_test(gs_world *w, int frames, int *bad_agent) {
     target = w->target;
     dispatches = w->dispatches;
     gs__sync_save(w, present);
-    gs__sync_rerun(w, from);
+    sy->st.rerun_steps += gs__sync_rerun(w, from, GS__RERUN_TEST);
     gs__sync_save(w, rerun);
     {
         const double *a = present, *b = rerun;

@@ -518,6 +518,148 @@ static void test_history_with_blends(void **state) {
     gs_simnet_destroy(sim);
 }
 
+
+/* ---- the replay blend ---- */
+
+static gs_result no_send(void *user, uint32_t host, const void *data, size_t size) {
+    (void)user; (void)host; (void)data; (void)size;
+    return GS_OK;
+}
+
+/* Host 2 of a pair: a moving toy ghosted under the exponential rule (a
+   real blend, not a copy), a net that hears host 1, in replay mode. */
+typedef struct replay_host {
+    gs_world *w;
+    gs_agent *a;
+    gs_net *net;
+    toy t;
+} replay_host;
+
+static void replay_host_new(replay_host *h, int history, int budget) {
+    gs_world_desc wd = gs_world_desc_default();
+    gs_ghost_desc gd = gs_ghost_desc_default();
+    gs_net_desc nd;
+    memset(h, 0, sizeof *h);
+    wd.host_id = 2;
+    wd.sync.mode = GS_SYNC_REPLAY;
+    wd.sync.history_frames = history;
+    wd.sync.replay_budget = budget;
+    assert_int_equal(gs_world_create(&wd, &h->w), GS_OK);
+    h->t.x[1] = 0.1;
+    h->a = toy_new(h->w, &h->t, 0.001);
+    gd.object_id = 1;
+    assert_int_equal(gs_ghost_attach(h->a, &gd), GS_OK);
+    memset(&nd, 0, sizeof nd);
+    nd.send = no_send;
+    assert_int_equal(gs_net_create(h->w, &nd, &h->net), GS_OK);
+    assert_int_equal(gs_net_add_peer(h->net, 1), GS_OK);
+}
+
+/* Host 1's snapshot of the toy at simulation time t: [t, 1, -0.2]. */
+static void replay_deliver(replay_host *h, double t, uint32_t seq) {
+    unsigned char buf[GS_WIRE_MAX_DATAGRAM];
+    gs_wire_header hd;
+    gs_wire_chunk c;
+    double v[2] = {1.0, -0.2};
+    size_t size = 0;
+    memset(&hd, 0, sizeof hd);
+    hd.session = 1;
+    hd.sender = 1;
+    hd.sequence = seq;
+    hd.send_time = 1.0;
+    memset(&c, 0, sizeof c);
+    c.object_id = 1;
+    c.sequence = seq;
+    c.time = t;
+    c.count = 1;
+    c.elements = 2;
+    c.encoding = GS_ENCODING_F64;
+    assert_int_equal(gs_wire_begin(buf, sizeof buf, &hd, &size), GS_OK);
+    assert_int_equal(gs_wire_add(buf, sizeof buf, &size, &c, v), GS_OK);
+    size = gs_wire_end(buf, size);
+    assert_int_equal(gs_net_deliver(h->net, buf, size, 1.0, NULL), GS_OK);
+}
+
+static void replay_frames(replay_host *h, int n) {
+    int f;
+    for (f = 0; f < n; ++f) assert_int_equal(gs_world_advance(h->w, FRAME, NULL), GS_OK);
+}
+
+/* A snapshot of time 5.5 frames that arrives after frame 10 gives bitwise
+   the world it gives when it arrives in time (before frame 6, blended when
+   the toy reaches 5.5 frames): the same world, two ways. */
+static void test_replay_late_equals_in_time(void **state) {
+    replay_host late, in_time;
+    gs_sync_stats st;
+    gs_ghost_stats gst;
+    double t_q = 5.5 * FRAME;
+    (void)state;
+    replay_host_new(&late, 16, 0);
+    replay_host_new(&in_time, 16, 0);
+    replay_frames(&late, 10);
+    replay_deliver(&late, t_q, 1);
+    replay_frames(&late, 5);
+    replay_frames(&in_time, 5);
+    replay_deliver(&in_time, t_q, 1);
+    replay_frames(&in_time, 10);
+    assert_true(gs_world_time(late.w) == gs_world_time(in_time.w));
+    assert_true(gs_world_hash(late.w) == gs_world_hash(in_time.w));
+    /* the blend moved it half way (exp(0) = 1 for both states) */
+    assert_true(late.t.x[0] > 0.4);
+    assert_int_equal(gs_ghost_get_stats(late.a, &gst), GS_OK);
+    assert_int_equal(gst.blends, 1);
+    assert_int_equal(gs_world_sync_stats(late.w, &st), GS_OK);
+    assert_int_equal(st.replays, 1);
+    assert_int_equal(st.fallbacks, 0);
+    /* from the frame starting at 5 frames (before t_q) to the present: 5
+       frames of ~17 steps */
+    assert_true(st.replay_steps >= 80 && st.replay_steps <= 90);
+    assert_int_equal(gs_world_sync_stats(in_time.w, &st), GS_OK);
+    assert_int_equal(st.replays, 0);
+    /* the re-run world stays re-runnable: the replay's blend is logged */
+    {
+        int bad = 7;
+        assert_int_equal(gs_world_sync_test(late.w, 12, &bad), GS_OK);
+        assert_int_equal(bad, -1);
+    }
+    gs_world_destroy(late.w);
+    gs_world_destroy(in_time.w);
+}
+
+/* Past the budget, or older than the history, a snapshot blends at the
+   present, and the fallback is counted. */
+static void test_replay_fallbacks(void **state) {
+    replay_host h;
+    gs_sync_stats st;
+    gs_ghost_stats gst;
+    (void)state;
+    replay_host_new(&h, 16, 40); /* 40 steps: fewer than 5 frames' ~85 */
+    replay_frames(&h, 10);
+    replay_deliver(&h, 5.5 * FRAME, 1);
+    replay_frames(&h, 1);
+    assert_int_equal(gs_world_sync_stats(h.w, &st), GS_OK);
+    assert_int_equal(st.replays, 0);
+    assert_int_equal(st.fallbacks, 1);
+    assert_int_equal(gs_ghost_get_stats(h.a, &gst), GS_OK);
+    assert_int_equal(gst.blends, 1);
+    /* one frame back fits: ~17 steps */
+    replay_deliver(&h, 10.5 * FRAME, 2);
+    replay_frames(&h, 1);
+    assert_int_equal(gs_world_sync_stats(h.w, &st), GS_OK);
+    assert_int_equal(st.replays, 1);
+    gs_world_destroy(h.w);
+    replay_host_new(&h, 4, 0); /* 4 frames: the snapshot is older */
+    replay_frames(&h, 10);
+    replay_deliver(&h, 2.5 * FRAME, 1);
+    replay_frames(&h, 1);
+    assert_int_equal(gs_world_sync_stats(h.w, &st), GS_OK);
+    assert_int_equal(st.replays, 0);
+    assert_int_equal(st.fallbacks, 1);
+    assert_int_equal(gs_ghost_get_stats(h.a, &gst), GS_OK);
+    assert_int_equal(gst.blends, 1);
+    gs_world_destroy(h.w);
+}
+
 int main(void) {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_sync_desc),
@@ -528,6 +670,8 @@ int main(void) {
         cmocka_unit_test(test_history_finds_nondeterminism),
         cmocka_unit_test(test_history_wrap),
         cmocka_unit_test(test_history_with_blends),
+        cmocka_unit_test(test_replay_late_equals_in_time),
+        cmocka_unit_test(test_replay_fallbacks),
     };
     return cmocka_run_group_tests_name("sync", tests, NULL, NULL);
 }
