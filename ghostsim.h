@@ -2103,6 +2103,7 @@ GS__PRIVATE void gs__world_follow(gs_world *w) {
 GS__PRIVATE void gs__sync_begin(gs_world *w, double seconds);
 GS__PRIVATE void gs__sync_target(gs_world *w, double seconds, double before);
 GS__PRIVATE void gs__sync_end(gs_world *w, double seconds, const gs_advance_report *rep);
+GS__PRIVATE gs_result gs__sync_run(gs_world *w, double budget, gs_advance_report *rep);
 
 /* The dispatch loop of one advance, from the target set on: runs until
    every agent is done or `budget` (s, 0 = none) of the world's clock is
@@ -2148,7 +2149,7 @@ GS_API gs_result gs_world_advance(gs_world *w, double seconds,
     before = w->target;
     w->target += seconds;
     gs__sync_target(w, seconds, before);
-    first_error = gs__world_run(w, w->budget, &rep);
+    first_error = gs__sync_run(w, w->budget, &rep);
     gs__sync_end(w, seconds, &rep);
     w->busy = 0;
     if (report) *report = rep;
@@ -6011,6 +6012,7 @@ GS__PRIVATE void gs__world_blend(gs_world *w) {
                                t_offset, priority, 6 counters */
 #define GS__SYNC_RIGID 13   /* v_prev, w_prev, target, target_q */
 #define GS__SYNC_NONE UINT64_MAX /* a log entry applied before the advance */
+#define GS__SPLITS 4        /* blend times one frame may hold */
 #define GS__RERUN_TEST 1    /* a re-run that checks (gs_world_sync_test) */
 #define GS__RERUN_BLEND 2   /* a replay: blends, records the frames again */
 
@@ -6029,6 +6031,9 @@ typedef struct gs__hframe {
     double target_run;   /* s; the target its dispatches ran to */
     uint64_t dispatches; /* w->dispatches at its start */
     uint64_t log_at;     /* the log's head at its start */
+    double split[GS__SPLITS]; /* s, ascending: the advance ran to each of
+                                 these times first, and blended there */
+    int nsplit;
 } gs__hframe;
 
 typedef struct gs__sync {
@@ -6051,8 +6056,9 @@ typedef struct gs__sync {
     uint64_t log_cap, log_head, log_tail; /* head and tail only grow */
     int joined;          /* the origin jumped to a session ahead */
     int replaying;       /* inside a re-run (GS__RERUN_*): the clock rests */
-    double due;          /* s; the oldest snapshot waiting (replay mode):
-                            every ghost blends when an agent reaches it */
+    double fresh;        /* s; the blend time of the snapshots taken at this
+                            advance (replay mode), NAN when none */
+    int at_start;        /* blending before the advance's first step */
     uint64_t frame_steps; /* agent steps of the last advance */
     uint64_t replay_seq; /* the frame being re-run */
 } gs__sync;
@@ -6063,7 +6069,7 @@ GS__PRIVATE gs_result gs__sync_create(gs_world *w, const gs_sync_desc *d) {
     memset(sy, 0, sizeof *sy);
     sy->d = *d;
     sy->st.timekeeper = w->host_id;
-    sy->due = HUGE_VAL;
+    sy->fresh = NAN;
     w->sync = sy;
     return GS_OK;
 }
@@ -6253,9 +6259,11 @@ GS__PRIVATE void gs__sync_log(gs_agent *a, const double *in) {
    (in a replay, of the frame re-run). */
 GS__PRIVATE void gs__sync_log_blend(gs_agent *a, const double *in) {
     gs__sync *sy = a->world->sync;
-    uint64_t frame = sy->replaying ? sy->replay_seq : sy->seq - 1;
-    if (!sy->cap || !a->world->busy || sy->replaying == GS__RERUN_TEST || sy->seq == 0) return;
-    gs__log_put(sy, frame, a->world->dispatches, a->index, in, gs_agent_state_size(a));
+    uint64_t frame = sy->replaying ? sy->replay_seq : sy->at_start ? sy->seq : sy->seq - 1;
+    if (!sy->cap || !a->world->busy || sy->replaying == GS__RERUN_TEST) return;
+    if (!sy->at_start && sy->seq == 0) return;
+    gs__log_put(sy, frame, sy->at_start ? GS__SYNC_NONE : a->world->dispatches, a->index, in,
+                gs_agent_state_size(a));
 }
 
 /* A re-run: applies the entries of frame `frame` logged at `dispatch`,
@@ -6305,8 +6313,14 @@ GS__PRIVATE void gs__sync_begin(gs_world *w, double seconds) {
     gs__hframe *f;
     if (!sy->cap || sy->replaying) return;
     if (sy->agents != w->agent_count) { sy->valid_from = sy->seq + 1; sy->seq++; return; }
+    sy->fresh = NAN;
     if (sy->d.mode == GS_SYNC_REPLAY && w->net) gs__sync_take(w);
     f = &sy->frames[sy->seq % (uint64_t)sy->cap];
+    f->nsplit = 0;
+    if (sy->fresh == sy->fresh) { /* due in this advance: it runs to it first */
+        f->split[0] = sy->fresh;
+        f->nsplit = 1;
+    }
     f->seq = sy->seq;
     f->seconds = seconds;
     f->target = w->target;
@@ -6430,10 +6444,6 @@ GS__PRIVATE void gs__sync_after_step(gs_agent *a) {
         return;
     }
     if (a->ghost && !sy->replaying && !gs__sync_session(w)) gs__ghost_publish(gs__ghost_of(a), w->net);
-    if (gs__agent_time(a) >= sy->due) {
-        sy->due = HUGE_VAL;
-        gs__world_blend(w);
-    }
 }
 
 /* At the end of an advance: on the session clock every ghost due
@@ -6482,12 +6492,57 @@ GS__PRIVATE void gs__sync_heard(gs_net *net, int p, const gs_wire_view *v, doubl
     m->heard = now;
 }
 
+/* A frame's dispatches, to its target: first to each of its blend times,
+   where every ghost blends what waits for it (the fresh time), or where a
+   re-run applies what the log says was blended there. A budget (s, 0 =
+   none) covers them all. */
+GS__PRIVATE gs_result gs__sync_split_run(gs_world *w, gs__hframe *f, double budget,
+                                         gs_advance_report *rep) {
+    gs__sync *sy = w->sync;
+    double end = w->target, start = budget > 0.0 ? w->clock(w->clock_user) : 0.0, left = 0.0;
+    gs_result r, first = GS_OK;
+    int i, kept = 0;
+    for (i = 0; f && i < f->nsplit; ++i) {
+        if (!(f->split[i] < end)) continue; /* past this frame: not run to */
+        f->split[kept++] = f->split[i];
+        if (budget > 0.0) {
+            left = budget - (w->clock(w->clock_user) - start);
+            if (left <= 0.0) continue;
+        }
+        w->target = f->split[i];
+        r = gs__world_run(w, left, rep);
+        if (first == GS_OK) first = r;
+        if (sy->replaying) gs__sync_apply_log(w, sy->replay_seq, w->dispatches);
+        if (f->split[i] == sy->fresh && sy->replaying != GS__RERUN_TEST) gs__world_blend(w);
+    }
+    if (f) f->nsplit = kept;
+    w->target = end;
+    if (budget > 0.0) {
+        left = budget - (w->clock(w->clock_user) - start);
+        if (left <= 0.0) left = 1e-12; /* spent: the run stops at once */
+    }
+    r = gs__world_run(w, left, rep);
+    return first == GS_OK ? r : first;
+}
+
+/* The hook gs_world_advance runs its dispatches through. */
+GS__PRIVATE gs_result gs__sync_run(gs_world *w, double budget, gs_advance_report *rep) {
+    gs__sync *sy = w->sync;
+    gs__hframe *f = NULL;
+    if (sy->cap && sy->seq > 0 && sy->agents == w->agent_count && !sy->replaying) {
+        f = &sy->frames[(sy->seq - 1) % (uint64_t)sy->cap];
+        if (f->seq != sy->seq - 1) f = NULL;
+    }
+    return gs__sync_split_run(w, f, budget, rep);
+}
+
 /* The probes' targets from a record p (the inputs between advances). */
 GS__PRIVATE void gs__sync_load_targets(gs_world *w, const double *p) {
     int i;
     for (i = 0; i < w->agent_count; ++i) {
         gs__rigid *r = gs__as_rigid(w->agents[i]);
-        if (r && r->probe) {
+        /* a peer's probe moves where its blends put it, not by a target */
+        if (r && r->probe && r->owner == w->host_id) {
             const double *x = p + GS__SYNC_AGENT;
             r->target = gs__v3(x[6], x[7], x[8]);
             r->target_q = gs__quat(x[9], x[10], x[11], x[12]);
@@ -6505,7 +6560,7 @@ GS__PRIVATE uint64_t gs__sync_rerun(gs_world *w, uint64_t from, int how) {
     sy->replaying = how;
     gs__sync_load(w, gs__sync_slot(sy, from));
     for (j = from; j < sy->seq; ++j) {
-        const gs__hframe *f = &sy->frames[j % (uint64_t)sy->cap];
+        gs__hframe *f = &sy->frames[j % (uint64_t)sy->cap];
         gs_advance_report rep;
         if (j > from) { /* the inputs between advances: probe targets, states by hand */
             gs__sync_load_targets(w, gs__sync_slot(sy, j));
@@ -6519,7 +6574,7 @@ GS__PRIVATE uint64_t gs__sync_rerun(gs_world *w, uint64_t from, int how) {
         w->busy = 1;
         gs__world_follow(w);
         gs__sync_target(w, f->seconds, w->target);
-        gs__world_run(w, 0.0, &rep);
+        gs__sync_split_run(w, f, 0.0, &rep);
         w->busy = busy;
         steps += rep.steps;
     }
@@ -6536,9 +6591,10 @@ GS__PRIVATE uint64_t gs__sync_rerun(gs_world *w, uint64_t from, int how) {
    Weight rules run in the re-run, outside the net's lock. */
 GS__PRIVATE void gs__sync_take(gs_world *w) {
     gs__sync *sy = w->sync;
-    double t = HUGE_VAL, *present;
+    double t = HUGE_VAL, *present, dt_max = 0.0;
     uint64_t k, from = 0, dispatches = w->dispatches;
     int i, p, q, found = 0;
+    gs__hframe *f;
     gs__lock(w->net);
     for (i = 0; i < w->agent_count; ++i) {
         gs__ghost *g = gs__ghost_of(w->agents[i]);
@@ -6550,26 +6606,41 @@ GS__PRIVATE void gs__sync_take(gs_world *w) {
                 }
     }
     gs__unlock(w->net);
-    sy->due = t;
-    if (t >= w->target) return; /* none, or not yet due: the advance blends it */
+    if (t == HUGE_VAL) return;
+    if (t >= w->target) { /* due in this advance or later: run to it */
+        sy->fresh = t;
+        return;
+    }
+    /* a frame's agents start within half a step of its target: one that
+       starts at t runs to t at once */
+    for (i = 0; i < w->agent_count; ++i) dt_max = fmax(dt_max, w->agents[i]->dt);
     for (k = 1; k <= (uint64_t)sy->cap && k <= sy->seq; ++k) {
         uint64_t j = sy->seq - k;
         if (!gs__sync_have(sy, j)) break;
-        if (sy->frames[j % (uint64_t)sy->cap].target < t) {
+        if (sy->frames[j % (uint64_t)sy->cap].target <= t + 0.5 * dt_max) {
             from = j;
             found = 1;
             break;
         }
     }
-    if (!found || (sy->seq - from) * sy->frame_steps > (uint64_t)sy->d.replay_budget) {
-        sy->st.fallbacks++; /* older than the history or past the budget */
+    f = found ? &sy->frames[from % (uint64_t)sy->cap] : NULL;
+    if (!f || f->nsplit == GS__SPLITS ||
+        (sy->seq - from) * sy->frame_steps > (uint64_t)sy->d.replay_budget) {
+        sy->st.fallbacks++; /* older than the history, or past the budget */
+        sy->at_start = 1;
+        gs__world_blend(w);
+        sy->at_start = 0;
         return;
     }
+    for (i = f->nsplit; i > 0 && f->split[i - 1] > t; --i) f->split[i] = f->split[i - 1];
+    f->split[i] = t;
+    f->nsplit++;
+    sy->fresh = t;
     present = sy->ring + (size_t)sy->cap * sy->stride;
     gs__sync_save(w, present);
     sy->st.replay_steps += gs__sync_rerun(w, from, GS__RERUN_BLEND);
     sy->st.replays++;
-    sy->due = HUGE_VAL; /* blended in the replay (or left for the present) */
+    sy->fresh = NAN;
     gs__sync_load_targets(w, present);
     gs__sync_apply_log(w, sy->seq, GS__SYNC_NONE);
     w->dispatches = dispatches;
