@@ -183,6 +183,21 @@ static int run(const profile *pr, int mode, int nhosts, double push, double afte
         gs_simnet_run(sim, FRAME, FRAME);
         cpu += bu_cpu_now() - c0;
         for (k = 0; k < nhosts; ++k) keep(&h[k], i);
+        if (getenv("SM_TRACE") && i >= 150 && i <= 185) {
+            gs_sync_stats st;
+            gs_world_sync_stats(h[1].w, &st);
+            int q, nq = gs_mesh_particle_count(h[0].sc.cloth), worst = 0;
+            double wd = 0.0;
+            for (q = 0; q < nq; ++q) {
+                double dq = dist3(h[0].s[i].cloth[q], h[1].s[i].cloth[q]);
+                if (dq > wd) { wd = dq; worst = q; }
+            }
+            fprintf(stderr, "  worst particle %d %.4f m; sphere2 %.4f %.4f %.4f / %.4f %.4f %.4f\n", worst, wd, h[0].s[i].sphere[2].x, h[0].s[i].sphere[2].y, h[0].s[i].sphere[2].z, h[1].s[i].sphere[2].x, h[1].s[i].sphere[2].y, h[1].s[i].sphere[2].z);
+            fprintf(stderr, "f %d t1 %.4f t2 %.4f rep %lu steps %lu fb %lu s0 %.4f/%.4f s1 %.4f/%.4f\n", i,
+                    h[0].s[i].t, h[1].s[i].t, (unsigned long)st.replays, (unsigned long)st.replay_steps,
+                    (unsigned long)st.fallbacks, h[0].s[i].sphere[0].y, h[1].s[i].sphere[0].y,
+                    h[0].s[i].sphere[1].y, h[1].s[i].sphere[1].y);
+        }
         {
             double g = 0.0;
             for (k = 1; k < nhosts; ++k) g = fmax(g, fabs(gs_world_time(h[k].w) - gs_world_time(h[0].w)));
@@ -198,6 +213,7 @@ static int run(const profile *pr, int mode, int nhosts, double push, double afte
             if (dk >= 0.0) { any = 1; if (dk > d) d = dk; }
         }
         if (!any) continue;
+        if (getenv("SM_TRACE") && i % 6 == 0) fprintf(stderr, "  t %.3f div %.3f mm\n", now, 1e3 * d);
         if (now <= push) push_div[np++] = d;
         if (now >= push + 1.0 && d != 0.0) r->bitwise_after_1s = 0;
         r->after_end = d;
@@ -259,6 +275,15 @@ int main(int argc, char **argv) {
     fprintf(stderr, "%-6s %-8s %5s | %9s %9s %9s | %9s %8s | %8s %8s | %7s %8s %6s\n", "link", "mode",
             "hosts", "push med", "push p95", "push max", "end", "bitwise", "gap p95", "gap max",
             "replay", "cpu/fr", "fallb");
+    if (getenv("SM_ONLY")) { /* one run: profile, mode, hosts */
+        result r;
+        if (getenv("SM_J")) profs[atoi(getenv("SM_ONLY"))].link.jitter = atof(getenv("SM_J"));
+        if (getenv("SM_L")) profs[atoi(getenv("SM_ONLY"))].link.loss = atof(getenv("SM_L"));
+        if (getenv("SM_LAT")) profs[atoi(getenv("SM_ONLY"))].link.latency = atof(getenv("SM_LAT"));
+        run(&profs[atoi(getenv("SM_ONLY"))], atoi(getenv("SM_M")), 2, push, after, &r);
+        fprintf(stderr, "p95 %.3f mm\n", 1e3 * r.push_p95);
+        return 0;
+    }
     for (p = 0; p < np; ++p)
         for (hh = 0; hh < nh; ++hh)
             for (m = 0; m < 3; ++m) {
