@@ -6018,7 +6018,8 @@ GS__PRIVATE void gs__world_blend(gs_world *w) {
                                t_offset, priority, 6 counters */
 #define GS__SYNC_RIGID 13   /* v_prev, w_prev, target, target_q */
 #define GS__SYNC_NONE UINT64_MAX /* a log entry applied before the advance */
-#define GS__SPLITS 4        /* blend times one frame may hold */
+#define GS__SPLITS 16       /* blend times an advance may take, and one
+                               frame may hold: a set per peer and frame */
 #define GS__RERUN_TEST 1    /* a re-run that checks (gs_world_sync_test) */
 #define GS__RERUN_BLEND 2   /* a replay: blends, records the frames again */
 
@@ -6640,21 +6641,17 @@ GS__PRIVATE uint64_t gs__sync_rerun(gs_world *w, uint64_t from, int how) {
    and the world is at its present again, corrected; the inputs of this
    frame (probe targets now, states set by hand since) are applied again.
    Weight rules run in the re-run, outside the net's lock. */
-/* Adds t to the ascending list sy->fresh (times within `half` are one,
-   the group's latest; a full list takes it into its latest). */
-GS__PRIVATE void gs__sync_fresh_add(gs__sync *sy, double t, double half) {
+/* Adds t to the ascending list sy->fresh (times within `half` are one).
+   Returns 0 when the list is full: blended at another time, a set would
+   put its objects where they were at another moment. */
+GS__PRIVATE int gs__sync_fresh_add(gs__sync *sy, double t, double half) {
     int k, j;
     for (k = 0; k < sy->nfresh && sy->fresh[k] < t - half; ++k) continue;
-    if (k < sy->nfresh && fabs(sy->fresh[k] - t) <= half) {
-        if (t > sy->fresh[k]) sy->fresh[k] = t;
-        return;
-    }
-    if (sy->nfresh == GS__SPLITS) {
-        if (t > sy->fresh[GS__SPLITS - 1]) sy->fresh[GS__SPLITS - 1] = t;
-        return;
-    }
+    if (k < sy->nfresh && fabs(sy->fresh[k] - t) <= half) return 1;
+    if (sy->nfresh == GS__SPLITS) return 0;
     for (j = sy->nfresh++; j > k; --j) sy->fresh[j] = sy->fresh[j - 1];
     sy->fresh[k] = t;
+    return 1;
 }
 
 GS__PRIVATE void gs__snap_drop(gs__ghost *g, gs__snap *sn) {
@@ -6705,7 +6702,7 @@ GS__PRIVATE void gs__sync_times(gs_world *w, double half) {
     gs__lock(w->net);
     for (p = 0; p < GS__MAX_PEERS; ++p) {
         double set = gs__sync_whole_set(w, p, half);
-        if (set > -HUGE_VAL) gs__sync_fresh_add(sy, set, half);
+        if (set > -HUGE_VAL && !gs__sync_fresh_add(sy, set, half)) set = HUGE_VAL; /* all go */
         for (i = 0; i < w->agent_count; ++i) {
             gs__ghost *g = gs__ghost_of(w->agents[i]);
             for (q = 0; g && g->q[p] && q < g->d.queue_size; ++q) {
@@ -6757,7 +6754,7 @@ GS__PRIVATE void gs__sync_take(gs_world *w) {
         gs__hframe *f;
         if (!gs__sync_frame_of(sy, sy->fresh[k], half, &j) || j < from) j = from;
         f = &sy->frames[j % (uint64_t)sy->cap];
-        if (f->nsplit == GS__SPLITS) continue; /* blends at its next time */
+        if (f->nsplit == GS__SPLITS) continue; /* not reached: at most GS__SPLITS are fresh */
         for (i = f->nsplit; i > 0 && f->split[i - 1] > sy->fresh[k]; --i) f->split[i] = f->split[i - 1];
         f->split[i] = sy->fresh[k];
         f->nsplit++;

@@ -353,6 +353,7 @@ static int build(peer_host *h) {
     if (o->replay) {
         wd.sync.mode = GS_SYNC_REPLAY;
         wd.sync.clock = GS_SYNC_CLOCK_SESSION; /* reads CLOCK_MONOTONIC, as gs_udp does */
+        wd.sync.history_frames = 64; /* 5 ms frames: 320 ms, a 250 ms round trip and more */
     }
     if (gs_world_create(&wd, &h->w) != GS_OK) return fail(h, "world");
     sd.cloth_n = o->cloth;
