@@ -58,6 +58,11 @@
                   chunks of at most one datagram (wire format v1).
        transport  What carries datagrams: gs_simnet (simulated, seeded),
                   gs_udp (POSIX), or your send callback + gs_net_deliver.
+       sync       Between the world and the net (gs_sync_desc in the world
+                  desc): the session clock (hosts at one simulation time
+                  at one wall instant), the world history (re-run recent
+                  advances bitwise: gs_world_sync_test), and the replay
+                  blend (GS_SYNC_REPLAY: each snapshot at its own time).
 
    OPTIONS (macros)
        macro                    where            default
@@ -6018,6 +6023,7 @@ GS__PRIVATE void gs__world_blend(gs_world *w) {
                                t_offset, priority, 6 counters */
 #define GS__SYNC_RIGID 13   /* v_prev, w_prev, target, target_q */
 #define GS__SYNC_NONE UINT64_MAX /* a log entry applied before the advance */
+#define GS__SYNC_SPLIT (UINT64_MAX - 1) /* one applied at a blend time */
 #define GS__SPLITS 16       /* blend times an advance may take, and one
                                frame may hold: a set per peer and frame */
 #define GS__RERUN_TEST 1    /* a re-run that checks (gs_world_sync_test) */
@@ -6067,6 +6073,7 @@ typedef struct gs__sync {
                             taken at this advance (replay mode) */
     int nfresh;
     int at_start;        /* blending before the advance's first step */
+    double at_split;     /* s; the blend time being blended at, NAN else */
     uint64_t frame_steps; /* agent steps of the last advance */
     uint64_t replay_seq; /* the frame being re-run */
 } gs__sync;
@@ -6077,6 +6084,7 @@ GS__PRIVATE gs_result gs__sync_create(gs_world *w, const gs_sync_desc *d) {
     memset(sy, 0, sizeof *sy);
     sy->d = *d;
     sy->st.timekeeper = w->host_id;
+    sy->at_split = NAN;
     w->sync = sy;
     return GS_OK;
 }
@@ -6228,19 +6236,23 @@ GS__PRIVATE void gs__sync_load(gs_world *w, const double *p) {
     }
 }
 
-/* ---- the input log: entries [frame, dispatch, agent, n, n values] ---- */
+/* ---- the input log: entries [frame, dispatch, agent, n, at, n values]:
+   applied after that dispatch, before the frame (GS__SYNC_NONE), or at
+   blend time `at` of the frame (GS__SYNC_SPLIT: a replay's blends, which
+   a later replay's new blend times would move off their dispatch) ---- */
+#define GS__LOG_HEAD 5
 GS__PRIVATE double gs__log_get(const gs__sync *sy, uint64_t at) {
     return sy->log[at % sy->log_cap];
 }
 
 /* Drops the oldest entry; the frames that needed it can no longer re-run. */
 GS__PRIVATE void gs__log_drop(gs__sync *sy) {
-    sy->log_tail += 4 + (uint64_t)gs__log_get(sy, sy->log_tail + 3);
+    sy->log_tail += GS__LOG_HEAD + (uint64_t)gs__log_get(sy, sy->log_tail + 3);
 }
 
-GS__PRIVATE void gs__log_put(gs__sync *sy, uint64_t frame, uint64_t dispatch, int agent,
-                             const double *v, size_t n) {
-    uint64_t need = 4 + (uint64_t)n, i;
+GS__PRIVATE void gs__log_put(gs__sync *sy, uint64_t frame, uint64_t dispatch, double at,
+                             int agent, const double *v, size_t n) {
+    uint64_t need = GS__LOG_HEAD + (uint64_t)n, i;
     if (need > sy->log_cap) { /* too big for any re-run: none is left */
         sy->log_tail = sy->log_head;
         sy->valid_from = sy->seq + 1;
@@ -6251,7 +6263,8 @@ GS__PRIVATE void gs__log_put(gs__sync *sy, uint64_t frame, uint64_t dispatch, in
     sy->log[(sy->log_head + 1) % sy->log_cap] = gs__u2d(dispatch);
     sy->log[(sy->log_head + 2) % sy->log_cap] = (double)agent;
     sy->log[(sy->log_head + 3) % sy->log_cap] = (double)n;
-    for (i = 0; i < n; ++i) sy->log[(sy->log_head + 4 + i) % sy->log_cap] = v[i];
+    sy->log[(sy->log_head + 4) % sy->log_cap] = at;
+    for (i = 0; i < n; ++i) sy->log[(sy->log_head + GS__LOG_HEAD + i) % sy->log_cap] = v[i];
     sy->log_head += need;
 }
 
@@ -6259,7 +6272,7 @@ GS__PRIVATE void gs__log_put(gs__sync *sy, uint64_t frame, uint64_t dispatch, in
 GS__PRIVATE void gs__sync_log(gs_agent *a, const double *in) {
     gs__sync *sy = a->world->sync;
     if (!sy->cap || a->world->busy || sy->replaying) return;
-    gs__log_put(sy, sy->seq, GS__SYNC_NONE, a->index, in, gs_agent_state_size(a));
+    gs__log_put(sy, sy->seq, GS__SYNC_NONE, 0.0, a->index, in, gs_agent_state_size(a));
 }
 
 /* A blend, at the dispatch it followed: an input of the frame running
@@ -6269,31 +6282,36 @@ GS__PRIVATE void gs__sync_log_blend(gs_agent *a, const double *in) {
     uint64_t frame = sy->replaying ? sy->replay_seq : sy->at_start ? sy->seq : sy->seq - 1;
     if (!sy->cap || !a->world->busy || sy->replaying == GS__RERUN_TEST) return;
     if (!sy->at_start && sy->seq == 0) return;
-    gs__log_put(sy, frame, sy->at_start ? GS__SYNC_NONE : a->world->dispatches, a->index, in,
+    gs__log_put(sy, frame,
+                sy->at_start ? GS__SYNC_NONE : sy->at_split == sy->at_split ? GS__SYNC_SPLIT
+                                                                           : a->world->dispatches,
+                sy->at_split == sy->at_split ? sy->at_split : 0.0, a->index, in,
                 gs_agent_state_size(a));
 }
 
 /* A re-run: applies the entries of frame `frame` logged at `dispatch`,
    in the order they were logged. A replay logs blends of frames past, so
    the log is searched, not read in order (it holds a few dozen entries). */
-GS__PRIVATE void gs__sync_apply_log(gs_world *w, uint64_t frame, uint64_t dispatch) {
+GS__PRIVATE void gs__sync_apply_log(gs_world *w, uint64_t frame, uint64_t dispatch, double when) {
     gs__sync *sy = w->sync;
-    uint64_t at;
-    for (at = sy->log_tail; at < sy->log_head; at += 4 + (uint64_t)gs__log_get(sy, at + 3)) {
+    uint64_t at, v;
+    for (at = sy->log_tail; at < sy->log_head; at += GS__LOG_HEAD + (uint64_t)gs__log_get(sy, at + 3)) {
         uint64_t f = gs__d2u(gs__log_get(sy, at)), d = gs__d2u(gs__log_get(sy, at + 1));
         int ai = (int)gs__log_get(sy, at + 2);
         size_t n = (size_t)gs__log_get(sy, at + 3), i;
         gs_agent *a;
         if (f != frame || d != dispatch || ai < 0 || ai >= w->agent_count) continue;
+        if (d == GS__SYNC_SPLIT && gs__log_get(sy, at + 4) != when) continue;
         a = w->agents[ai];
         if (n != gs_agent_state_size(a)) continue;
         /* an entry that wraps around the ring is put together in the
            last slot of the ring (a re-run's end, free until then) */
-        if ((at + 4) % sy->log_cap + n <= sy->log_cap) {
-            gs__agent_put_state(a, sy->log + (at + 4) % sy->log_cap);
+        v = at + GS__LOG_HEAD;
+        if (v % sy->log_cap + n <= sy->log_cap) {
+            gs__agent_put_state(a, sy->log + v % sy->log_cap);
         } else {
             double *buf = sy->ring + ((size_t)sy->cap + 1) * sy->stride;
-            for (i = 0; i < n; ++i) buf[i] = gs__log_get(sy, at + 4 + i);
+            for (i = 0; i < n; ++i) buf[i] = gs__log_get(sy, v + i);
             gs__agent_put_state(a, buf);
         }
     }
@@ -6454,7 +6472,7 @@ GS__PRIVATE void gs__sync_carry(gs_agent *a) {
 GS__PRIVATE void gs__sync_after_step(gs_agent *a) {
     gs_world *w = a->world;
     gs__sync *sy = w->sync;
-    if (sy->replaying) gs__sync_apply_log(w, sy->replay_seq, w->dispatches);
+    if (sy->replaying) gs__sync_apply_log(w, sy->replay_seq, w->dispatches, 0.0);
     if (sy->d.mode == GS_SYNC_REPLAY) gs__sync_carry(a);
     if (sy->replaying == GS__RERUN_TEST) return;
     if (sy->d.mode != GS_SYNC_REPLAY) {
@@ -6538,7 +6556,11 @@ GS__PRIVATE void gs__sync_blend_to(gs_world *w, double t) {
                 }
         }
         gs__unlock(w->net);
-        if (pass == 0) gs__world_blend(w);
+        if (pass == 0) {
+            w->sync->at_split = t;
+            gs__world_blend(w);
+            w->sync->at_split = NAN;
+        }
     }
     for (i = 0; i < w->agent_count; ++i) gs__sync_carry(w->agents[i]);
 }
@@ -6563,7 +6585,7 @@ GS__PRIVATE gs_result gs__sync_split_run(gs_world *w, gs__hframe *f, double budg
         w->target = f->split[i];
         r = gs__world_run(w, left, rep);
         if (first == GS_OK) first = r;
-        if (sy->replaying) gs__sync_apply_log(w, sy->replay_seq, w->dispatches);
+        if (sy->replaying) gs__sync_apply_log(w, sy->replay_seq, GS__SYNC_SPLIT, f->split[i]);
         if (sy->replaying != GS__RERUN_TEST && gs__sync_is_fresh(sy, f->split[i]))
             gs__sync_blend_to(w, f->split[i]);
     }
@@ -6616,7 +6638,7 @@ GS__PRIVATE uint64_t gs__sync_rerun(gs_world *w, uint64_t from, int how) {
         gs_advance_report rep;
         if (j > from) { /* the inputs between advances: probe targets, states by hand */
             gs__sync_load_targets(w, gs__sync_slot(sy, j));
-            gs__sync_apply_log(w, j, GS__SYNC_NONE);
+            gs__sync_apply_log(w, j, GS__SYNC_NONE, 0.0);
             if (how == GS__RERUN_BLEND) gs__sync_save(w, gs__sync_slot(sy, j));
         }
         w->target = f->target;
@@ -6764,7 +6786,7 @@ GS__PRIVATE void gs__sync_take(gs_world *w) {
     sy->st.replay_steps += gs__sync_rerun(w, from, GS__RERUN_BLEND);
     sy->st.replays++;
     gs__sync_load_targets(w, present);
-    gs__sync_apply_log(w, sy->seq, GS__SYNC_NONE);
+    gs__sync_apply_log(w, sy->seq, GS__SYNC_NONE, 0.0);
     w->dispatches = dispatches;
 }
 

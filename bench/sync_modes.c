@@ -240,7 +240,16 @@ int main(int argc, char **argv) {
     bu_json *j;
     int np, nh, p, m, hh, nr = 0, i, hosts[2] = {2, 4};
     double push, after;
-    int a = bu_parse_args(argc, argv, "sync_modes", &args);
+    const char *only = NULL;
+    int a;
+    /* --profile lan|wan|harsh runs that one alone (then the other flags) */
+    if (argc >= 3 && strcmp(argv[1], "--profile") == 0) {
+        only = argv[2];
+        argv[2] = argv[0];
+        argv += 2;
+        argc -= 2;
+    }
+    a = bu_parse_args(argc, argv, "sync_modes", &args);
     if (a) return a < 0 ? 2 : 0;
     memset(profs, 0, sizeof profs);
     profs[0].name = "lan";
@@ -261,18 +270,20 @@ int main(int argc, char **argv) {
     fprintf(stderr, "%-6s %-8s %5s | %9s %9s %9s | %9s %9s %7s | %8s %8s | %7s %7s %6s\n", "link",
             "mode", "hosts", "push med", "push p95", "push max", "stop+1s", "end", "bitwise",
             "gap p95", "gap max", "replay", "cpu/fr", "fallb");
+    if (only) np = 3;
     for (p = 0; p < np; ++p)
         for (hh = 0; hh < nh; ++hh)
             for (m = 0; m < 3; ++m) {
                 result *r = &res[nr];
+                if (only && strcmp(only, profs[p].name) != 0) continue;
                 if (!run(&profs[p], m, hosts[hh], push, after, r)) {
                     fprintf(stderr, "sync_modes: a run failed to set up\n");
                     return 1;
                 }
                 fprintf(stderr,
-                        "%-6s %-8s %5d | %7.3fmm %7.3fmm %7.3fmm | %7.4fmm %7.4fmm %7s | %6.2fms %6.2fms | %6.1f%% %6.1f%% %6lu\n",
+                        "%-6s %-8s %5d | %7.3fmm %7.3fmm %7.3fmm | %8.2em %8.2em %7s | %6.2fms %6.2fms | %6.1f%% %6.1f%% %6lu\n",
                         r->profile, r->mode, r->hosts, 1e3 * r->push_med, 1e3 * r->push_p95,
-                        1e3 * r->push_max, 1e3 * r->after_max, 1e3 * r->after_end,
+                        1e3 * r->push_max, r->after_max, r->after_end,
                         r->bitwise_after_1s ? "yes" : "no",
                         1e3 * r->gap_p95, 1e3 * r->gap_max, 100.0 * r->replay_share,
                         100.0 * r->replay_cpu_frame, (unsigned long)r->fallbacks);
