@@ -24,8 +24,9 @@
    history (GS_SYNC_REPLAY); present (the default) is the paper's blend at
    the local present on the local clock. Each JSON line then carries a
    "replay" object: the mode, replays, agent steps replayed per second of
-   wall time, and fallbacks (snapshots older than the history or past the
-   replay budget, blended at the present).
+   wall time, fallbacks (snapshots older than the history or past the
+   replay budget, blended at the present), the lag (s the slowest agent
+   is behind the target: this host not keeping pace) and the timekeeper.
 
    --key FILE seals every datagram under a pre-shared key (32 raw bytes, or
    64 hex digits and an optional newline) that every host of the session
@@ -461,10 +462,10 @@ static void print_line(peer_host *h, int final) {
         memset(&st, 0, sizeof st);
         gs_world_sync_stats(h->w, &st);
         printf(", \"replay\": {\"mode\": \"%s\", \"replays\": %llu, \"steps_per_s\": %.1f, "
-               "\"fallbacks\": %llu}",
+               "\"fallbacks\": %llu, \"lag\": %.6f, \"timekeeper\": %u}",
                h->o.replay ? "replay" : "present", (unsigned long long)st.replays,
                wall > 0.0 ? (double)st.replay_steps / wall : 0.0,
-               (unsigned long long)st.fallbacks);
+               (unsigned long long)st.fallbacks, st.lag, (unsigned)st.timekeeper);
     }
     if (final) {
         gs_net_unknown_stats(net, unknown);
