@@ -7,7 +7,8 @@
 #   make valgrind  the test suite under valgrind (memcheck, leaks)
 #   make fuzz      libFuzzer over decode, validation and blend for
 #                  FUZZ_SECONDS (300), then over a keyed net's sealed path
-#                  as long; summaries; `make test` runs 40 s + 20 s
+#                  and over sequences of datagrams on moving clocks as
+#                  long; summaries; `make test` runs 30 s + 15 s + 15 s
 #   make install   PREFIX=/usr/local: the header, ghostsim.pc
 #   make bench     every benchmark in bench/ (under 20 min on 2 cores):
 #                  bench/results/*.json, REPORT.md and PNG plots
@@ -91,7 +92,7 @@ $(BUILD)/asan/test_%: tests/test_%.c $(BUILD)/asan/gs_impl.o ghostsim.h
 	$(CC) $(CSTD) $(WARN) $(SANFLAGS) $(SODIUM_CFLAGS) -I. $< $(BUILD)/asan/gs_impl.o -o $@ -lcmocka $(LIBS) $(SODIUM_LIBS)
 # The regression test replays the fuzz harness's checks.
 $(BUILD)/test_fuzz_regress $(BUILD)/asan/test_fuzz_regress: tests/fuzz_wire.c tests/fuzz_sealed.c \
-  tests/fuzz_world.h
+  tests/fuzz_clock.c tests/fuzz_world.h
 
 # The viewer needs SDL2 (Debian libsdl2-dev); its headless mode draws PNGs.
 $(BUILD)/viewer: examples/viewer.c ghostsim.h | $(BUILD)
@@ -137,7 +138,7 @@ test-asan: $(addprefix $(BUILD)/asan/,$(TESTS) $(TESTS_NOSODIUM))
 # Everything `make test` runs, built first on both cores.
 test-build: examples $(addprefix $(BUILD)/,$(TESTS) $(TESTS_NOSODIUM)) \
             $(addprefix $(BUILD)/asan/,$(TESTS) $(TESTS_NOSODIUM)) $(BUILD)/tsan/test_net \
-            $(BUILD)/fuzz_wire $(BUILD)/fuzz_sealed
+            $(BUILD)/fuzz_wire $(BUILD)/fuzz_sealed $(BUILD)/fuzz_clock
 
 test: deps
 	@$(MAKE) --no-print-directory -j2 test-build
@@ -167,13 +168,16 @@ valgrind-udp: $(BUILD)/test_net
 	  sh tests/run.sh "valgrind, udp" "$(BUILD)/test_net test_udp*"
 
 # libFuzzer (clang; its runtime is Debian's libclang-rt-dev): the harnesses
-# tests/fuzz_wire.c (datagrams in clear) and tests/fuzz_sealed.c (a keyed
-# net: the checks before decryption, the replay window, what it opens),
-# each with the library in one binary under ASan+UBSan, seeded with
-# datagrams from the encoder (tests/fuzz_seeds.c). fuzz-ci is the
-# bounded run of `make test`; either fails if the fuzzer finds anything.
+# tests/fuzz_wire.c (datagrams in clear), tests/fuzz_sealed.c (a keyed
+# net: the checks before decryption, the replay window, what it opens) and
+# tests/fuzz_clock.c (programs of datagrams, round trips, advances and
+# clock jumps: no time leaves its bounds), each with the library in one
+# binary under ASan+UBSan, seeded with datagrams from the encoder
+# (tests/fuzz_seeds.c). fuzz-ci is the bounded run of `make test`; each
+# fails if the fuzzer finds anything.
 FUZZ_SECONDS ?= 300
 FUZZ_SEALED_SECONDS ?= $(FUZZ_SECONDS)
+FUZZ_CLOCK_SECONDS ?= $(FUZZ_SECONDS)
 FUZZ_CC      ?= clang
 FUZZ_FLAGS   := -O1 -g -fsanitize=fuzzer,address,undefined -fno-sanitize-recover=all \
                 -fno-omit-frame-pointer -fsanitize-coverage-ignorelist=tests/fuzz_ignore.txt
@@ -185,6 +189,10 @@ $(BUILD)/fuzz_sealed: tests/fuzz_sealed.c tests/fuzz_wire.c tests/fuzz_world.h t
                       tests/fuzz_ignore.txt ghostsim.h | $(BUILD)
 	$(FUZZ_CC) $(CSTD) $(WARN) $(FUZZ_FLAGS) $(SODIUM_CFLAGS) $(CCD_CFLAGS) -I. \
 	  tests/fuzz_sealed.c tests/gs_impl.c -o $@ $(LIBS) $(SODIUM_LIBS)
+$(BUILD)/fuzz_clock: tests/fuzz_clock.c tests/fuzz_world.h tests/gs_impl.c tests/fuzz_ignore.txt \
+                     ghostsim.h | $(BUILD)
+	$(FUZZ_CC) $(CSTD) $(WARN) $(FUZZ_FLAGS) $(CCD_CFLAGS) -I. tests/fuzz_clock.c tests/gs_impl.c \
+	  -o $@ $(LIBS)
 $(BUILD)/fuzz_seeds: tests/fuzz_seeds.c tests/fuzz_world.h $(BUILD)/gs_impl.o ghostsim.h
 	$(CC) $(CSTD) $(WARN) $(CFLAGS) -I. $< $(BUILD)/gs_impl.o -o $@ $(LIBS) $(SODIUM_LIBS)
 $(BUILD)/fuzz-seeds.stamp: $(BUILD)/fuzz_seeds
@@ -193,14 +201,19 @@ $(BUILD)/fuzz-seeds.stamp: $(BUILD)/fuzz_seeds
 	touch $@
 
 fuzz: deps
-	@$(MAKE) --no-print-directory $(BUILD)/fuzz_wire $(BUILD)/fuzz_sealed $(BUILD)/fuzz-seeds.stamp
+	@$(MAKE) --no-print-directory $(BUILD)/fuzz_wire $(BUILD)/fuzz_sealed $(BUILD)/fuzz_clock \
+	  $(BUILD)/fuzz-seeds.stamp
 	@sh tests/fuzz_run.sh $(BUILD)/fuzz_wire $(FUZZ_SECONDS) fuzz
 	@sh tests/fuzz_run.sh $(BUILD)/fuzz_sealed $(FUZZ_SEALED_SECONDS) fuzz
+	@sh tests/fuzz_run.sh $(BUILD)/fuzz_clock $(FUZZ_CLOCK_SECONDS) fuzz
 
-# 60 s in all: the sealed path shares the wire's decode past the seal.
-fuzz-ci: $(BUILD)/fuzz_wire $(BUILD)/fuzz_sealed $(BUILD)/fuzz-seeds.stamp
-	@sh tests/fuzz_run.sh $(BUILD)/fuzz_wire 40 ci
-	@sh tests/fuzz_run.sh $(BUILD)/fuzz_sealed 20 ci
+# 60 s in all, as before the clock harness came: the sealed path shares
+# the wire's decode past the seal, and the clock harness's programs are
+# short (48 operations) and reach their states within seconds.
+fuzz-ci: $(BUILD)/fuzz_wire $(BUILD)/fuzz_sealed $(BUILD)/fuzz_clock $(BUILD)/fuzz-seeds.stamp
+	@sh tests/fuzz_run.sh $(BUILD)/fuzz_wire 30 ci
+	@sh tests/fuzz_run.sh $(BUILD)/fuzz_sealed 15 ci
+	@sh tests/fuzz_run.sh $(BUILD)/fuzz_clock 15 ci
 
 # ghostpeer processes on loopback (tests/peers.py: bounded, kills what it
 # starts): two and three peers, a restart, a garbage flood, the command line.

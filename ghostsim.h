@@ -86,15 +86,58 @@
        code; gs_result_str() names it and gs_world_error() says what exactly
        was wrong with the last failed call on that world. Bad data from
        outside (a desc, a state vector) is an error code, never an assert;
-       a failed call changes nothing. Calling into a world from a callback
-       that runs inside its own gs_world_advance() returns GS_ERR_BUSY.
-       Out of memory is GS_ERR_NO_MEMORY, never abort().
+       a failed call changes nothing (a call that fails half way undoes
+       what it did). A NULL handle is GS_ERR_INVALID_ARG (no world to hold
+       a message then); a count whose bytes would not fit in size_t is
+       GS_ERR_OUT_OF_RANGE; out of memory is GS_ERR_NO_MEMORY, never
+       abort(); a fixed limit (max_peers, the simnet's hosts) is
+       GS_ERR_CAPACITY.
+       Callbacks: user code runs inside the library's calls: a custom
+       agent's step, get_state and set_state, behaviour rules and weight
+       rules run inside gs_world_advance, gs_agent_step, gs_world_hash,
+       gs_agent_get_state/set_state and gs_ghost_attach; the send callback
+       inside gs_net_update. From there, every call that would change the
+       world, an agent, a ghost, the net or the simnet returns GS_ERR_BUSY
+       (advance, create, destroy, set_state, step, set_gravity,
+       set_budget, set_ground, probe targets, pins, ghost attach and
+       detach, net create, peers added or removed, gs_udp_add_peer and
+       _remove_peer, gs_udp_poll in poll mode; while a gs_simnet_run
+       runs, gs_simnet_join, _link and _run); gs_world_destroy,
+       gs_net_destroy, gs_udp_close and gs_net_set_lock are refused
+       (nothing freed or changed, the reason in gs_world_error), and
+       gs_simnet_destroy is ignored while its run goes on. gs_net_update
+       and gs_net_deliver, which any thread may call, return GS_ERR_BUSY
+       from a weight rule or the send callback (the net's queues or its
+       datagram are in use then) and work from a custom step or a
+       behaviour rule. Reading is always allowed (getters,
+       gs_agent_get_state, gs_ghost_get_stats, gs_ghost_render_state,
+       gs_net_peer_stats, gs_net_unknown_stats), and so are
+       gs_agent_set_priority and gs_agent_set_behaviour.
 
    NUMBERS
-       SI units throughout: seconds, metres, kilograms, newtons. No NaN or
-       infinity ever leaves an agent: a step that would produce one (or a
-       speed above solver.max_speed) is undone and reported as
-       GS_ERR_UNSTABLE; the agent keeps its last finite state.
+       SI units throughout: seconds, metres, kilograms, newtons. Positions
+       and sizes lie within +-GS_MAX_COORD (1e9 m): a create call,
+       gs_agent_set_state (and so a snapshot blended in), gs_mesh_move_pin,
+       gs_probe_set_target or gs_world_set_ground outside it is refused
+       with GS_ERR_OUT_OF_RANGE, as is a mass or inertia whose inverse is
+       not finite. No NaN or infinity ever leaves an agent, built-in or
+       custom: a step that would produce one, leave the range, or move
+       faster than solver.max_speed is undone and reported as
+       GS_ERR_UNSTABLE; the agent keeps its last finite state (a custom
+       agent's is read before each step and put back through its
+       set_state). A quaternion of any finite size is normalized;
+       set_state refuses one of norm under 1e-6. Bodies whose centres
+       coincide (closer than 1e-12 of their size) are pushed apart along
+       y, the lower agent index down, so that a pair's forces cancel.
+       Times: every agent's time, the world's and the simnet's clock, and
+       the `now` a net is given stay in [0, GS_WIRE_MAX_TIME] (1e9 s): a
+       state, an advance, a frame or a `now` that would leave it is
+       refused (GS_ERR_INVALID_ARG), a step that would pass it fails with
+       GS_ERR_OUT_OF_RANGE. Every dt is at least GS_MIN_DT (1e-6 s), so a
+       step always moves a clock, and one gs_world_advance runs at most
+       gs_world_desc.max_steps steps: every call that counts time returns.
+       What a peer can do to this host's clock is bounded too (see >>ghost:
+       GS_MAX_AGE, GS_MAX_TIME_CORRECTION): at most 10 s per advance.
 
    THREADS
        A world and everything in it belongs to the thread that calls into
@@ -106,6 +149,12 @@
        ghost publishes or blends. gs_net_deliver, gs_net_update and the
        stats calls are safe from any thread; everything else (adding and
        removing peers included) belongs to the world's thread.
+       Weight rules run with the net's lock held, and the send callback
+       too: gs_udp's mutex is recursive, so that a rule's calls into the
+       net take it again (stats answer; the calls that change the net
+       return GS_ERR_BUSY) and never deadlock. A lock of your own
+       (gs_net_set_lock) must be recursive as well if your weight rules
+       or send callback call into the net.
 
    REVISION HISTORY
        0.1.0 (2026-11-23)  world, scheduler, spring-mass agents, integrators,
@@ -165,6 +214,15 @@ typedef double (*gs_clock_fn)(void *user);
 typedef struct gs_vec3 { double x, y, z; } gs_vec3;
 typedef struct gs_quat { double x, y, z, w; } gs_quat; /* w is the scalar */
 
+/* The coordinate range, in metres: every position an agent holds (and every
+   size: a radius, a half extent, a cloth's width) lies within +-GS_MAX_COORD.
+   A double there still resolves 1.2e-7 m, and sums, differences and squared
+   distances of such numbers cannot overflow. A create call, set_state,
+   gs_mesh_move_pin, gs_probe_set_target or gs_world_set_ground outside it
+   is GS_ERR_OUT_OF_RANGE; a step that would leave it is undone
+   (GS_ERR_UNSTABLE). */
+#define GS_MAX_COORD 1e9
+
 /* ========================================================================
    >>result
    Negative codes are errors. The list makes both the enum and the strings.
@@ -173,7 +231,8 @@ typedef struct gs_quat { double x, y, z, w; } gs_quat; /* w is the scalar */
     X(GS_OK, 0, "ok")                                                          \
     X(GS_ERR_INVALID_ARG, -1, "invalid argument")                              \
     X(GS_ERR_NOT_FINITE, -2, "a number is NaN or infinite")                    \
-    X(GS_ERR_OUT_OF_RANGE, -3, "an index or count is out of range")            \
+    X(GS_ERR_OUT_OF_RANGE, -3,                                                 \
+      "an index, count or coordinate is out of range")                         \
     X(GS_ERR_SIZE_MISMATCH, -4, "an array has the wrong length")               \
     X(GS_ERR_NO_MEMORY, -5, "out of memory")                                   \
     X(GS_ERR_UNSTABLE, -6,                                                     \
@@ -266,7 +325,16 @@ typedef struct gs_world_desc {
     void *clock_user;
     gs_allocator allocator; /* default GS_MALLOC / GS_FREE */
     gs_sync_desc sync;     /* default: local clock, 16 frames of history */
+    uint64_t max_steps;    /* agent steps (all agents together) one
+                              gs_world_advance call runs at most, so that
+                              every call returns whatever it is asked;
+                              default GS_DEFAULT_MAX_STEPS */
 } gs_world_desc;
+
+/* The default of gs_world_desc.max_steps: 4 194 304 steps, about 70 minutes
+   of simulated time for one agent at dt = 1 ms, far more than a frame
+   needs; a call that reaches it returns with report->reached = 0. */
+#define GS_DEFAULT_MAX_STEPS ((uint64_t)1 << 22)
 
 /* What one gs_world_advance call did. */
 typedef struct gs_advance_report {
@@ -289,16 +357,21 @@ GS_API gs_result gs_world_create(const gs_world_desc *desc, gs_world **out);
 
 /* Destroys the world, every agent and ghost in it, and its net. Close its
    gs_udp first (its threads use the net), and do not run a gs_simnet it
-   joined afterwards. NULL is ignored. */
+   joined afterwards. NULL is ignored. From a callback of the world or its
+   net, or while a gs_simnet_run runs it, it is refused: nothing is freed
+   and gs_world_error says so (destroy it once that call has returned). */
 GS_API void gs_world_destroy(gs_world *w);
 
 /* Moves the target time on by `seconds` (>= 0) and runs agent steps, most
-   urgent first, until every agent is within half its dt of the target or the
-   wall-clock budget is spent. An agent whose step fails keeps its state and
-   stops advancing for the rest of this call; the others go on.
-   report may be NULL. Returns GS_OK, GS_ERR_INVALID_ARG (negative seconds),
-   GS_ERR_NOT_FINITE (NaN or infinite seconds), GS_ERR_BUSY (called from inside an advance), or the
-   first error an agent's step returned (every other agent still advanced). */
+   urgent first, until every agent is within half its dt of the target, the
+   wall-clock budget is spent or max_steps steps have run (then
+   report->reached is 0 and the next call goes on). An agent whose step
+   fails keeps its state and stops advancing for the rest of this call; the
+   others go on. report may be NULL. Returns GS_OK, GS_ERR_INVALID_ARG
+   (negative seconds, NULL w, or a target past GS_WIRE_MAX_TIME: nothing
+   changes), GS_ERR_NOT_FINITE (NaN or infinite seconds), GS_ERR_BUSY
+   (called from a callback: see ERRORS), or the first error an agent's
+   step returned (every other agent still advanced). */
 GS_API gs_result gs_world_advance(gs_world *w, double seconds,
                                   gs_advance_report *report);
 
@@ -307,8 +380,8 @@ GS_API gs_result gs_world_advance(gs_world *w, double seconds,
    the others' time), the next advance starts from the slowest agent. */
 GS_API double gs_world_time(const gs_world *w);
 
-/* The detail of the last failed call on this world ("" if none). The text
-   stays valid until the next call on the world. */
+/* The detail of the last failed call on this world ("" if none, or for a
+   NULL w). The text stays valid until the next call on the world. */
 GS_API const char *gs_world_error(const gs_world *w);
 
 GS_API uint32_t gs_world_host_id(const gs_world *w);
@@ -317,7 +390,8 @@ GS_API int gs_world_agent_count(const gs_world *w);
 GS_API gs_agent *gs_world_agent(const gs_world *w, int i);
 
 GS_API gs_vec3 gs_world_gravity(const gs_world *w);
-/* Any finite vector, zero included. */
+/* Any finite vector, zero included. GS_ERR_BUSY from a callback (as every
+   setter of the world, the agents and the ghosts: see ERRORS). */
 GS_API gs_result gs_world_set_gravity(gs_world *w, gs_vec3 g);
 /* Wall seconds per advance call; 0 = unbounded. */
 GS_API gs_result gs_world_set_budget(gs_world *w, double seconds);
@@ -382,9 +456,14 @@ typedef enum gs_stability {
     GS__STABILITY_COUNT
 } gs_stability;
 
+/* The smallest dt (s) of any agent, probe or scene: at GS_WIRE_MAX_TIME a
+   double still resolves 1.2e-7 s, so a step of GS_MIN_DT moves every clock
+   the library keeps, and 1 s of simulated time is at most 1e6 steps. */
+#define GS_MIN_DT 1e-6
+
 /* How an agent steps. Zero fields take the defaults written beside them. */
 typedef struct gs_solver_desc {
-    double dt;               /* s; default 0.001 */
+    double dt;               /* s, >= GS_MIN_DT; default 0.001 */
     gs_integrator integrator; /* default symplectic Euler */
     gs_stability stability;  /* default substep (ignored by implicit Euler) */
     int max_substeps;        /* default 64 */
@@ -423,12 +502,20 @@ GS_API size_t gs_agent_state_size(const gs_agent *a);
 /* Writes [t, variables...] into out, which holds n doubles.
    GS_ERR_SIZE_MISMATCH unless n == gs_agent_state_size(a). */
 GS_API gs_result gs_agent_get_state(const gs_agent *a, double *out, size_t n);
-/* Sets the state, time included. Every number must be finite; on error
-   nothing changes. */
+/* Sets the state, time included. Every number must be finite
+   (GS_ERR_NOT_FINITE), the time in [0, GS_WIRE_MAX_TIME]
+   (GS_ERR_INVALID_ARG), every position within +-GS_MAX_COORD
+   (GS_ERR_OUT_OF_RANGE), a rigid body's quaternion of norm at least 1e-6
+   (GS_ERR_INVALID_ARG; of any finite size, it is normalized); on error
+   nothing changes. GS_ERR_BUSY from a callback, even on the agent whose
+   own step it is: ghosts and the scheduler read the state meanwhile. */
 GS_API gs_result gs_agent_set_state(gs_agent *a, const double *in, size_t n);
 
 /* Steps the agent once by its dt, outside the scheduler (for tools and
-   tests). GS_ERR_BUSY inside an advance. */
+   tests). GS_ERR_BUSY from a callback (see ERRORS); its own step and
+   weight rules are callbacks too while it runs. GS_ERR_OUT_OF_RANGE (and
+   the time stays) if the step would take its time past GS_WIRE_MAX_TIME.
+   Each call counts as an advance for GS_MAX_TIME_CORRECTION. */
 GS_API gs_result gs_agent_step(gs_agent *a);
 /* The result of the agent's last step. */
 GS_API gs_result gs_agent_result(const gs_agent *a);
@@ -442,23 +529,28 @@ GS_API void gs_agent_set_priority(gs_agent *a, int priority);
 GS_API void gs_agent_set_behaviour(gs_agent *a, gs_behaviour_fn fn,
                                    void *user);
 GS_API gs_agent_stats gs_agent_get_stats(const gs_agent *a);
-/* Removes the agent from its world and frees it. GS_ERR_BUSY inside an
-   advance. */
+/* Removes the agent from its world and frees it. GS_ERR_BUSY from a
+   callback (see ERRORS). */
 GS_API gs_result gs_agent_destroy(gs_agent *a);
 
 /* A user agent. Its variables live in user memory; ghostsim keeps its time
    and schedules it like any other. */
 typedef struct gs_custom_desc {
-    double dt;          /* s; required, > 0 */
+    double dt;          /* s; required, >= GS_MIN_DT */
     size_t state_size;  /* doubles, excluding time; may be 0 */
     /* Advances by dt seconds from time t. Returning an error leaves the
-       agent's time unchanged; the callback should leave its state too. */
+       agent's time unchanged; the callback should leave its state too.
+       A step that leaves a NaN or infinity in the state is undone: the
+       state read (get_state) before it is put back (set_state) and the
+       step returns GS_ERR_UNSTABLE. */
     gs_result (*step)(void *user, double t, double dt);
     void (*get_state)(const void *user, double *out);  /* state_size */
     gs_result (*set_state)(void *user, const double *in);
     void *user;
 } gs_custom_desc;
 
+/* GS_ERR_OUT_OF_RANGE for a state_size whose bytes do not fit in size_t;
+   the callbacks run with the world's guard up (see ERRORS). */
 GS_API gs_result gs_custom_create(gs_world *w, const gs_custom_desc *desc,
                                   gs_agent **out);
 
@@ -476,7 +568,8 @@ typedef struct gs_spring {
 
 typedef struct gs_mesh_desc {
     int particle_count;        /* >= 1 */
-    const gs_vec3 *positions;  /* m; particle_count of them, required */
+    const gs_vec3 *positions;  /* m, within +-GS_MAX_COORD; particle_count
+                                  of them, required */
     const gs_vec3 *velocities; /* m/s; NULL = at rest */
     const double *masses;      /* kg each, > 0; NULL = mass / count */
     double mass;               /* kg in all when masses is NULL; default 1 */
@@ -509,9 +602,12 @@ enum {
 
 typedef struct gs_cloth_desc {
     int nx, ny;          /* particles along u and v; each >= 2 */
-    double width, height; /* m along u and v; default 1 x 1 */
-    gs_vec3 origin;      /* m; where particle (0,0) is; default 0 */
-    gs_vec3 axis_u;      /* direction of rows; default +x */
+    double width, height; /* m along u and v, at most GS_MAX_COORD;
+                             default 1 x 1 */
+    gs_vec3 origin;      /* m; where particle (0,0) is; default 0. Every
+                            particle must lie within +-GS_MAX_COORD */
+    gs_vec3 axis_u;      /* direction of rows, of length in (1e-100,
+                            1e100); default +x */
     gs_vec3 axis_v;      /* direction of columns; default +z (the cloth
                             lies flat under y-up gravity) */
     double mass;         /* kg in all; default 1 */
@@ -535,10 +631,14 @@ GS_API gs_cloth_desc gs_cloth_desc_default(void);
 
 /* Creates a spring-mass agent. Errors name the bad field in
    gs_world_error(w): GS_ERR_INVALID_ARG, GS_ERR_NOT_FINITE,
-   GS_ERR_OUT_OF_RANGE (a spring or pin index), GS_ERR_NO_MEMORY. */
+   GS_ERR_OUT_OF_RANGE (a spring or pin index; a position, size or rest
+   length past GS_MAX_COORD; a particle mass without a finite inverse),
+   GS_ERR_NO_MEMORY. */
 GS_API gs_result gs_mesh_create(gs_world *w, const gs_mesh_desc *desc,
                                 gs_agent **out);
-/* Creates a cloth: an nx x ny grid of particles, mass spread evenly. */
+/* Creates a cloth: an nx x ny grid of particles, mass spread evenly.
+   GS_ERR_OUT_OF_RANGE also when origin, width and height put a particle
+   outside +-GS_MAX_COORD. */
 GS_API gs_result gs_cloth_create(gs_world *w, const gs_cloth_desc *desc,
                                  gs_agent **out);
 
@@ -558,8 +658,9 @@ GS_API gs_result gs_mesh_energy(const gs_agent *a, double *kinetic,
 GS_API double gs_mesh_stable_dt(const gs_agent *a);
 /* Moves a pinned particle (the application drags a corner) to pos, in
    metres. GS_ERR_INVALID_ARG if the agent is not a spring-mass agent or the
-   particle is not pinned, GS_ERR_OUT_OF_RANGE for a bad index,
-   GS_ERR_NOT_FINITE for a non-finite position; the mesh is unchanged then. */
+   particle is not pinned, GS_ERR_OUT_OF_RANGE for a bad index or a
+   position outside +-GS_MAX_COORD, GS_ERR_NOT_FINITE for a non-finite
+   position, GS_ERR_BUSY from a callback; the mesh is unchanged then. */
 GS_API gs_result gs_mesh_move_pin(gs_agent *a, int particle, gs_vec3 pos);
 
 /* ========================================================================
@@ -580,10 +681,11 @@ typedef enum gs_shape_type {
 
 typedef struct gs_shape_desc {
     gs_shape_type type;
-    double radius;          /* m, sphere */
+    double radius;          /* m, sphere; sizes at most GS_MAX_COORD */
     gs_vec3 half_extents;   /* m, box */
-    const gs_vec3 *points;  /* m, hull, in body coordinates; the body's
-                               origin becomes the hull's centre of mass */
+    const gs_vec3 *points;  /* m, hull, in body coordinates (within
+                               +-GS_MAX_COORD); the body's origin becomes
+                               the hull's centre of mass */
     int point_count;
 } gs_shape_desc;
 
@@ -593,8 +695,9 @@ typedef struct gs_rigid_desc {
     double mass;           /* kg; > 0 overrides density */
     gs_vec3 inertia;       /* kg m^2, principal moments in body axes;
                               default from shape and mass */
-    gs_vec3 position;      /* m */
-    gs_quat orientation;   /* default identity; normalized on create */
+    gs_vec3 position;      /* m, within +-GS_MAX_COORD */
+    gs_quat orientation;   /* default identity (all zero); normalized on
+                              create, whatever its finite size */
     gs_vec3 velocity;      /* m/s */
     gs_vec3 angular_velocity; /* rad/s, world frame */
     gs_material material;
@@ -615,10 +718,10 @@ typedef struct gs_rigid_desc {
 /* A kinematic body the application moves: nothing pushes it back. */
 typedef struct gs_probe_desc {
     gs_shape_desc shape;
-    gs_vec3 position;      /* m */
+    gs_vec3 position;      /* m, within +-GS_MAX_COORD */
     gs_quat orientation;   /* default identity */
     gs_material material;
-    double dt;             /* s; default 0.001 */
+    double dt;             /* s, >= GS_MIN_DT; default 0.001 */
     double max_speed;      /* m/s it may move at to reach its target;
                               default 10 */
     uint32_t owner;        /* host that drives it; default this world's */
@@ -630,14 +733,19 @@ GS_API gs_material gs_material_default(void);
 
 /* Creates a rigid body. Errors name the field: a degenerate hull (fewer
    than 4 points, all in one plane), a size <= 0, a negative density (0 is
-   the default 1000 kg/m^3), NaN. */
+   the default 1000 kg/m^3), NaN (GS_ERR_NOT_FINITE); a size or position
+   past GS_MAX_COORD, a mass or inertia (given, or density * volume) that
+   or whose inverse is not finite (GS_ERR_OUT_OF_RANGE). */
 GS_API gs_result gs_rigid_create(gs_world *w, const gs_rigid_desc *desc,
                                  gs_agent **out);
 GS_API gs_result gs_probe_create(gs_world *w, const gs_probe_desc *desc,
                                  gs_agent **out);
 
 /* Where the probe should be; it moves there over its next steps at no more
-   than max_speed. */
+   than max_speed. GS_ERR_NOT_FINITE for a NaN, GS_ERR_OUT_OF_RANGE for a
+   position outside +-GS_MAX_COORD; an all-zero orientation is the
+   identity, any other finite one is normalized. GS_ERR_BUSY from a
+   callback (set it between advances). */
 GS_API gs_result gs_probe_set_target(gs_agent *probe, gs_vec3 position,
                                      gs_quat orientation);
 
@@ -664,12 +772,15 @@ typedef struct gs_contact {
 /* The exact or libccd answer for two shapes at two poses: returns 1 and
    fills *c when they overlap, 0 when apart. Every output is finite: where
    libccd returns a non-finite direction (touching or coincident shapes) the
-   answer falls back to the direction between the centres. */
+   answer falls back to the direction between the centres, and coincident
+   centres to +y (a's normal). Shapes or positions outside GS_MAX_COORD (or
+   otherwise invalid) give 0. */
 GS_API int gs_collide_shapes(const gs_shape_desc *a, gs_vec3 pa, gs_quat qa,
                              const gs_shape_desc *b, gs_vec3 pb, gs_quat qb,
                              gs_contact *c);
 
-/* A ground plane y = height that every body meets. */
+/* A ground plane y = height (within +-GS_MAX_COORD) that every body
+   meets. GS_ERR_BUSY from a callback. */
 GS_API gs_result gs_world_set_ground(gs_world *w, int enabled, double height,
                                      gs_material material);
 
@@ -692,7 +803,7 @@ typedef struct gs_scene_desc {
                              gs_scene_desc_default() says 1 */
     uint32_t seed;        /* sphere placement; default 1 */
     gs_integrator cloth_integrator; /* default implicit Euler */
-    double dt;            /* s for every agent; default 0.002 */
+    double dt;            /* s for every agent, >= GS_MIN_DT; default 0.002 */
 } gs_scene_desc;
 
 typedef struct gs_scene {
@@ -703,10 +814,19 @@ typedef struct gs_scene {
     gs_scene_desc desc;   /* with defaults applied */
 } gs_scene;
 
+/* Settling the cloth (3 s of simulated time, below) costs cloth_n^2 *
+   3 s / dt particle steps; a scene that would need more is refused
+   (GS_ERR_INVALID_ARG). The bound admits the largest cloth ghostpeer takes
+   (256 x 256 at the default dt: 9.8e7) and refuses what would run for
+   hours (4096 x 4096 at the default dt; 16 x 16 at dt = 1e-6 s). */
+#define GS_SCENE_SETTLE_WORK 1e8
+
 GS_API gs_scene_desc gs_scene_desc_default(void);
 /* Builds the scene in w (ground on at y = -1.5 m): cloth in the plane
    y = 0 centred on the origin, spheres above it, probes above the cloth.
-   Probe i is owned by host i + 1. */
+   Probe i is owned by host i + 1. The cloth hangs for 3 s of simulated
+   time before its clock is set back to 0 (bounded by
+   GS_SCENE_SETTLE_WORK). */
 GS_API gs_result gs_scene_create(gs_world *w, const gs_scene_desc *desc,
                                  gs_scene *out);
 /* Where probe i should be at time t (s) on the scripted path the tests and
@@ -723,6 +843,18 @@ GS_API gs_vec3 gs_scene_probe_path(int i, double t);
    time is part of S and is blended too.
    ======================================================================== */
 
+/* What a peer can do to this host's clock is bounded:
+   - an age (a send time read against the peer's clock) is believed only
+     within GS_MAX_AGE seconds; past it the age is unknown (0, and the
+     snapshot may pull the local time on, never back);
+   - the blend moves an agent's simulation time by at most
+     GS_MAX_TIME_CORRECTION seconds in all per gs_world_advance (or
+     gs_agent_step) call, either way; a host that joins a session late
+     catches up that much per call;
+   - no agent's or world's time leaves [0, GS_WIRE_MAX_TIME]. */
+#define GS_MAX_AGE 2.0              /* s */
+#define GS_MAX_TIME_CORRECTION 10.0 /* s per advance, per agent */
+
 /* What a weight rule sees, for the local state or one received snapshot. */
 typedef struct gs_weight_in {
     double x;        /* s; t_j - t_i, the snapshot's simulation time minus the
@@ -735,7 +867,8 @@ typedef struct gs_weight_in {
     double age;      /* s of wall time since the snapshot was sent (an
                         estimate: its datagram's arrival less its send
                         time, less the hosts' clock offset, which the
-                        least-delayed round trip tells to half of it) */
+                        least-delayed round trip tells to half of it), in
+                        [0, GS_MAX_AGE]; 0 when unknown */
     uint32_t host;   /* the sending host (this host for the local state) */
     uint32_t lead;   /* the most advanced host among this one and the
                         peers heard in the last 0.5 s (their snapshots in
@@ -824,7 +957,11 @@ typedef struct gs_ghost_desc {
 
 GS_API gs_ghost_desc gs_ghost_desc_default(void);
 /* Wraps an agent in a ghost. GS_ERR_INVALID_ARG for object id 0 or one
-   already used in this world, a bad rate, encoding or queue size. */
+   already used in this world, a bad rate, encoding or queue size;
+   GS_ERR_CAPACITY for a state too big for the wire: more than
+   GS_WIRE_MAX_OBJECT_CHUNKS chunks in the chosen encoding;
+   GS_ERR_OUT_OF_RANGE for a state too big for the ghost's buffers to fit
+   in size_t (a custom agent's). */
 GS_API gs_result gs_ghost_attach(gs_agent *a, const gs_ghost_desc *desc);
 GS_API gs_result gs_ghost_detach(gs_agent *a);
 
@@ -947,6 +1084,10 @@ GS_API gs_result gs_world_sync_test(gs_world *w, int frames, int *bad_agent);
 #define GS_WIRE_HEADER 48
 #define GS_WIRE_CHUNK_HEADER 32
 #define GS_WIRE_MAX_CHUNKS 64 /* chunks one datagram may carry */
+/* Chunks one snapshot may have (its chunk index and count are u16): a
+   state of at most 8 847 225 values in f64 (135 a chunk), 17 694 450 in
+   f32 (270), e.g. a cloth of up to 1214 x 1214 particles in f64. */
+#define GS_WIRE_MAX_OBJECT_CHUNKS 65535
 #define GS_WIRE_FLAG_SEALED 0x01
 /* The latest simulation time a chunk may carry (s; 31 years). A double
    there still resolves 1.2e-7 s, so a 1 ms step still moves a clock; a time
@@ -1018,16 +1159,21 @@ typedef enum gs_reject {
 
 GS_API const char *gs_reject_str(gs_reject r);
 
-/* Starts a datagram in buf (cap >= GS_WIRE_HEADER + 4). */
+/* Starts a datagram in buf (cap >= GS_WIRE_HEADER + 4). The header's
+   times are written as given (tests forge datagrams with it); decode and
+   every net refuse a send or echo time outside [0, GS_WIRE_MAX_TIME]. */
 GS_API gs_result gs_wire_begin(unsigned char *buf, size_t cap,
                                const gs_wire_header *h, size_t *size);
 /* Appends a chunk of `c->elements` values. GS_ERR_CAPACITY if it does not
    fit in cap (leave room for the 4-byte checksum), GS_ERR_NOT_FINITE for a
    NaN or infinite value, or one beyond float range in f32 (never sent),
-   GS_ERR_INVALID_ARG for a time negative or past GS_WIRE_MAX_TIME. */
+   GS_ERR_INVALID_ARG for a time negative or past GS_WIRE_MAX_TIME, or a
+   *size that gs_wire_begin and gs_wire_add cannot have left (under
+   GS_WIRE_HEADER, over cap or GS_WIRE_MAX_DATAGRAM): nothing is written. */
 GS_API gs_result gs_wire_add(unsigned char *buf, size_t cap, size_t *size,
                              const gs_wire_chunk *c, const double *values);
-/* Writes the chunk count and the checksum; returns the datagram size. */
+/* Writes the checksum after size bytes (buf holds size + 4); returns the
+   datagram size (0 for a NULL buf). */
 GS_API size_t gs_wire_end(unsigned char *buf, size_t size);
 /* Checks everything that needs no knowledge of the objects: size, magic,
    version, flags, checksum, chunk layout, encodings, finite numbers and
@@ -1098,15 +1244,30 @@ typedef struct gs_peer_stats {
 
 GS_API gs_result gs_net_create(gs_world *w, const gs_net_desc *desc,
                                gs_net **out);
+/* Refused from a callback or while a gs_simnet_run runs it, as
+   gs_world_destroy. */
 GS_API void gs_net_destroy(gs_net *net);
+/* GS_ERR_CAPACITY past max_peers, GS_ERR_NO_MEMORY for the ghosts' queues
+   (then no queue is kept), GS_ERR_BUSY from a callback. */
 GS_API gs_result gs_net_add_peer(gs_net *net, uint32_t host);
 GS_API gs_result gs_net_remove_peer(gs_net *net, uint32_t host);
 /* Sends what is due at wall time `now` (s): each ghost's latest state at its
-   rate, within each peer's bandwidth. */
+   rate, within each peer's bandwidth. `now` is a clock that only moves
+   forward, in [0, GS_WIRE_MAX_TIME] (GS_ERR_INVALID_ARG otherwise,
+   GS_ERR_NOT_FINITE for NaN or infinity): the same clock for
+   gs_net_deliver. GS_ERR_BUSY from a weight rule or the send callback. */
 GS_API gs_result gs_net_update(gs_net *net, double now);
 /* Hands a received datagram to ghostsim. Returns GS_OK when it was queued,
    GS_ERR_REJECTED (reason in *why, may be NULL) when refused; refused
    datagrams are counted and never blended, and nothing is ever sent back.
+   GS_ERR_INVALID_ARG / GS_ERR_NOT_FINITE for a `now` as gs_net_update
+   refuses it, and GS_ERR_BUSY for a call from a weight rule or the send
+   callback (the queues are being read): neither is counted.
+   Time: a send or echo time outside [0, GS_WIRE_MAX_TIME] is refused
+   (GS_REJECT_TIME); a send time more than GS_MAX_AGE off the sender's
+   clock as the round trips measured it leaves the snapshot's age unknown
+   (it then may pull the local time on, never back); and the blend moves an
+   agent's time by at most GS_MAX_TIME_CORRECTION per advance.
    The checks, cheapest first: size, magic, version; without a key the CRC
    and the decode (as gs_wire_decode: a sealed datagram fails the CRC);
    the session and the sender (a peer: until here a refusal counts among
@@ -1133,7 +1294,9 @@ GS_API gs_result gs_net_unknown_stats(const gs_net *net,
 GS_API gs_net *gs_world_net(const gs_world *w);
 
 /* Optional lock around the queues, for transports that deliver from another
-   thread (the UDP gather thread sets it). */
+   thread (the UDP gather thread sets it). Weight rules and the send
+   callback run under it: make it recursive if they call into the net (see
+   THREADS). Refused from a callback (it may be held). */
 typedef struct gs_net_lock {
     void (*lock)(void *user);
     void (*unlock)(void *user);
@@ -1168,11 +1331,15 @@ typedef struct gs_simnet_desc {
 } gs_simnet_desc;
 
 GS_API gs_result gs_simnet_create(const gs_simnet_desc *desc, gs_simnet **out);
-/* Destroys the simnet (not the worlds or their nets). */
+/* Destroys the simnet (not the worlds or their nets). Ignored from a
+   callback inside its gs_simnet_run. */
 GS_API void gs_simnet_destroy(gs_simnet *sim);
 /* Joins a world: creates its net on the simnet's transport (desc.send is
    ignored) and links it both ways to every world joined so far with a
-   perfect link. */
+   perfect link. If a host cannot take it (GS_ERR_CAPACITY past its
+   max_peers) nothing is kept: no net, and no host keeps it as a peer.
+   GS_ERR_BUSY while the simnet runs (so are gs_simnet_link and
+   gs_simnet_run). */
 GS_API gs_result gs_simnet_join(gs_simnet *sim, gs_world *w,
                                 const gs_net_desc *desc, gs_net **out);
 /* Sets the link from host a to host b (one direction). */
@@ -1180,7 +1347,8 @@ GS_API gs_result gs_simnet_link(gs_simnet *sim, uint32_t a, uint32_t b,
                                 const gs_link_desc *desc);
 /* Runs every world for `seconds` of virtual time in frames of `frame`
    seconds: each frame advances each world, sends what is due and delivers
-   what has arrived. */
+   what has arrived. GS_ERR_INVALID_ARG for a frame below GS_MIN_DT (it
+   would not move the clock) or a virtual time past GS_WIRE_MAX_TIME. */
 GS_API gs_result gs_simnet_run(gs_simnet *sim, double seconds, double frame);
 GS_API double gs_simnet_time(const gs_simnet *sim);
 /* A host's own clock on the simnet (tests of the session clock): the
@@ -1217,7 +1385,9 @@ GS_API void gs_simnet_counts(const gs_simnet *sim, uint64_t *dropped,
 typedef struct gs_udp gs_udp;
 
 typedef struct gs_udp_desc {
-    const char *bind;      /* "HOST:PORT", "[v6]:PORT"; required */
+    const char *bind;      /* "HOST:PORT", "[v6]:PORT"; required; a port
+                              outside 0..65535 is GS_ERR_INVALID_ARG (0:
+                              the kernel picks one) */
     int threads;           /* 1: gather and scatter threads; 0: poll mode */
     int rcvbuf;            /* bytes; default 4 MiB */
     gs_net_desc net;       /* session, bandwidth...; send is ignored */
@@ -1225,16 +1395,20 @@ typedef struct gs_udp_desc {
 
 GS_API gs_result gs_udp_open(gs_world *w, const gs_udp_desc *desc,
                              gs_udp **out);
-/* Joins the threads, closes the socket, frees everything. */
+/* Joins the threads, closes the socket, frees everything. Refused from a
+   callback of its world (the threads may wait on the lock it holds). */
 GS_API void gs_udp_close(gs_udp *u);
 GS_API gs_net *gs_udp_net(gs_udp *u);
-/* Adds or replaces a peer's address ("HOST:PORT", IPv4 or IPv6): from
+/* Adds or replaces a peer's address ("HOST:PORT", IPv4 or IPv6; a port
+   outside 0..65535 is GS_ERR_INVALID_ARG, as in gs_udp_desc.bind): from
    then on, datagrams that name this host as their sender are taken from
    this address only. */
 GS_API gs_result gs_udp_add_peer(gs_udp *u, uint32_t host, const char *addr);
 GS_API gs_result gs_udp_remove_peer(gs_udp *u, uint32_t host);
 /* Poll mode: receives every waiting datagram and sends what is due at wall
-   time now. In thread mode it only wakes the scatter thread. */
+   time now (refused as gs_net_update refuses it; GS_ERR_BUSY from a
+   callback of the world). In thread mode it only wakes the scatter
+   thread. */
 GS_API gs_result gs_udp_poll(gs_udp *u, double now);
 /* The wall clock gs_udp uses (CLOCK_MONOTONIC seconds). */
 GS_API double gs_udp_now(void);
@@ -1253,6 +1427,7 @@ GS_API double gs_udp_now(void);
 #define GHOSTSIM_IMPLEMENTATION_DONE
 
 #include <ccd/ccd.h>
+#include <limits.h>
 #include <math.h>
 #include <stdarg.h>
 #include <stdio.h>
@@ -1381,6 +1556,14 @@ GS__PRIVATE int gs__finite3(gs_vec3 v) {
 GS__PRIVATE int gs__is_zero3(gs_vec3 v) {
     return v.x == 0.0 && v.y == 0.0 && v.z == 0.0;
 }
+GS__PRIVATE double gs__max_abs3(gs_vec3 v) {
+    return fmax(fabs(v.x), fmax(fabs(v.y), fabs(v.z)));
+}
+/* Within +-GS_MAX_COORD on every axis (so also finite, and not NaN). */
+GS__PRIVATE int gs__in_range3(gs_vec3 v) {
+    return fabs(v.x) <= GS_MAX_COORD && fabs(v.y) <= GS_MAX_COORD &&
+           fabs(v.z) <= GS_MAX_COORD;
+}
 
 /* ========================================================================
    >>result
@@ -1433,6 +1616,14 @@ GS__PRIVATE void gs__check_positive(gs__check *c, const char *field,
                        v);
 }
 
+/* A step: finite, and at least GS_MIN_DT so that it moves a clock. */
+GS__PRIVATE void gs__check_dt(gs__check *c, const char *field, double v) {
+    gs__check_finite(c, field, v);
+    if (gs__finite(v) && !(v >= GS_MIN_DT))
+        gs__check_fail(c, GS_ERR_INVALID_ARG, "%s is %g, must be >= GS_MIN_DT (%g s)", field,
+                       v, GS_MIN_DT);
+}
+
 GS__PRIVATE void gs__check_nonneg(gs__check *c, const char *field, double v) {
     gs__check_finite(c, field, v);
     if (gs__finite(v) && v < 0.0)
@@ -1445,6 +1636,24 @@ GS__PRIVATE void gs__check_vec(gs__check *c, const char *field, gs_vec3 v) {
         gs__check_fail(c, GS_ERR_NOT_FINITE,
                        "%s is (%g, %g, %g), must be finite", field, v.x, v.y,
                        v.z);
+}
+
+/* A position: finite and within +-GS_MAX_COORD. */
+GS__PRIVATE void gs__check_pos(gs__check *c, const char *field, gs_vec3 v) {
+    gs__check_vec(c, field, v);
+    if (c->r == GS_OK && !gs__in_range3(v))
+        gs__check_fail(c, GS_ERR_OUT_OF_RANGE,
+                       "%s is (%g, %g, %g) m, outside +-GS_MAX_COORD (%g m)",
+                       field, v.x, v.y, v.z, GS_MAX_COORD);
+}
+
+/* A size (m): > 0 and at most GS_MAX_COORD. */
+GS__PRIVATE void gs__check_size(gs__check *c, const char *field, double v) {
+    gs__check_positive(c, field, v);
+    if (c->r == GS_OK && v > GS_MAX_COORD)
+        gs__check_fail(c, GS_ERR_OUT_OF_RANGE,
+                       "%s is %g m, more than GS_MAX_COORD (%g m)", field, v,
+                       GS_MAX_COORD);
 }
 
 GS__PRIVATE void gs__check_int(gs__check *c, const char *field, long v,
@@ -1515,11 +1724,17 @@ struct gs_world {
     double tolerance;
     int aging_limit;
     double budget;
+    uint64_t max_steps;  /* per advance */
+    uint64_t epoch;      /* advances and gs_agent_step calls so far: the
+                            sync layer bounds what it moves per epoch */
     gs_vec3 gravity;
     gs_clock_fn clock;
     void *clock_user;
     double target;       /* s */
     int busy;            /* inside gs_world_advance */
+    int inside;          /* depth of the other calls that run user code on
+                            this world: gs_agent_step, a custom agent's
+                            callbacks (see gs__world_unlocked) */
     gs_agent **agents;
     int agent_count, agent_cap;
     /* During an advance, the live agents in a min-heap and a max-heap on
@@ -1534,6 +1749,8 @@ struct gs_world {
                                   sorted by the low end of their sweep on x
                                   (the order contacts are summed in) */
     int nbodies, bodies_cap;
+    int sap_dirty;       /* bodies and near are not sorted yet: creation
+                            appends, the next query or advance sorts */
     struct gs__rigid **near;   /* the same sorted by x - bound (searched) */
     struct gs__rigid **wide;   /* bodies with a sweep over wide_at */
     int nwide;
@@ -1581,6 +1798,32 @@ GS__PRIVATE GS__PRINTF(3, 4) gs_result gs__fail(gs_world *w, gs_result r,
     return r;
 }
 
+/* The re-entrancy guard. User code runs inside the world's own calls: a
+   custom agent's step and state callbacks, behaviour and weight rules,
+   the budget clock. While it does (an advance, gs_agent_step, a custom
+   callback), every call that would change the world, an agent, a ghost or
+   the net is refused with GS_ERR_BUSY: the call that runs the callback
+   walks those structures and would find them changed or freed. */
+GS__PRIVATE int gs__world_locked(const gs_world *w) {
+    return w->busy || w->inside;
+}
+
+GS__PRIVATE gs_result gs__world_unlocked(gs_world *w, const char *who) {
+    if (!w) return GS_ERR_INVALID_ARG;
+    if (gs__world_locked(w))
+        return gs__fail(w, GS_ERR_BUSY, "%s: the world is advancing or runs a "
+                        "callback; not allowed from inside it", who);
+    return GS_OK;
+}
+
+/* a * b + c bytes into *out; 0 if that does not fit in size_t (a count in
+   a desc that no allocator could give: callers say GS_ERR_OUT_OF_RANGE). */
+GS__PRIVATE int gs__size(size_t a, size_t b, size_t c, size_t *out) {
+    if (b != 0 && a > (SIZE_MAX - c) / b) return 0;
+    *out = a * b + c;
+    return 1;
+}
+
 GS_API gs_world_desc gs_world_desc_default(void) {
     gs_world_desc d;
     memset(&d, 0, sizeof d);
@@ -1593,6 +1836,7 @@ GS_API gs_world_desc gs_world_desc_default(void) {
     d.sync.mode = GS_SYNC_PRESENT;
     d.sync.history_frames = 16;
     d.sync.replay_budget = 4096;
+    d.max_steps = GS_DEFAULT_MAX_STEPS;
     return d;
 }
 
@@ -1609,6 +1853,7 @@ GS__PRIVATE gs_world_desc gs__world_defaults(const gs_world_desc *in) {
     if (d.sync.mode == GS_SYNC_DEFAULT) d.sync.mode = def.sync.mode;
     if (d.sync.replay_budget == 0) d.sync.replay_budget = def.sync.replay_budget;
     if (d.sync.history_frames == 0) d.sync.history_frames = def.sync.history_frames;
+    if (d.max_steps == 0) d.max_steps = def.max_steps;
     return d;
 }
 
@@ -1656,6 +1901,7 @@ GS_API gs_result gs_world_create(const gs_world_desc *desc, gs_world **out) {
     w->tolerance = d.tolerance;
     w->aging_limit = d.aging_limit;
     w->budget = d.budget;
+    w->max_steps = d.max_steps;
     w->gravity = d.gravity;
     w->clock = d.clock ? d.clock : gs__default_clock;
     w->clock_user = d.clock ? d.clock_user : NULL;
@@ -1670,11 +1916,19 @@ GS_API gs_result gs_world_create(const gs_world_desc *desc, gs_world **out) {
 struct gs__ghost;
 GS__PRIVATE void gs__ghost_free(struct gs__ghost *g);
 GS__PRIVATE void gs__sync_destroy(gs_world *w);
+GS__PRIVATE int gs__net_in_use(const gs_net *net);
 
+/* From a callback (see gs__world_unlocked) it frees nothing: the call
+   that runs the callback would go on in freed memory. */
 GS_API void gs_world_destroy(gs_world *w) {
     int i;
     if (!w) return;
-    GS_ASSERT(!w->busy && "gs_world_destroy inside gs_world_advance");
+    if (gs__world_locked(w) || gs__net_in_use(w->net)) {
+        gs__fail(w, GS_ERR_BUSY, "gs_world_destroy: called from a callback of "
+                 "this world or its net, or while its simnet runs; refused, "
+                 "nothing freed (destroy it once that call has returned)");
+        return;
+    }
     gs_net_destroy(w->net);
     for (i = 0; i < w->agent_count; ++i) {
         if (w->agents[i]->ghost) gs__ghost_free((struct gs__ghost *)w->agents[i]->ghost);
@@ -1692,6 +1946,8 @@ GS_API void gs_world_destroy(gs_world *w) {
 GS__PRIVATE gs_result gs__world_add(gs_world *w, gs_agent *a) {
     if (w->agent_count == w->agent_cap) {
         int cap = w->agent_cap ? 2 * w->agent_cap : 8;
+        if (w->agent_cap > INT_MAX / 2 || (size_t)cap > SIZE_MAX / (2 * sizeof(gs_agent *)))
+            return gs__fail(w, GS_ERR_CAPACITY, "agent list: too many agents");
         gs_agent **list = (gs_agent **)gs__alloc(w, (size_t)cap * sizeof *list);
         gs_agent **heaps = (gs_agent **)gs__alloc(w, 2 * (size_t)cap * sizeof *heaps);
         if (!list || !heaps) {
@@ -1714,7 +1970,7 @@ GS__PRIVATE gs_result gs__world_add(gs_world *w, gs_agent *a) {
 }
 
 GS_API double gs_world_time(const gs_world *w) { return w->target; }
-GS_API const char *gs_world_error(const gs_world *w) { return w->error; }
+GS_API const char *gs_world_error(const gs_world *w) { return w ? w->error : ""; }
 GS_API uint32_t gs_world_host_id(const gs_world *w) { return w->host_id; }
 GS_API int gs_world_agent_count(const gs_world *w) { return w->agent_count; }
 
@@ -1725,6 +1981,8 @@ GS_API gs_agent *gs_world_agent(const gs_world *w, int i) {
 GS_API gs_vec3 gs_world_gravity(const gs_world *w) { return w->gravity; }
 
 GS_API gs_result gs_world_set_gravity(gs_world *w, gs_vec3 g) {
+    gs_result r = gs__world_unlocked(w, "gs_world_set_gravity");
+    if (r != GS_OK) return r;
     if (!gs__finite3(g))
         return gs__fail(w, GS_ERR_NOT_FINITE,
                         "gs_world_set_gravity: gravity must be finite");
@@ -1734,6 +1992,8 @@ GS_API gs_result gs_world_set_gravity(gs_world *w, gs_vec3 g) {
 
 GS_API gs_result gs_world_set_budget(gs_world *w, double seconds) {
     gs__check c = gs__check_begin(w, "gs_world_set_budget");
+    gs_result r = gs__world_unlocked(w, "gs_world_set_budget");
+    if (r != GS_OK) return r;
     gs__check_nonneg(&c, "budget", seconds);
     if (c.r == GS_OK) w->budget = seconds;
     return c.r;
@@ -2007,9 +2267,18 @@ GS__PRIVATE void gs__activate(gs_world *w, gs_agent *a, double t_min,
 
 GS__PRIVATE void gs__sync_after_step(gs_agent *a);
 
-/* One step; then the sync layer sees it (ghosts publish and blend). */
+/* One step; then the sync layer sees it (ghosts publish and blend). A
+   step that would take the agent's time past GS_WIRE_MAX_TIME is refused:
+   no clock leaves [0, GS_WIRE_MAX_TIME]. */
 GS__PRIVATE gs_result gs__agent_step(gs_agent *a) {
-    gs_result r = a->kind->step(a, a->dt);
+    gs_result r;
+    if (!(gs__agent_time(a) + a->dt <= GS_WIRE_MAX_TIME)) {
+        a->result = GS_ERR_OUT_OF_RANGE;
+        return gs__fail(a->world, GS_ERR_OUT_OF_RANGE,
+                        "agent step: its time %.17g s + dt would pass GS_WIRE_MAX_TIME",
+                        gs__agent_time(a));
+    }
+    r = a->kind->step(a, a->dt);
     a->result = r;
     if (r == GS_OK) {
         a->steps++;
@@ -2069,14 +2338,12 @@ GS__PRIVATE void gs__sap_refresh(gs_world *w);
 #ifndef GS__FOLLOW_STEPS
 #define GS__FOLLOW_STEPS 1000.0
 #endif
-GS__PRIVATE void gs__world_follow(gs_world *w) {
+GS__PRIVATE double gs__world_follow_target(const gs_world *w) {
     double dt_max = 0.0;
     int i;
-    for (i = 0; i < w->agent_count; ++i) {
-        w->agents[i]->failed = 0;
+    for (i = 0; i < w->agent_count; ++i)
         if (w->agents[i]->dt > dt_max) dt_max = w->agents[i]->dt;
-    }
-    if (w->agent_count == 0) return;
+    if (w->agent_count == 0) return w->target;
     /* agents stop up to half a step past the target: only a lead beyond
        that and the tolerance is a jump. The clock follows when most agents
        have jumped, to the slowest of those; the rest catch up by stepping.
@@ -2092,18 +2359,23 @@ GS__PRIVATE void gs__world_follow(gs_world *w) {
                 if (t < lead_min) lead_min = t;
             }
         }
-        if (2 * leading > w->agent_count) {
-            w->target = lead_min;
-            /* an agent left more than GS__FOLLOW_STEPS of its steps behind
-               takes the clock's time instead: a time from the network (a
-               late joiner an hour on, a datagram that says 1e6 s) must not
-               buy a step per dt of catching up */
-            for (i = 0; i < w->agent_count; ++i) {
-                gs_agent *a = w->agents[i];
-                double lag = w->target - gs__agent_time(a);
-                if (lag > GS__FOLLOW_STEPS * a->dt) a->t_offset += lag;
-            }
-        }
+        return 2 * leading > w->agent_count ? lead_min : w->target;
+    }
+}
+
+/* Applies the follow to `target` (from gs__world_follow_target): an agent
+   left more than GS__FOLLOW_STEPS of its steps behind takes the clock's
+   time instead: a time from the network (a late joiner an hour on, a
+   datagram that says 1e6 s) must not buy a step per dt of catching up. */
+GS__PRIVATE void gs__world_follow(gs_world *w, double target) {
+    int i;
+    for (i = 0; i < w->agent_count; ++i) w->agents[i]->failed = 0;
+    if (target == w->target) return;
+    w->target = target;
+    for (i = 0; i < w->agent_count; ++i) {
+        gs_agent *a = w->agents[i];
+        double lag = w->target - gs__agent_time(a);
+        if (lag > GS__FOLLOW_STEPS * a->dt) a->t_offset += lag;
     }
 }
 
@@ -2124,7 +2396,9 @@ GS__PRIVATE gs_result gs__world_run(gs_world *w, double budget, gs_advance_repor
     gs__span_build(w);
     rep->reached = 1;
     for (;;) {
-        if (budget > 0.0 && w->clock(w->clock_user) - start >= budget) {
+        /* the step cap counts the whole advance's dispatches (parts and all) */
+        if ((budget > 0.0 && w->clock(w->clock_user) - start >= budget) ||
+            rep->steps + (uint64_t)rep->failed_agents >= w->max_steps) {
             rep->reached = 0;
             break;
         }
@@ -2141,18 +2415,27 @@ GS_API gs_result gs_world_advance(gs_world *w, double seconds,
                                   gs_advance_report *report) {
     gs_advance_report rep;
     gs_result first_error = GS_OK;
-    double before;
+    double before, from;
     memset(&rep, 0, sizeof rep);
-    if (w->busy)
-        return gs__fail(w, GS_ERR_BUSY, "gs_world_advance: already advancing");
+    if (!w) return GS_ERR_INVALID_ARG;
+    if (gs__world_locked(w))
+        return gs__fail(w, GS_ERR_BUSY, "gs_world_advance: already advancing, "
+                        "or called from a callback of this world");
     if (!gs__finite(seconds) || seconds < 0.0)
         return gs__fail(w, gs__finite(seconds) ? GS_ERR_INVALID_ARG
                                                : GS_ERR_NOT_FINITE,
                         "gs_world_advance: seconds is %g, must be finite and "
                         ">= 0", seconds);
+    from = gs__world_follow_target(w);
+    if (seconds > GS_WIRE_MAX_TIME - from)
+        return gs__fail(w, GS_ERR_INVALID_ARG,
+                        "gs_world_advance: %g s on from %.17g s would pass "
+                        "GS_WIRE_MAX_TIME (%g s)", seconds, from, GS_WIRE_MAX_TIME);
     w->busy = 1;
+    w->epoch++;
     gs__sync_begin(w, seconds);
-    gs__world_follow(w);
+    /* the follow after the sync layer's replay, which moves agents */
+    gs__world_follow(w, gs__world_follow_target(w));
     before = w->target;
     w->target += seconds;
     gs__sync_target(w, seconds, before);
@@ -2194,7 +2477,7 @@ GS__PRIVATE gs_solver_desc gs__solver_defaults(gs_solver_desc d) {
 }
 
 GS__PRIVATE void gs__check_solver(gs__check *c, const gs_solver_desc *d) {
-    gs__check_positive(c, "solver.dt", d->dt);
+    gs__check_dt(c, "solver.dt", d->dt);
     gs__check_int(c, "solver.integrator", (long)d->integrator, 1,
                   GS__INTEGRATOR_COUNT - 1);
     gs__check_int(c, "solver.stability", (long)d->stability, 1,
@@ -2263,6 +2546,7 @@ GS_API size_t gs_agent_state_size(const gs_agent *a) {
 
 GS_API gs_result gs_agent_get_state(const gs_agent *a, double *out,
                                     size_t n) {
+    if (!a) return GS_ERR_INVALID_ARG;
     if (n != gs_agent_state_size(a))
         return gs__fail(a->world, GS_ERR_SIZE_MISMATCH,
                         "gs_agent_get_state: n is %lu, the state has %lu",
@@ -2288,8 +2572,9 @@ GS__PRIVATE gs_result gs__agent_put_state(gs_agent *a, const double *in) {
 GS__PRIVATE void gs__sync_log(gs_agent *a, const double *in);
 
 GS_API gs_result gs_agent_set_state(gs_agent *a, const double *in, size_t n) {
-    gs_result r;
     size_t i;
+    gs_result r = gs__world_unlocked(a ? a->world : NULL, "gs_agent_set_state");
+    if (r != GS_OK) return r;
     if (n != gs_agent_state_size(a))
         return gs__fail(a->world, GS_ERR_SIZE_MISMATCH,
                         "gs_agent_set_state: n is %lu, the state has %lu",
@@ -2303,16 +2588,23 @@ GS_API gs_result gs_agent_set_state(gs_agent *a, const double *in, size_t n) {
             return gs__fail(a->world, GS_ERR_NOT_FINITE,
                             "gs_agent_set_state: element %lu is %g",
                             (unsigned long)i, in[i]);
+    if (in[0] < 0.0 || in[0] > GS_WIRE_MAX_TIME)
+        return gs__fail(a->world, GS_ERR_INVALID_ARG,
+                        "gs_agent_set_state: time is %g s, must be in [0, "
+                        "GS_WIRE_MAX_TIME = %g]", in[0], GS_WIRE_MAX_TIME);
     r = gs__agent_put_state(a, in);
     if (r == GS_OK) gs__sync_log(a, in);
     return r;
 }
 
 GS_API gs_result gs_agent_step(gs_agent *a) {
-    if (a->world->busy)
-        return gs__fail(a->world, GS_ERR_BUSY,
-                        "gs_agent_step: the world is advancing");
-    return gs__agent_step(a);
+    gs_result r = gs__world_unlocked(a ? a->world : NULL, "gs_agent_step");
+    if (r != GS_OK) return r;
+    a->world->epoch++; /* one call is one advance for the correction bound */
+    a->world->inside++; /* its step, ghost and weight rules are user code */
+    r = gs__agent_step(a);
+    a->world->inside--;
+    return r;
 }
 
 GS_API void gs_agent_set_priority(gs_agent *a, int priority) {
@@ -2335,11 +2627,10 @@ GS_API void gs_agent_set_behaviour(gs_agent *a, gs_behaviour_fn fn,
 GS__PRIVATE void gs__agent_unlink(gs_agent *a);
 
 GS_API gs_result gs_agent_destroy(gs_agent *a) {
-    gs_world *w = a->world;
+    gs_world *w = a ? a->world : NULL;
     int i;
-    if (w->busy)
-        return gs__fail(w, GS_ERR_BUSY,
-                        "gs_agent_destroy: the world is advancing");
+    gs_result r = gs__world_unlocked(w, "gs_agent_destroy");
+    if (r != GS_OK) return r;
     if (a->ghost) gs_ghost_detach(a);
     gs__agent_unlink(a);
     for (i = a->index + 1; i < w->agent_count; ++i) {
@@ -2356,42 +2647,70 @@ GS_API gs_result gs_agent_destroy(gs_agent *a) {
 typedef struct gs__custom {
     gs_agent base;
     gs_custom_desc d;
-    double *scratch; /* state_size doubles, for hashing */
+    double *scratch; /* state_size doubles, for hashing and checking */
+    double *before;  /* state_size doubles: the state before a step */
 } gs__custom;
 
+/* The user's step, held to the NUMBERS promise like a built-in one: a
+   state with a NaN or infinity after it is replaced by the one before. */
 GS__PRIVATE gs_result gs__custom_step(gs_agent *a, double dt) {
     gs__custom *c = (gs__custom *)a;
-    return c->d.step(c->d.user, gs__agent_time(a), dt);
+    size_t n = c->d.state_size, i;
+    gs_result r;
+    a->world->inside++; /* the user's callbacks run inside */
+    if (n) c->d.get_state(c->d.user, c->before);
+    r = c->d.step(c->d.user, gs__agent_time(a), dt);
+    if (r == GS_OK && n) c->d.get_state(c->d.user, c->scratch);
+    a->world->inside--;
+    if (r != GS_OK || n == 0) return r;
+    for (i = 0; i < n; ++i)
+        if (!gs__finite(c->scratch[i])) break;
+    if (i == n) return GS_OK;
+    a->world->inside++;
+    r = c->d.set_state(c->d.user, c->before);
+    a->world->inside--;
+    return gs__fail(a->world, GS_ERR_UNSTABLE,
+                    "custom agent %d: its step of %g s left element %lu at %g; "
+                    "%s", a->index, dt, (unsigned long)(i + 1), c->scratch[i],
+                    r == GS_OK ? "the state before the step was put back"
+                               : "and its set_state refused the state before "
+                                 "the step");
 }
 GS__PRIVATE size_t gs__custom_state_size(const gs_agent *a) {
     return ((const gs__custom *)a)->d.state_size;
 }
+/* The user's get_state, with the world's guard up (a const agent: the
+   world is the agent's, never const). */
+GS__PRIVATE void gs__custom_get(const gs__custom *c, double *out) {
+    gs_world *w = c->base.world;
+    w->inside++;
+    c->d.get_state(c->d.user, out);
+    w->inside--;
+}
 GS__PRIVATE void gs__custom_get_state(const gs_agent *a, double *out) {
     const gs__custom *c = (const gs__custom *)a;
-    if (c->d.state_size) c->d.get_state(c->d.user, out);
+    if (c->d.state_size) gs__custom_get(c, out);
 }
 GS__PRIVATE gs_result gs__custom_set_state(gs_agent *a, const double *in) {
     gs__custom *c = (gs__custom *)a;
-    return c->d.state_size ? c->d.set_state(c->d.user, in) : GS_OK;
+    gs_result r;
+    if (!c->d.state_size) return GS_OK;
+    a->world->inside++;
+    r = c->d.set_state(c->d.user, in);
+    a->world->inside--;
+    return r;
 }
 /* Hashes the user's state through a scratch copy made at create time. */
 GS__PRIVATE uint64_t gs__custom_hash(const gs_agent *a, uint64_t h) {
     const gs__custom *c = (const gs__custom *)a;
     if (c->d.state_size == 0) return h;
-    c->d.get_state(c->d.user, c->scratch);
+    gs__custom_get(c, c->scratch);
     return gs__fnv(h, c->scratch, c->d.state_size * sizeof(double));
 }
 
 static const gs__kind gs__custom_kind = {
     "custom", gs__custom_step, gs__custom_state_size, gs__custom_get_state,
     gs__custom_set_state, gs__custom_hash, NULL, NULL};
-
-GS__PRIVATE gs_result gs__world_unlocked(gs_world *w, const char *who) {
-    if (!w) return GS_ERR_INVALID_ARG;
-    if (w->busy)
-        return gs__fail(w, GS_ERR_BUSY, "%s: the world is advancing", who);
-    return GS_OK;
-}
 
 /* Refuses a NULL world or out, and any call while the world advances. */
 GS__PRIVATE gs_result gs__create_begin(gs_world *w, const void *desc,
@@ -2409,18 +2728,25 @@ GS_API gs_result gs_custom_create(gs_world *w, const gs_custom_desc *desc,
                                   gs_agent **out) {
     gs__check c;
     gs__custom *a;
+    size_t bytes = 0;
     gs_result r = gs__create_begin(w, desc, out, "gs_custom_create");
     if (r != GS_OK) return r;
     c = gs__check_begin(w, "gs_custom_create");
-    gs__check_positive(&c, "dt", desc->dt);
+    gs__check_dt(&c, "dt", desc->dt);
     if (!desc->step) gs__check_fail(&c, GS_ERR_INVALID_ARG, "step is NULL");
     if (desc->state_size && (!desc->get_state || !desc->set_state))
         gs__check_fail(&c, GS_ERR_INVALID_ARG,
                        "state_size is %lu but get_state or set_state is NULL",
                        (unsigned long)desc->state_size);
+    /* bytes = sizeof *a + 16 * state_size (the state and the copy a step
+       is checked against); the state with its time, 1 + state_size
+       doubles, fits in size_t then too */
+    if (c.r == GS_OK && !gs__size(desc->state_size, 2 * sizeof(double), sizeof *a, &bytes))
+        gs__check_fail(&c, GS_ERR_OUT_OF_RANGE,
+                       "state_size is %lu: its bytes do not fit in size_t",
+                       (unsigned long)desc->state_size);
     if (c.r != GS_OK) return c.r;
-    a = (gs__custom *)gs__alloc(w, sizeof *a + desc->state_size *
-                                                      sizeof(double));
+    a = (gs__custom *)gs__alloc(w, bytes);
     if (!a)
         return gs__fail(w, GS_ERR_NO_MEMORY, "gs_custom_create: out of memory");
     r = gs__agent_init(w, &a->base, &gs__custom_kind, desc->dt);
@@ -2430,6 +2756,7 @@ GS_API gs_result gs_custom_create(gs_world *w, const gs_custom_desc *desc,
     }
     a->d = *desc;
     a->scratch = (double *)(a + 1);
+    a->before = a->scratch + desc->state_size;
     return gs__sync_added(w, &a->base, out);
 }
 
@@ -2480,9 +2807,20 @@ typedef struct gs__carver {
     size_t used;
 } gs__carver;
 
+/* count * size, or SIZE_MAX when that does not fit (32-bit size_t: a
+   4096 x 4096 cloth's spring Jacobians alone are 4.8 GB). */
+GS__PRIVATE size_t gs__mul_sat(size_t count, size_t size) {
+    return size && count > SIZE_MAX / size ? SIZE_MAX : count * size;
+}
+
+/* A layout that would not fit in size_t saturates at SIZE_MAX, which no
+   allocator gives: the create call fails as out of memory. */
 GS__PRIVATE void *gs__carve(gs__carver *cv, size_t bytes) {
     void *p = cv->base ? (void *)(cv->base + cv->used) : NULL;
-    cv->used += (bytes + 15) & ~(size_t)15;
+    if (bytes > SIZE_MAX - 15 || cv->used > SIZE_MAX - ((bytes + 15) & ~(size_t)15))
+        cv->used = SIZE_MAX;
+    else
+        cv->used += (bytes + 15) & ~(size_t)15;
     return p;
 }
 
@@ -2497,7 +2835,7 @@ GS__PRIVATE void gs__mesh_layout(gs__mesh *m, gs__carver *cv) {
     m->ext = (gs_vec3 *)gs__carve(cv, v3);
     m->mass = (double *)gs__carve(cv, n * sizeof(double));
     m->inv_mass = (double *)gs__carve(cv, n * sizeof(double));
-    m->springs = (gs__spring *)gs__carve(cv, (size_t)m->ns * sizeof(gs__spring));
+    m->springs = (gs__spring *)gs__carve(cv, gs__mul_sat((size_t)m->ns, sizeof(gs__spring)));
     m->pins = (int *)gs__carve(cv, (size_t)m->npins * sizeof(int));
     m->pinned = (unsigned char *)gs__carve(cv, n);
     if (it != GS_INTEGRATOR_IMPLICIT_EULER &&
@@ -2513,7 +2851,7 @@ GS__PRIVATE void gs__mesh_layout(gs__mesh *m, gs__carver *cv) {
         m->sv = (gs_vec3 *)gs__carve(cv, v3);
     }
     if (it == GS_INTEGRATOR_IMPLICIT_EULER) {
-        m->jac = (double *)gs__carve(cv, (size_t)m->ns * 6 * sizeof(double));
+        m->jac = (double *)gs__carve(cv, gs__mul_sat((size_t)m->ns, 6 * sizeof(double)));
         m->cn = (gs_vec3 *)gs__carve(cv, v3);
         m->ck = (double *)gs__carve(cv, n * sizeof(double));
         m->cc = (double *)gs__carve(cv, n * sizeof(double));
@@ -2758,16 +3096,15 @@ GS__PRIVATE void gs__int_implicit_euler(gs__mesh *m, double h) {
 
 /* ---- stepping ---- */
 
-/* Finite positions and no particle faster than max_speed: anything else
-   means the step blew up. */
+/* Every new speed at most max_speed and every new position in range
+   (which also refuses NaN): anything else means the step blew up. */
 GS__PRIVATE int gs__mesh_sane(const gs__mesh *m) {
-    double vmax2 = m->solver.max_speed * m->solver.max_speed, sum = 0.0;
+    double vmax2 = m->solver.max_speed * m->solver.max_speed;
     int i;
-    for (i = 0; i < m->n; ++i) {
-        if (!(gs__dot(m->vn[i], m->vn[i]) <= vmax2)) return 0;
-        sum += m->xn[i].x + m->xn[i].y + m->xn[i].z;
-    }
-    return gs__finite(sum);
+    for (i = 0; i < m->n; ++i)
+        if (!(gs__dot(m->vn[i], m->vn[i]) <= vmax2) || !gs__in_range3(m->xn[i]))
+            return 0;
+    return 1;
 }
 
 GS__PRIVATE void gs__mesh_contacts(gs__mesh *m, double t);
@@ -2867,6 +3204,12 @@ GS__PRIVATE void gs__mesh_get_state(const gs_agent *a, double *out) {
 GS__PRIVATE gs_result gs__mesh_set_state(gs_agent *a, const double *in) {
     gs__mesh *m = (gs__mesh *)a;
     int i;
+    for (i = 0; i < m->n; ++i)
+        if (!gs__in_range3(gs__v3(in[3 * i], in[3 * i + 1], in[3 * i + 2])))
+            return gs__fail(a->world, GS_ERR_OUT_OF_RANGE,
+                            "gs_agent_set_state: particle %d at (%g, %g, %g) m "
+                            "is outside +-GS_MAX_COORD (%g m)", i, in[3 * i],
+                            in[3 * i + 1], in[3 * i + 2], GS_MAX_COORD);
     memcpy(m->x, in, (size_t)m->n * sizeof(gs_vec3));
     memcpy(m->v, in + 3 * m->n, (size_t)m->n * sizeof(gs_vec3));
     for (i = 0; i < m->npins; ++i) m->v[m->pins[i]] = gs__v3(0.0, 0.0, 0.0);
@@ -3036,6 +3379,10 @@ GS__PRIVATE void gs__check_mesh_springs(gs__check *c, const gs_mesh_desc *d) {
                            s->damping < 0.0 ? "damping" : "rest_length",
                            s->damping < 0.0 ? s->damping : s->rest_length,
                            "must be >= 0");
+        /* two points in range are at most 2 sqrt(3) GS_MAX_COORD apart */
+        if (c->r == GS_OK && s->rest_length > 4.0 * GS_MAX_COORD)
+            gs__check_item(c, GS_ERR_OUT_OF_RANGE, "springs", i, "rest_length",
+                           s->rest_length, "must be at most 4 GS_MAX_COORD");
         if (c->r == GS_OK && s->rest_length == 0.0 &&
             gs__len(gs__sub(d->positions[s->a], d->positions[s->b])) == 0.0)
             gs__check_item(c, GS_ERR_INVALID_ARG, "springs", i, "rest_length",
@@ -3066,6 +3413,10 @@ GS__PRIVATE void gs__check_mesh_particles(gs__check *c,
         if (!gs__finite3(d->positions[i]))
             gs__check_item(c, GS_ERR_NOT_FINITE, "positions", i, "", NAN,
                            "must be finite");
+        else if (!gs__in_range3(d->positions[i]))
+            gs__check_item(c, GS_ERR_OUT_OF_RANGE, "positions", i,
+                           " largest coordinate", gs__max_abs3(d->positions[i]),
+                           "must be within +-GS_MAX_COORD");
         if (d->velocities && !gs__finite3(d->velocities[i]))
             gs__check_item(c, GS_ERR_NOT_FINITE, "velocities", i, "", NAN,
                            "must be finite");
@@ -3075,6 +3426,9 @@ GS__PRIVATE void gs__check_mesh_particles(gs__check *c,
         if (d->masses && gs__finite(d->masses[i]) && d->masses[i] <= 0.0)
             gs__check_item(c, GS_ERR_INVALID_ARG, "masses", i, "", d->masses[i],
                            "must be > 0");
+        if (d->masses && !gs__finite(1.0 / d->masses[i]))
+            gs__check_item(c, GS_ERR_OUT_OF_RANGE, "masses", i, "", d->masses[i],
+                           "has no finite inverse");
     }
 }
 
@@ -3095,15 +3449,25 @@ GS__PRIVATE gs_mesh_desc gs__mesh_defaults(const gs_mesh_desc *in) {
     return d;
 }
 
+/* mass / count per particle: its inverse must be finite, or every step of
+   that particle is inf * 0. */
+GS__PRIVATE void gs__check_particle_mass(gs__check *c, double mass, int count) {
+    if (c->r == GS_OK && count > 0 && !gs__finite(1.0 / (mass / count)))
+        gs__check_fail(c, GS_ERR_OUT_OF_RANGE,
+                       "mass is %g kg over %d particles: each particle's mass "
+                       "has no finite inverse", mass, count);
+}
+
 GS__PRIVATE gs_result gs__mesh_check(gs_world *w, const gs_mesh_desc *d) {
     gs__check c = gs__check_begin(w, "gs_mesh_create");
     gs__check_mesh_particles(&c, d);
     gs__check_positive(&c, "mass", d->mass);
+    gs__check_particle_mass(&c, d->mass, d->particle_count);
     gs__check_int(&c, "spring_count", d->spring_count, 0, 1L << 26);
     if (c.r == GS_OK) gs__check_mesh_springs(&c, d);
     if (c.r == GS_OK) gs__check_pins(&c, d->pins, d->pin_count, d->particle_count);
     gs__check_nonneg(&c, "air_damping", d->air_damping);
-    gs__check_positive(&c, "particle_radius", d->particle_radius);
+    gs__check_size(&c, "particle_radius", d->particle_radius);
     gs__check_material(&c, &d->material);
     gs__check_solver(&c, &d->solver);
     return c.r;
@@ -3183,6 +3547,13 @@ GS__PRIVATE gs_cloth_desc gs__cloth_defaults(const gs_cloth_desc *in) {
 GS__PRIVATE void gs__check_axes(gs__check *c, gs_vec3 u, gs_vec3 v) {
     gs__check_vec(c, "axis_u", u);
     gs__check_vec(c, "axis_v", v);
+    /* the cloth divides by their lengths and tests their cross product */
+    if (c->r == GS_OK && !(gs__len(u) > 1e-100 && gs__len(u) < 1e100))
+        gs__check_fail(c, GS_ERR_OUT_OF_RANGE, "axis_u has length %g, must "
+                       "be in (1e-100, 1e100)", gs__len(u));
+    if (c->r == GS_OK && !(gs__len(v) > 1e-100 && gs__len(v) < 1e100))
+        gs__check_fail(c, GS_ERR_OUT_OF_RANGE, "axis_v has length %g, must "
+                       "be in (1e-100, 1e100)", gs__len(v));
     if (c->r == GS_OK &&
         !(gs__len(gs__cross(u, v)) > 1e-9 * gs__len(u) * gs__len(v)))
         gs__check_fail(c, GS_ERR_INVALID_ARG,
@@ -3194,11 +3565,12 @@ GS__PRIVATE gs_result gs__cloth_check(gs_world *w, const gs_cloth_desc *d) {
     gs__check c = gs__check_begin(w, "gs_cloth_create");
     gs__check_int(&c, "nx", d->nx, 2, 4096);
     gs__check_int(&c, "ny", d->ny, 2, 4096);
-    gs__check_positive(&c, "width", d->width);
-    gs__check_positive(&c, "height", d->height);
-    gs__check_vec(&c, "origin", d->origin);
+    gs__check_size(&c, "width", d->width);
+    gs__check_size(&c, "height", d->height);
+    gs__check_pos(&c, "origin", d->origin);
     gs__check_axes(&c, d->axis_u, d->axis_v);
     gs__check_positive(&c, "mass", d->mass);
+    if (c.r == GS_OK) gs__check_particle_mass(&c, d->mass, d->nx * d->ny);
     gs__check_int(&c, "springs", d->springs, 1, 7);
     gs__check_positive(&c, "stretch_stiffness", d->stretch_stiffness);
     gs__check_positive(&c, "shear_stiffness", d->shear_stiffness);
@@ -3207,7 +3579,7 @@ GS__PRIVATE gs_result gs__cloth_check(gs_world *w, const gs_cloth_desc *d) {
     gs__check_nonneg(&c, "air_damping", d->air_damping);
     gs__check_int(&c, "pin_corners", d->pin_corners, 0, GS_CORNER_ALL);
     if (c.r == GS_OK) gs__check_pins(&c, d->pins, d->pin_count, d->nx * d->ny);
-    gs__check_positive(&c, "particle_radius", d->particle_radius);
+    gs__check_size(&c, "particle_radius", d->particle_radius);
     gs__check_material(&c, &d->material);
     gs__check_solver(&c, &d->solver);
     return c.r;
@@ -3268,6 +3640,26 @@ GS__PRIVATE void gs__cloth_fill(gs__mesh *m, const gs_cloth_desc *d) {
     m->mat = d->material;
 }
 
+/* Origin, width and height each in range can still put a particle outside
+   it (origin 9e8 m, width 5e8 m): every particle is checked once filled,
+   and the cloth, the last agent added, is let go again if one is out. */
+GS__PRIVATE gs_result gs__cloth_in_range(gs_world *w, gs__mesh *m) {
+    int i;
+    for (i = 0; i < m->n; ++i)
+        if (!gs__in_range3(m->x[i])) {
+            gs_vec3 x = m->x[i];
+            w->agent_count--;
+            w->nmeshes--;
+            gs__free(w, m);
+            return gs__fail(w, GS_ERR_OUT_OF_RANGE,
+                            "gs_cloth_create: particle %d would be at (%g, %g, "
+                            "%g) m, outside +-GS_MAX_COORD (%g m): origin, "
+                            "width and height put the cloth out of range",
+                            i, x.x, x.y, x.z, GS_MAX_COORD);
+        }
+    return GS_OK;
+}
+
 GS_API gs_result gs_cloth_create(gs_world *w, const gs_cloth_desc *desc,
                                  gs_agent **out) {
     gs_cloth_desc d;
@@ -3283,6 +3675,8 @@ GS_API gs_result gs_cloth_create(gs_world *w, const gs_cloth_desc *desc,
                      d.pin_count + 4, &d.solver, &m);
     if (r != GS_OK) return r;
     gs__cloth_fill(m, &d);
+    r = gs__cloth_in_range(w, m);
+    if (r != GS_OK) return r;
     for (corner = 0; corner < 4; ++corner)
         if (d.pin_corners & (1 << corner))
             pins[npins++] = (corner & 1 ? d.nx - 1 : 0) +
@@ -3353,7 +3747,8 @@ GS_API gs_result gs_mesh_energy(const gs_agent *a, double *kinetic,
 
 GS_API gs_result gs_mesh_move_pin(gs_agent *a, int particle, gs_vec3 pos) {
     gs__mesh *m = gs__as_mesh(a);
-    if (!a) return GS_ERR_INVALID_ARG;
+    gs_result r = gs__world_unlocked(a ? a->world : NULL, "gs_mesh_move_pin");
+    if (r != GS_OK) return r;
     if (!m)
         return gs__fail(a->world, GS_ERR_INVALID_ARG,
                         "gs_mesh_move_pin: agent %d is a %s, not a spring-mass agent",
@@ -3369,6 +3764,11 @@ GS_API gs_result gs_mesh_move_pin(gs_agent *a, int particle, gs_vec3 pos) {
     if (!gs__finite3(pos))
         return gs__fail(a->world, GS_ERR_NOT_FINITE,
                         "gs_mesh_move_pin: position must be finite");
+    if (!gs__in_range3(pos))
+        return gs__fail(a->world, GS_ERR_OUT_OF_RANGE,
+                        "gs_mesh_move_pin: position (%g, %g, %g) m is outside "
+                        "+-GS_MAX_COORD (%g m)", pos.x, pos.y, pos.z,
+                        GS_MAX_COORD);
     m->x[particle] = pos;
     gs__mesh_update_bounds(m);
     return GS_OK;
@@ -3383,9 +3783,27 @@ GS__PRIVATE gs_quat gs__quat(double x, double y, double z, double w) {
     return q;
 }
 
+/* |q| for any finite q: scaled by its largest component first when the sum
+   of squares would overflow (a component over about 1e154) or underflow. */
+GS__PRIVATE double gs__quat_norm(gs_quat q) {
+    double n = sqrt(q.x * q.x + q.y * q.y + q.z * q.z + q.w * q.w), m;
+    if (n > 1e-150 && n < 1e150) return n;
+    m = fmax(fmax(fabs(q.x), fabs(q.y)), fmax(fabs(q.z), fabs(q.w)));
+    if (!(m > 0.0) || !gs__finite(m)) return m > 0.0 ? m : 0.0;
+    q = gs__quat(q.x / m, q.y / m, q.z / m, q.w / m);
+    return m * sqrt(q.x * q.x + q.y * q.y + q.z * q.z + q.w * q.w);
+}
+
+/* q / |q|; the identity for a zero (or non-finite) q, which callers refuse
+   or default before they get here. Unit quaternions take the first line,
+   bit for bit what they always did. */
 GS__PRIVATE gs_quat gs__quat_normalize(gs_quat q) {
-    double n = sqrt(q.x * q.x + q.y * q.y + q.z * q.z + q.w * q.w);
-    if (!(n > 0.0)) return gs__quat(0.0, 0.0, 0.0, 1.0);
+    double n = sqrt(q.x * q.x + q.y * q.y + q.z * q.z + q.w * q.w), m;
+    if (n > 1e-150 && n < 1e150) return gs__quat(q.x / n, q.y / n, q.z / n, q.w / n);
+    m = fmax(fmax(fabs(q.x), fabs(q.y)), fmax(fabs(q.z), fabs(q.w)));
+    if (!(m > 0.0) || !gs__finite(m)) return gs__quat(0.0, 0.0, 0.0, 1.0);
+    q = gs__quat(q.x / m, q.y / m, q.z / m, q.w / m); /* |q| in [1, 2] */
+    n = sqrt(q.x * q.x + q.y * q.y + q.z * q.z + q.w * q.w);
     return gs__quat(q.x / n, q.y / n, q.z / n, q.w / n);
 }
 
@@ -3651,7 +4069,7 @@ GS__PRIVATE void gs__shape_build(gs__check *c, const gs_shape_desc *d,
     memset(s, 0, sizeof *s);
     s->type = d->type;
     if (d->type == GS_SHAPE_SPHERE) {
-        gs__check_positive(c, "shape.radius", d->radius);
+        gs__check_size(c, "shape.radius", d->radius);
         if (c->r != GS_OK) return;
         s->radius = s->bound = d->radius;
         s->size = 2.0 * d->radius;
@@ -3659,9 +4077,9 @@ GS__PRIVATE void gs__shape_build(gs__check *c, const gs_shape_desc *d,
         s->inertia.xx = s->inertia.yy = s->inertia.zz =
             0.4 * s->volume * d->radius * d->radius;
     } else if (d->type == GS_SHAPE_BOX) {
-        gs__check_positive(c, "shape.half_extents.x", d->half_extents.x);
-        gs__check_positive(c, "shape.half_extents.y", d->half_extents.y);
-        gs__check_positive(c, "shape.half_extents.z", d->half_extents.z);
+        gs__check_size(c, "shape.half_extents.x", d->half_extents.x);
+        gs__check_size(c, "shape.half_extents.y", d->half_extents.y);
+        gs__check_size(c, "shape.half_extents.z", d->half_extents.z);
         if (c->r != GS_OK) return;
         s->half = d->half_extents;
         gs__box_build(s, d->half_extents);
@@ -3673,6 +4091,10 @@ GS__PRIVATE void gs__shape_build(gs__check *c, const gs_shape_desc *d,
             if (!gs__finite3(d->points[i]))
                 gs__check_item(c, GS_ERR_NOT_FINITE, "shape.points", i, "", NAN,
                                "must be finite");
+            else if (!gs__in_range3(d->points[i]))
+                gs__check_item(c, GS_ERR_OUT_OF_RANGE, "shape.points", i,
+                               " largest coordinate", gs__max_abs3(d->points[i]),
+                               "must be within +-GS_MAX_COORD");
         if (c->r != GS_OK) return;
         if (!gs__hull_build(s, d->points, d->point_count))
             gs__check_fail(c, GS_ERR_INVALID_ARG,
@@ -3793,7 +4215,7 @@ GS__PRIVATE void gs__rigid_check(gs__check *c, const gs_rigid_desc *d,
     if (c->r == GS_OK && (d->inertia.x < 0.0 || d->inertia.y < 0.0 ||
                           d->inertia.z < 0.0))
         gs__check_fail(c, GS_ERR_INVALID_ARG, "inertia must be >= 0");
-    gs__check_vec(c, "position", d->position);
+    gs__check_pos(c, "position", d->position);
     gs__check_quat(c, "orientation", d->orientation);
     gs__check_vec(c, "velocity", d->velocity);
     gs__check_vec(c, "angular_velocity", d->angular_velocity);
@@ -3824,6 +4246,24 @@ GS__PRIVATE void gs__rigid_mass(gs__rigid *r, const gs_rigid_desc *d) {
     r->inv_mass = 1.0 / r->mass;
     if (!gs__sym3_inverse(&r->inertia_body, &r->inv_inertia_body))
         memset(&r->inv_inertia_body, 0, sizeof r->inv_inertia_body);
+}
+
+/* Mass and inertia, then that they can move the body: a mass or moment
+   that overflows (density * volume) or whose inverse does (a mass under
+   about 1e-308 kg) would turn every step into NaN. */
+GS__PRIVATE void gs__rigid_mass_check(gs__check *c, gs__rigid *r,
+                                      const gs_rigid_desc *d) {
+    const gs__sym3 *I = &r->inertia_body, *J = &r->inv_inertia_body;
+    gs__rigid_mass(r, d);
+    if (!gs__finite(r->mass) || !gs__finite(r->inv_mass))
+        gs__check_fail(c, GS_ERR_OUT_OF_RANGE,
+                       "mass is %g kg (from mass, or density * volume): it "
+                       "and its inverse must be finite", r->mass);
+    else if (!gs__finite(I->xx + I->yy + I->zz + I->xy + I->xz + I->yz) ||
+             !gs__finite(J->xx + J->yy + J->zz + J->xy + J->xz + J->yz))
+        gs__check_fail(c, GS_ERR_OUT_OF_RANGE,
+                       "inertia (%g, %g, %g) kg m^2: it and its inverse must "
+                       "be finite", I->xx, I->yy, I->zz);
 }
 
 GS__PRIVATE gs_rigid_desc gs__rigid_defaults(const gs_rigid_desc *in) {
@@ -3913,7 +4353,7 @@ GS__PRIVATE gs_result gs__rigid_plan(gs__rigid *r, double dt, int *n_sub) {
 
 GS__PRIVATE int gs__rigid_sane(const gs__rigid *r) {
     double vmax = r->solver.max_speed;
-    return gs__finite3(r->x) && gs__finite(r->q.x + r->q.y + r->q.z + r->q.w) &&
+    return gs__in_range3(r->x) && gs__finite(r->q.x + r->q.y + r->q.z + r->q.w) &&
            gs__dot(r->v, r->v) <= vmax * vmax &&
            gs__dot(r->w, r->w) * r->shape.bound * r->shape.bound <= vmax * vmax;
 }
@@ -3945,14 +4385,24 @@ GS__PRIVATE gs_result gs__rigid_step(gs_agent *a, double dt) {
     return GS_OK;
 }
 
-/* A probe moves toward its target at no more than max_speed. */
+/* A probe moves toward its target at no more than max_speed. Target and
+   position are in range, so their difference is finite; its velocity d / dt
+   may still not be (a tiny dt), and then the step is refused. */
 GS__PRIVATE gs_result gs__probe_step(gs_agent *a, double dt) {
     gs__rigid *r = (gs__rigid *)a;
-    gs_vec3 d = gs__sub(r->target, r->x);
+    gs_vec3 d = gs__sub(r->target, r->x), x, v;
     double dist = gs__len(d), reach = r->max_speed * dt;
     if (dist > reach) d = gs__scale(d, reach / dist);
-    r->v = gs__scale(d, 1.0 / dt);
-    r->x = gs__add(r->x, d);
+    v = gs__scale(d, 1.0 / dt);
+    x = gs__add(r->x, d);
+    if (!gs__in_range3(x) || !gs__finite3(v))
+        return gs__fail(a->world, GS_ERR_UNSTABLE,
+                        "probe agent %d: a step of %g s toward (%g, %g, %g) "
+                        "gives a non-finite velocity or leaves "
+                        "+-GS_MAX_COORD; state kept",
+                        a->index, dt, r->target.x, r->target.y, r->target.z);
+    r->v = v;
+    r->x = x;
     r->q = r->target_q;
     r->w = gs__v3(0.0, 0.0, 0.0);
     a->stats.substeps++;
@@ -3977,10 +4427,19 @@ GS__PRIVATE void gs__rigid_get_state(const gs_agent *a, double *o) {
 GS__PRIVATE gs_result gs__rigid_set_state(gs_agent *a, const double *in) {
     gs__rigid *r = (gs__rigid *)a;
     gs_quat q = gs__quat(in[3], in[4], in[5], in[6]);
-    if (!(q.x * q.x + q.y * q.y + q.z * q.z + q.w * q.w > 1e-12))
+    gs_vec3 x = gs__v3(in[0], in[1], in[2]);
+    /* a near-zero quaternion (a blend of q and -q) has no direction left */
+    if (!(gs__quat_norm(q) > 1e-6))
         return gs__fail(a->world, GS_ERR_INVALID_ARG,
-                        "gs_agent_set_state: the orientation quaternion is zero");
-    r->x = gs__v3(in[0], in[1], in[2]);
+                        "gs_agent_set_state: the orientation quaternion "
+                        "(%g, %g, %g, %g) is zero (norm under 1e-6)",
+                        q.x, q.y, q.z, q.w);
+    if (!gs__in_range3(x))
+        return gs__fail(a->world, GS_ERR_OUT_OF_RANGE,
+                        "gs_agent_set_state: the position (%g, %g, %g) m is "
+                        "outside +-GS_MAX_COORD (%g m)", x.x, x.y, x.z,
+                        GS_MAX_COORD);
+    r->x = x;
     r->q = gs__quat_normalize(q);
     r->v = r->v_prev = gs__v3(in[7], in[8], in[9]);
     r->w = r->w_prev = gs__v3(in[10], in[11], in[12]);
@@ -4051,12 +4510,12 @@ GS_API gs_result gs_rigid_create(gs_world *w, const gs_rigid_desc *desc,
     memset(r, 0, sizeof *r);
     c = gs__check_begin(w, "gs_rigid_create");
     gs__rigid_check(&c, &d, &r->shape);
+    if (c.r == GS_OK) gs__rigid_mass_check(&c, r, &d);
     if (c.r == GS_OK) c.r = gs__agent_init(w, &r->base, &gs__rigid_kind, d.solver.dt);
     if (c.r != GS_OK) {
         gs__free(w, r);
         return c.r;
     }
-    gs__rigid_mass(r, &d);
     r->x = d.position;
     r->q = gs__quat_normalize(d.orientation);
     r->v = r->v_prev = d.velocity;
@@ -4092,10 +4551,10 @@ GS_API gs_result gs_probe_create(gs_world *w, const gs_probe_desc *desc,
     memset(r, 0, sizeof *r);
     c = gs__check_begin(w, "gs_probe_create");
     gs__shape_build(&c, &d.shape, &r->shape);
-    gs__check_vec(&c, "position", d.position);
+    gs__check_pos(&c, "position", d.position);
     gs__check_quat(&c, "orientation", d.orientation);
     gs__check_material(&c, &d.material);
-    gs__check_positive(&c, "dt", d.dt);
+    gs__check_dt(&c, "dt", d.dt);
     gs__check_positive(&c, "max_speed", d.max_speed);
     if (c.r == GS_OK) c.r = gs__agent_init(w, &r->base, &gs__probe_kind, d.dt);
     if (c.r != GS_OK) {
@@ -4115,7 +4574,8 @@ GS_API gs_result gs_probe_create(gs_world *w, const gs_probe_desc *desc,
 GS_API gs_result gs_probe_set_target(gs_agent *a, gs_vec3 position,
                                      gs_quat orientation) {
     gs__rigid *r = gs__as_rigid(a);
-    if (!a) return GS_ERR_INVALID_ARG;
+    gs_result res = gs__world_unlocked(a ? a->world : NULL, "gs_probe_set_target");
+    if (res != GS_OK) return res;
     if (!r || !r->probe)
         return gs__fail(a->world, GS_ERR_INVALID_ARG,
                         "gs_probe_set_target: agent %d is a %s, not a probe", a->index,
@@ -4125,6 +4585,11 @@ GS_API gs_result gs_probe_set_target(gs_agent *a, gs_vec3 position,
         !gs__finite(orientation.w))
         return gs__fail(a->world, GS_ERR_NOT_FINITE,
                         "gs_probe_set_target: the pose must be finite");
+    if (!gs__in_range3(position))
+        return gs__fail(a->world, GS_ERR_OUT_OF_RANGE,
+                        "gs_probe_set_target: position (%g, %g, %g) m is "
+                        "outside +-GS_MAX_COORD (%g m)", position.x,
+                        position.y, position.z, GS_MAX_COORD);
     r->target = position;
     r->target_q = gs__quat_normalize(gs__orientation_default(orientation));
     return GS_OK;
@@ -4196,10 +4661,12 @@ GS__PRIVATE double gs__sap_key(const gs__rigid *b, int near) {
     return near ? b->near_key : b->key;
 }
 
-/* Moves r to its place in one list (near: by near_key, else by key). */
+/* Moves r to its place in one list (near: by near_key, else by key).
+   Lists not sorted yet wait for gs__sap_sort. */
 GS__PRIVATE void gs__sap_bubble(gs__rigid **list, int n, gs__rigid *r, int near) {
     int i = near ? r->near : r->sap;
     double k = gs__sap_key(r, near);
+    if (r->base.world->sap_dirty) return;
     while (i > 0 && gs__sap_key(list[i - 1], near) > k) { gs__sap_swap(list, i - 1, i, near); --i; }
     while (i + 1 < n && gs__sap_key(list[i + 1], near) < k) { gs__sap_swap(list, i, i + 1, near); ++i; }
 }
@@ -4287,9 +4754,43 @@ GS__PRIVATE void gs__sap_update(gs__rigid *r) {
     gs__grid_place(w, r);
 }
 
+/* A stable merge sort of list[0, n) by key (near: near_key) through tmp,
+   then each body's index in it: the order that bubbling each new body in
+   from the end gives, in O(n log n) for all of them where bubbling was
+   O(n) for each one. */
+GS__PRIVATE void gs__sap_sort_list(gs__rigid **list, gs__rigid **tmp, int n, int near) {
+    gs__rigid **src = list, **dst = tmp, **t;
+    int width, i;
+    for (width = 1; width < n; width *= 2) {
+        for (i = 0; i < n; i += 2 * width) {
+            int a = i, m = n - i > width ? i + width : n, b = m, k = i;
+            int e = n - i > 2 * width ? i + 2 * width : n;
+            while (a < m && b < e)
+                dst[k++] = gs__sap_key(src[b], near) < gs__sap_key(src[a], near) ? src[b++] : src[a++];
+            while (a < m) dst[k++] = src[a++];
+            while (b < e) dst[k++] = src[b++];
+        }
+        t = src; src = dst; dst = t;
+    }
+    if (src != list) memcpy(list, src, (size_t)n * sizeof *list);
+    for (i = 0; i < n; ++i) *(near ? &list[i]->near : &list[i]->sap) = i;
+}
+
+/* Sorts both lists if bodies were appended since (cand is the scratch:
+   nothing is being asked then). */
+GS__PRIVATE void gs__sap_sort(gs_world *w) {
+    if (!w->sap_dirty) return;
+    gs__sap_sort_list(w->bodies, w->cand, w->nbodies, 0);
+    gs__sap_sort_list(w->near, w->cand, w->nbodies, 1);
+    w->sap_dirty = 0;
+}
+
 GS__PRIVATE gs_result gs__sap_add(gs_world *w, gs__rigid *r) {
+    int sorted;
     if (w->nbodies == w->bodies_cap) {
         int cap = w->bodies_cap ? 2 * w->bodies_cap : 16;
+        if (w->bodies_cap > INT_MAX / 2 || (size_t)cap > SIZE_MAX / (6 * sizeof(struct gs__rigid *)))
+            return gs__fail(w, GS_ERR_CAPACITY, "broad phase: too many bodies");
         struct gs__rigid **list = (struct gs__rigid **)gs__alloc(w, 6 * (size_t)cap * sizeof *list);
         if (!list) return gs__fail(w, GS_ERR_NO_MEMORY, "broad phase: out of memory");
         if (w->nbodies) {
@@ -4311,7 +4812,12 @@ GS__PRIVATE gs_result gs__sap_add(gs_world *w, gs__rigid *r) {
     r->in_grid = 0;
     w->bodies[w->nbodies] = w->near[w->nbodies] = r;
     w->nbodies++;
+    sorted = !w->sap_dirty;
+    w->sap_dirty = 1; /* appended, not bubbled in: gs__sap_sort will */
     gs__sap_update(r);
+    if (sorted && (r->sap == 0 || (gs__sap_key(w->bodies[r->sap - 1], 0) <= r->key &&
+                                   gs__sap_key(w->near[r->near - 1], 1) <= r->near_key)))
+        w->sap_dirty = 0; /* it belongs at the end of both */
     return GS_OK;
 }
 
@@ -4346,6 +4852,7 @@ GS__PRIVATE void gs__agent_unlink(gs_agent *a) {
 GS__PRIVATE void gs__sap_refresh(gs_world *w) {
     double mean = 0.0;
     int i;
+    gs__sap_sort(w);
     for (i = 0; i < w->nbodies; ++i) mean += w->bodies[i]->shape.bound;
     w->wide_at = w->nbodies ? 4.0 * mean / (double)w->nbodies : 0.0;
     w->bound_max = w->speed_max = 0.0;
@@ -4397,6 +4904,7 @@ GS__PRIVATE void gs__sap_order(gs_world *w, int n) {
 GS__PRIVATE int gs__sap_query(gs_world *w, double lo, double hi, double lag) {
     double top = hi + w->speed_max * lag;
     int n = 0, i;
+    gs__sap_sort(w);
     top += 1e-9 * (1.0 + fabs(top));
     for (i = 0; i < w->nwide; ++i)
         if (gs__sap_meets(w->wide[i], lo, hi, lag)) w->cand[n++] = w->wide[i];
@@ -4417,6 +4925,7 @@ GS__PRIVATE int gs__sap_query_near(gs_world *w, const gs__rigid *r, double lag) 
     double reach = (r->shape.bound + w->bound_max + w->speed_max * lag) * (1.0 + 1e-9) + 1e-12;
     int64_t a[3], b[3], c[3];
     int n = 0, i;
+    gs__sap_sort(w); /* the candidates go in the order of bodies */
     if (w->cell <= 0.0 || !(reach < 0.5 * GS__GRID_MAX_CELLS * w->cell))
         return gs__sap_query(w, lo, hi, lag);
     a[0] = gs__grid_coord(w, r->x.x - reach); b[0] = gs__grid_coord(w, r->x.x + reach);
@@ -4453,12 +4962,18 @@ typedef struct gs__body {
     gs_quat q;
 } gs__body;
 
+/* `none` is the normal (b to a) when the centres coincide (closer than
+   1e-12 of the radii, where the line between them is rounding noise: a
+   body sees the other carried back along its velocity to nearly where it
+   was). The caller makes it antisymmetric, so that the two bodies of a
+   pair are pushed apart, never the same way together (which made energy
+   from nothing). */
 GS__PRIVATE int gs__sphere_sphere(gs_vec3 ca, double ra, gs_vec3 cb, double rb,
-                                  gs_contact *c) {
+                                  gs_vec3 none, gs_contact *c) {
     gs_vec3 d = gs__sub(ca, cb);
     double l = gs__len(d), depth = ra + rb - l;
     if (!(depth > 0.0)) return 0;
-    c->normal = l > 1e-12 * (ra + rb) ? gs__scale(d, 1.0 / l) : gs__v3(0.0, 1.0, 0.0);
+    c->normal = l > 1e-12 * (ra + rb) ? gs__scale(d, 1.0 / l) : none;
     c->depth = depth;
     c->point = gs__madd(cb, c->normal, rb - 0.5 * depth);
     return 1;
@@ -4522,8 +5037,10 @@ GS__PRIVATE void gs__ccd_center(const void *obj, ccd_vec3_t *out) {
 
 /* MPR through libccd, every output checked: a non-finite or zero direction
    (touching or coincident centres) falls back to the line between centres,
-   then to +y; a non-finite depth counts as touching. */
-GS__PRIVATE int gs__mpr(const gs__body *a, const gs__body *b, gs_contact *c) {
+   then to `none` (see gs__sphere_sphere); a non-finite depth counts as
+   touching. */
+GS__PRIVATE int gs__mpr(const gs__body *a, const gs__body *b, gs_vec3 none,
+                        gs_contact *c) {
     ccd_t ccd;
     ccd_real_t depth = 0;
     ccd_vec3_t dir, pos;
@@ -4542,7 +5059,7 @@ GS__PRIVATE int gs__mpr(const gs__body *a, const gs__body *b, gs_contact *c) {
     if (!gs__finite(ln) || !(ln > 1e-12)) {
         n = gs__sub(a->p, b->p);
         ln = gs__len(n);
-        if (!(ln > 1e-12)) { n = gs__v3(0.0, 1.0, 0.0); ln = 1.0; }
+        if (!(ln > 1e-12)) { n = none; ln = 1.0; }
     }
     c->normal = gs__scale(n, 1.0 / ln);
     c->depth = gs__finite((double)depth) && depth > 0 ? (double)depth : 0.0;
@@ -4572,11 +5089,11 @@ GS__PRIVATE int gs__inside(const gs__body *b, gs_vec3 p, double eps) {
    face gets four points and no torque from a single off-centre one. Edge
    against edge has no vertex inside: the MPR point stands alone. */
 GS__PRIVATE int gs__poly_poly(const gs__body *a, const gs__body *b,
-                              gs_contact *out, int max) {
+                              gs_vec3 none, gs_contact *out, int max) {
     gs_contact m;
     double eps, top_b, bottom_a;
     int i, n = 0;
-    if (!gs__mpr(a, b, &m)) return 0;
+    if (!gs__mpr(a, b, none, &m)) return 0;
     eps = 1e-6 * fmin(a->s->size, b->s->size);
     top_b = gs__support_along(b, m.normal);                      /* b's far side */
     bottom_a = -gs__support_along(a, gs__scale(m.normal, -1.0)); /* a's near side */
@@ -4600,13 +5117,14 @@ GS__PRIVATE int gs__poly_poly(const gs__body *a, const gs__body *b,
     return n;
 }
 
-/* All contacts between two bodies, normals from b to a. */
-GS__PRIVATE int gs__collide(const gs__body *a, const gs__body *b,
+/* All contacts between two bodies, normals from b to a; `none` where the
+   shapes give no direction (see gs__sphere_sphere). */
+GS__PRIVATE int gs__collide(const gs__body *a, const gs__body *b, gs_vec3 none,
                             gs_contact *out, int max) {
     gs_shape_type ta = a->s->type, tb = b->s->type;
     int n;
     if (ta == GS_SHAPE_SPHERE && tb == GS_SHAPE_SPHERE)
-        return gs__sphere_sphere(a->p, a->s->radius, b->p, b->s->radius, out);
+        return gs__sphere_sphere(a->p, a->s->radius, b->p, b->s->radius, none, out);
     if (ta == GS_SHAPE_SPHERE && tb == GS_SHAPE_BOX)
         return gs__sphere_box(a->p, a->s->radius, b, out);
     if (ta == GS_SHAPE_BOX && tb == GS_SHAPE_SPHERE) {
@@ -4614,8 +5132,8 @@ GS__PRIVATE int gs__collide(const gs__body *a, const gs__body *b,
         if (n) out->normal = gs__scale(out->normal, -1.0);
         return n;
     }
-    if (ta == GS_SHAPE_SPHERE || tb == GS_SHAPE_SPHERE) return gs__mpr(a, b, out);
-    return gs__poly_poly(a, b, out, max);
+    if (ta == GS_SHAPE_SPHERE || tb == GS_SHAPE_SPHERE) return gs__mpr(a, b, none, out);
+    return gs__poly_poly(a, b, none, out, max);
 }
 
 GS__PRIVATE gs__body gs__body_of(const gs__rigid *r) {
@@ -4634,12 +5152,13 @@ GS_API int gs_collide_shapes(const gs_shape_desc *a, gs_vec3 pa, gs_quat qa,
     gs_contact all[2 * GS_MAX_HULL_POINTS];
     gs__check chk = gs__check_begin(NULL, "gs_collide_shapes");
     int n, i, deepest = 0;
+    if (!a || !b || !c) return 0;
     gs__shape_build(&chk, a, &sa);
     gs__shape_build(&chk, b, &sb);
-    if (chk.r != GS_OK || !c || !gs__finite3(pa) || !gs__finite3(pb)) return 0;
+    if (chk.r != GS_OK || !c || !gs__in_range3(pa) || !gs__in_range3(pb)) return 0;
     ba.s = &sa; ba.p = pa; ba.q = gs__quat_normalize(gs__orientation_default(qa));
     bb.s = &sb; bb.p = pb; bb.q = gs__quat_normalize(gs__orientation_default(qb));
-    n = gs__collide(&ba, &bb, all, 2 * GS_MAX_HULL_POINTS);
+    n = gs__collide(&ba, &bb, gs__v3(0.0, 1.0, 0.0), all, 2 * GS_MAX_HULL_POINTS);
     for (i = 1; i < n; ++i)
         if (all[i].depth > all[deepest].depth) deepest = i;
     if (n) *c = all[deepest];
@@ -4680,7 +5199,9 @@ GS__PRIVATE gs_vec3 gs__point_velocity(const gs__rigid *r, gs_vec3 p) {
 }
 
 /* A particle (a small sphere) against a body whose centre is taken at
-   `centre`; normal from body to particle. */
+   `centre`; normal from body to particle. Both sides of such a contact ask
+   with the particle as a (the body takes minus the particle's force), so
+   a fixed normal for coincident centres pushes them apart. */
 GS__PRIVATE int gs__particle_contact(gs_vec3 x, double rp, const gs__rigid *r,
                                      gs_vec3 centre, gs_contact *c) {
     gs__body b = gs__body_of(r), pb;
@@ -4690,12 +5211,12 @@ GS__PRIVATE int gs__particle_contact(gs_vec3 x, double rp, const gs__rigid *r,
         (rp + r->shape.bound) * (rp + r->shape.bound))
         return 0;
     if (r->shape.type == GS_SHAPE_SPHERE)
-        return gs__sphere_sphere(x, rp, centre, r->shape.radius, c);
+        return gs__sphere_sphere(x, rp, centre, r->shape.radius, gs__v3(0.0, 1.0, 0.0), c);
     if (r->shape.type == GS_SHAPE_BOX) return gs__sphere_box(x, rp, &b, c);
     ps.type = GS_SHAPE_SPHERE; /* only type and radius are read */
     ps.radius = rp;
     pb.s = &ps; pb.p = x; pb.q = gs__quat(0.0, 0.0, 0.0, 1.0);
-    return gs__mpr(&pb, &b, c);
+    return gs__mpr(&pb, &b, gs__v3(0.0, 1.0, 0.0), c);
 }
 
 GS__PRIVATE int gs__is_collider(const gs_agent *a) { return gs__as_rigid(a) != NULL; }
@@ -4775,7 +5296,10 @@ GS__PRIVATE void gs__rigid_vs_rigid(gs__rigid *r, const gs__rigid *o, double t) 
     f = o->probe ? 0.0 : fmax(-1.0, fmin(1.0, lag / o->base.dt));
     ov = gs__madd(o->v, gs__sub(o->v, o->v_prev), f);
     ow = gs__madd(o->w, gs__sub(o->w, o->w_prev), f);
-    n = gs__collide(&a, &b, cs, 2 * GS_MAX_HULL_POINTS);
+    /* coincident shapes: the lower agent index is pushed along -y, the
+       higher along +y, so each pair's forces cancel */
+    n = gs__collide(&a, &b, gs__v3(0.0, r->base.index < o->base.index ? -1.0 : 1.0, 0.0),
+                    cs, 2 * GS_MAX_HULL_POINTS);
     for (i = 0; i < n; ++i) {
         gs_vec3 vo = gs__add(ov, gs__cross(ow, gs__sub(cs[i].point, b.p)));
         gs__rigid_apply(r, &cs[i], gs__sub(gs__point_velocity(r, cs[i].point), vo), ow,
@@ -4835,8 +5359,14 @@ GS__PRIVATE void gs__rigid_contacts(gs__rigid *r, double t) {
 GS_API gs_result gs_world_set_ground(gs_world *w, int enabled, double height,
                                      gs_material material) {
     gs__check c = gs__check_begin(w, "gs_world_set_ground");
+    gs_result r = gs__world_unlocked(w, "gs_world_set_ground");
+    if (r != GS_OK) return r;
     material = gs__material_defaults(material);
     gs__check_finite(&c, "height", height);
+    if (c.r == GS_OK && fabs(height) > GS_MAX_COORD)
+        gs__check_fail(&c, GS_ERR_OUT_OF_RANGE,
+                       "height is %g m, outside +-GS_MAX_COORD (%g m)", height,
+                       GS_MAX_COORD);
     gs__check_material(&c, &material);
     if (c.r != GS_OK) return c.r;
     w->ground = enabled != 0;
@@ -5050,8 +5580,9 @@ GS__PRIVATE gs_result gs__scene_bodies(gs_world *w, gs_scene *sc) {
    toss the spheres like a trampoline. It hangs for 3 s of simulated time
    first, then its clock is set back to 0: every host computes the same
    settled state. */
+#define GS__SCENE_SETTLE_TIME 3.0 /* s */
 GS__PRIVATE gs_result gs__scene_settle(gs_agent *cloth) {
-    int i, steps = (int)(3.0 / cloth->dt);
+    long i, steps = (long)(GS__SCENE_SETTLE_TIME / cloth->dt); /* dt >= GS_MIN_DT */
     for (i = 0; i < steps; ++i) {
         gs_result r = gs__agent_step(cloth);
         if (r != GS_OK) return r;
@@ -5066,7 +5597,9 @@ GS_API gs_result gs_scene_create(gs_world *w, const gs_scene_desc *desc,
     gs_cloth_desc cd = gs_cloth_desc_default();
     gs__check c = gs__check_begin(w, "gs_scene_create");
     gs_result r;
-    int first;
+    int first, ground;
+    double ground_height;
+    gs_material ground_material;
     if (!w || !out) return GS_ERR_INVALID_ARG;
     memset(out, 0, sizeof *out);
     out->desc = gs__scene_defaults(desc);
@@ -5075,8 +5608,20 @@ GS_API gs_result gs_scene_create(gs_world *w, const gs_scene_desc *desc,
     gs__check_int(&c, "sphere_count", out->desc.sphere_count, 0, GS_SCENE_MAX_SPHERES);
     gs__check_positive(&c, "sphere_radius", out->desc.sphere_radius);
     gs__check_int(&c, "probe_count", out->desc.probe_count, 0, GS_SCENE_MAX_PROBES);
-    gs__check_positive(&c, "dt", out->desc.dt);
+    gs__check_dt(&c, "dt", out->desc.dt);
+    if (c.r == GS_OK) {
+        double n = (double)out->desc.cloth_n,
+               work = n * n * floor(GS__SCENE_SETTLE_TIME / out->desc.dt);
+        if (work > GS_SCENE_SETTLE_WORK)
+            gs__check_fail(&c, GS_ERR_INVALID_ARG,
+                           "cloth_n %d at dt %g s needs %.3g particle steps to settle, "
+                           "more than GS_SCENE_SETTLE_WORK (%g): a smaller cloth or a larger dt",
+                           out->desc.cloth_n, out->desc.dt, work, GS_SCENE_SETTLE_WORK);
+    }
     if (c.r != GS_OK) return c.r;
+    ground = w->ground; /* put back if anything below fails */
+    ground_height = w->ground_height;
+    ground_material = w->ground_material;
     r = gs_world_set_ground(w, 1, -1.5, gs__scene_material());
     if (r != GS_OK) return r;
     first = w->agent_count;
@@ -5094,6 +5639,9 @@ GS_API gs_result gs_scene_create(gs_world *w, const gs_scene_desc *desc,
     if (r == GS_OK) r = gs__scene_bodies(w, out);
     if (r != GS_OK) { /* leave the world as it was */
         while (w->agent_count > first) gs_agent_destroy(w->agents[w->agent_count - 1]);
+        w->ground = ground;
+        w->ground_height = ground_height;
+        w->ground_material = ground_material;
         memset(out, 0, sizeof *out);
     }
     return r;
@@ -5168,6 +5716,9 @@ struct gs__ghost {
     double heard_at[GS__MAX_PEERS];/* s; local time of the last blend with
                                       a snapshot of the peer, -HUGE_VAL */
     double heard_x[GS__MAX_PEERS]; /* s; its x_comp then (the freshest) */
+    double moved;         /* s; |time| the blends moved the agent by in the
+                             world's epoch moved_epoch (one advance) */
+    uint64_t moved_epoch;
     gs_ghost_stats stats;
 };
 typedef struct gs__ghost gs__ghost;
@@ -5209,6 +5760,11 @@ struct gs_net {
     gs__peer peers[GS__MAX_PEERS];
     uint64_t unknown_rejected[GS_REJECT_COUNT];
     gs_net_lock lock;
+    int inside;               /* under the lock: the net runs user code
+                                 under it (a weight rule in a blend, the
+                                 send callback in gs_net_update), which
+                                 must not re-enter the net */
+    int held;                 /* a gs_simnet_run is running it */
     int published;            /* a ghost published B since gs_udp's scatter
                                  thread last looked (it ticks while they do) */
     double now;               /* s, wall time of the last update/deliver */
@@ -5314,21 +5870,61 @@ GS__PRIVATE gs_result gs__ghost_check(gs_world *w, const gs_ghost_desc *d) {
 
 GS__PRIVATE gs_result gs__ghost_queues(gs__ghost *g);
 
+/* A snapshot's chunk index and count are u16 on the wire: a state that
+   needs more chunks could never be sent whole (the indices would wrap and
+   every peer refuse them). Counted without (vars + per - 1), which could
+   wrap for a custom agent's state_size. */
+GS__PRIVATE gs_result gs__ghost_chunks_fit(gs_world *w, size_t vars, gs_encoding e) {
+    size_t per = GS_WIRE_CHUNK_ROOM / gs__value_size(e);
+    size_t chunks = vars / per + (vars % per != 0);
+    if (chunks <= GS_WIRE_MAX_OBJECT_CHUNKS) return GS_OK;
+    return gs__fail(w, GS_ERR_CAPACITY,
+                    "gs_ghost_attach: the state has %lu values, %lu chunks of "
+                    "%lu in %s; a snapshot may have at most %d chunks "
+                    "(GS_WIRE_MAX_OBJECT_CHUNKS, %lu values)",
+                    (unsigned long)vars, (unsigned long)chunks,
+                    (unsigned long)per, e == GS_ENCODING_F32 ? "f32" : "f64",
+                    GS_WIRE_MAX_OBJECT_CHUNKS,
+                    (unsigned long)(per * GS_WIRE_MAX_OBJECT_CHUNKS));
+}
+
+/* The bytes of a ghost (*bytes) and of one peer's queue (*queue) for a
+   state of n values; 0 if either does not fit in size_t (a custom agent's
+   state_size can be anything). */
+GS__PRIVATE int gs__ghost_sizes(size_t n, const gs_ghost_desc *d, size_t *bytes,
+                                size_t *queue) {
+    size_t qs = (size_t)d->queue_size, slots = (size_t)GS__MAX_PEERS * qs, per, nchunks, vals;
+    size_t room = GS_WIRE_CHUNK_ROOM / gs__value_size(d->encoding);
+    nchunks = (n - 1) / room + 1; /* at least one, as gs_ghost_attach counts */
+    if (!gs__size(n, 5, slots, &vals) || !gs__size(vals, sizeof(double), 0, &vals) ||
+        !gs__size(slots, sizeof(gs__src), sizeof(gs__ghost), bytes) || *bytes > SIZE_MAX - vals)
+        return 0;
+    *bytes += vals;
+    return gs__size(n - 1, sizeof(double), sizeof(gs__snap) + nchunks, &per) &&
+           gs__size(qs, per, 0, queue);
+}
+
 GS_API gs_result gs_ghost_attach(gs_agent *a, const gs_ghost_desc *desc) {
-    gs_world *w = a->world;
+    gs_world *w = a ? a->world : NULL;
     gs_ghost_desc d;
     gs__ghost *g;
-    size_t n = gs_agent_state_size(a), vars = n - 1, bytes;
+    size_t n, vars, bytes, queue;
     int i;
     gs_result r = gs__world_unlocked(w, "gs_ghost_attach");
     if (r != GS_OK) return r;
+    n = gs_agent_state_size(a);
+    vars = n - 1;
     if (!desc) return gs__fail(w, GS_ERR_INVALID_ARG, "gs_ghost_attach: desc is NULL");
     if (a->ghost) return gs__fail(w, GS_ERR_INVALID_ARG, "gs_ghost_attach: the agent has a ghost");
     d = gs__ghost_defaults(desc);
     r = gs__ghost_check(w, &d);
     if (r != GS_OK) return r;
-    bytes = sizeof *g + (size_t)GS__MAX_PEERS * (size_t)d.queue_size * sizeof(gs__src) +
-            (5 * n + (size_t)GS__MAX_PEERS * (size_t)d.queue_size) * sizeof(double);
+    r = gs__ghost_chunks_fit(w, vars, d.encoding);
+    if (r != GS_OK) return r;
+    if (!gs__ghost_sizes(n, &d, &bytes, &queue))
+        return gs__fail(w, GS_ERR_OUT_OF_RANGE, "gs_ghost_attach: a state of %lu values "
+                        "with queue_size %d does not fit in size_t", (unsigned long)n,
+                        d.queue_size);
     g = (gs__ghost *)gs__alloc(w, bytes);
     if (!g) return gs__fail(w, GS_ERR_NO_MEMORY, "gs_ghost_attach: out of memory");
     memset(g, 0, bytes);
@@ -5359,9 +5955,10 @@ GS_API gs_result gs_ghost_attach(gs_agent *a, const gs_ghost_desc *desc) {
 }
 
 GS_API gs_result gs_ghost_detach(gs_agent *a) {
-    gs_result r = gs__world_unlocked(a->world, "gs_ghost_detach");
-    gs__ghost *g = gs__ghost_of(a);
+    gs_result r = gs__world_unlocked(a ? a->world : NULL, "gs_ghost_detach");
+    gs__ghost *g;
     if (r != GS_OK) return r;
+    g = gs__ghost_of(a);
     if (!g) return GS_OK;
     gs__lock(a->world->net);
     a->ghost = NULL;
@@ -5371,7 +5968,7 @@ GS_API gs_result gs_ghost_detach(gs_agent *a) {
 }
 
 GS_API gs_result gs_ghost_get_stats(const gs_agent *a, gs_ghost_stats *out) {
-    const gs__ghost *g = gs__ghost_of(a);
+    const gs__ghost *g = a ? gs__ghost_of(a) : NULL;
     if (!g || !out) return GS_ERR_INVALID_ARG;
     *out = g->stats;
     return GS_OK;
@@ -5385,7 +5982,7 @@ GS__PRIVATE double gs__offset_fade(const gs__ghost *g, double t) {
 
 GS_API gs_result gs_ghost_render_state(const gs_agent *a, double *out,
                                        size_t n) {
-    const gs__ghost *g = gs__ghost_of(a);
+    const gs__ghost *g = a ? gs__ghost_of(a) : NULL;
     gs_result r = gs_agent_get_state(a, out, n);
     double f;
     size_t i;
@@ -5877,6 +6474,25 @@ GS__PRIVATE double gs__time_correction(const gs__ghost *g, double gap, double dt
     return fabs(gap) > gs__time_band(g) ? dt : 0.0;
 }
 
+/* The blended time from the local t_i and a correction, bounded: all the
+   blends of one advance move the agent by at most GS_MAX_TIME_CORRECTION,
+   and never out of [0, GS_WIRE_MAX_TIME]. Whatever the snapshots say (a
+   forged time, a peer a year on), the host keeps running; a late joiner
+   catches up over a few advances. A non-finite correction is passed on for
+   the pass to refuse. */
+GS__PRIVATE double gs__time_bound(gs__ghost *g, double t_i, double corr) {
+    double room, t;
+    if (g->moved_epoch != g->agent->world->epoch) {
+        g->moved_epoch = g->agent->world->epoch;
+        g->moved = 0.0;
+    }
+    if (!gs__finite(corr)) return t_i + corr;
+    room = GS_MAX_TIME_CORRECTION - g->moved;
+    if (room < 0.0) room = 0.0;
+    t = t_i + (corr > room ? room : corr < -room ? -room : corr);
+    return t < 0.0 ? 0.0 : t > GS_WIRE_MAX_TIME ? GS_WIRE_MAX_TIME : t;
+}
+
 /* Applies a blended state (scratch) that the pass found finite: the kind
    may still refuse it (a zero quaternion), and then nothing moves. */
 GS__PRIVATE void gs__sync_log_blend(gs_agent *a, const double *in);
@@ -5886,6 +6502,7 @@ GS__PRIVATE int gs__blend_apply(gs__ghost *g, double t_i) {
     int e;
     if (gs__agent_put_state(g->agent, g->scratch) != GS_OK) return 0;
     gs__sync_log_blend(g->agent, g->scratch);
+    g->moved += fabs(g->scratch[0] - t_i);
     for (e = 0; e < GS__MAX_PEERS; ++e) g->lead[e] -= g->scratch[0] - t_i;
     t = g->offset; /* the next offsets are now the offsets */
     g->offset = g->offset_next;
@@ -5905,6 +6522,7 @@ GS__PRIVATE uint32_t gs__ghost_blend(gs__ghost *g, gs_net *net) {
     uint32_t seen = 0;
     int used;
     gs__lock(net);
+    net->inside++; /* the weight rules run under the lock */
     gs_agent_get_state(g->agent, g->local, n);
     t_i = g->local[0];
     memset(&ps, 0, sizeof ps);
@@ -5916,7 +6534,8 @@ GS__PRIVATE uint32_t gs__ghost_blend(gs__ghost *g, gs_net *net) {
            two hosts would settle up to (1 + w0 / w) bands apart */
         g->scratch[0] = t_i;
         if (den_t > 0.0)
-            g->scratch[0] += gs__time_correction(g, num_t / den_t, num_t / (ps.w0 + den_t));
+            g->scratch[0] = gs__time_bound(
+                g, t_i, gs__time_correction(g, num_t / den_t, num_t / (ps.w0 + den_t)));
         ps.fade = gs__offset_fade(g, g->scratch[0]);
         ps.finite = g->scratch[0] - g->scratch[0] == 0.0;
         ps.finite = gs__blend_pass(g, &ps);
@@ -5929,6 +6548,7 @@ GS__PRIVATE uint32_t gs__ghost_blend(gs__ghost *g, gs_net *net) {
         }
     }
     gs__ghost_clear(g);
+    net->inside--;
     gs__unlock(net);
     return seen;
 }
@@ -6646,7 +7266,7 @@ GS__PRIVATE uint64_t gs__sync_rerun(gs_world *w, uint64_t from, int how) {
         sy->replay_seq = j;
         memset(&rep, 0, sizeof rep);
         w->busy = 1;
-        gs__world_follow(w);
+        gs__world_follow(w, gs__world_follow_target(w));
         gs__sync_target(w, f->seconds, w->target);
         gs__sync_split_run(w, f, 0.0, &rep);
         w->busy = busy;
@@ -6959,10 +7579,15 @@ GS_API gs_result gs_wire_add(unsigned char *buf, size_t cap, size_t *size,
     if (!buf || !size || !c || (c->elements && !values)) return GS_ERR_INVALID_ARG;
     if (c->encoding != GS_ENCODING_F64 && c->encoding != GS_ENCODING_F32)
         return GS_ERR_INVALID_ARG;
+    /* *size as gs_wire_begin and gs_wire_add leave it, or nothing is
+       written: a wild one would wrap the room check below */
+    if (*size < GS_WIRE_HEADER || *size > cap || *size > GS_WIRE_MAX_DATAGRAM)
+        return GS_ERR_INVALID_ARG;
     if (gs__get16(buf + 6) >= GS_WIRE_MAX_CHUNKS) return GS_ERR_CAPACITY;
     vs = gs__value_size(c->encoding);
-    need = GS_WIRE_CHUNK_HEADER + vs * c->elements;
-    if (*size + need + 4 > cap || *size + need + 4 > GS_WIRE_MAX_DATAGRAM) return GS_ERR_CAPACITY;
+    need = GS_WIRE_CHUNK_HEADER + vs * c->elements + 4;
+    if (need > cap - *size || need > GS_WIRE_MAX_DATAGRAM - *size) return GS_ERR_CAPACITY;
+    need -= 4; /* the checksum's room stays free */
     if (!gs__finite(c->time)) return GS_ERR_NOT_FINITE;
     if (c->time < 0.0 || c->time > GS_WIRE_MAX_TIME) return GS_ERR_INVALID_ARG;
     /* the values first, checked as they are written: the bytes past *size
@@ -6987,6 +7612,7 @@ GS_API gs_result gs_wire_add(unsigned char *buf, size_t cap, size_t *size,
 }
 
 GS_API size_t gs_wire_end(unsigned char *buf, size_t size) {
+    if (!buf) return 0;
     gs__put32(buf + size, gs__crc32(buf, size));
     return size + 4;
 }
@@ -7036,6 +7662,9 @@ GS__PRIVATE void gs__wire_get_values(const gs_wire_chunk *c, double *out) {
 #endif
 }
 
+/* A time the wire carries (s): in [0, GS_WIRE_MAX_TIME], NaN excluded. */
+GS__PRIVATE int gs__wire_time_ok(double t) { return t >= 0.0 && t <= GS_WIRE_MAX_TIME; }
+
 /* One chunk at *off: its header, its length, its values all finite. */
 GS__PRIVATE int gs__wire_chunk(const unsigned char *buf, size_t end, size_t *off,
                                gs_wire_chunk *c, gs_reject *why) {
@@ -7054,7 +7683,7 @@ GS__PRIVATE int gs__wire_chunk(const unsigned char *buf, size_t end, size_t *off
         c->count == 0 || c->index >= c->count) { *why = GS_REJECT_LAYOUT; return 0; }
     len = gs__value_size(c->encoding) * c->elements;
     if (*off + GS_WIRE_CHUNK_HEADER + len > end) { *why = GS_REJECT_SHORT; return 0; }
-    if (!(c->time >= 0.0 && c->time <= GS_WIRE_MAX_TIME)) { *why = GS_REJECT_TIME; return 0; }
+    if (!gs__wire_time_ok(c->time)) { *why = GS_REJECT_TIME; return 0; }
     c->payload = p + GS_WIRE_CHUNK_HEADER;
     if (!gs__wire_values_finite(c)) { *why = GS_REJECT_NOT_FINITE; return 0; }
     *off += GS_WIRE_CHUNK_HEADER + len;
@@ -7087,6 +7716,12 @@ GS__PRIVATE int gs__wire_parse(const unsigned char *buf, size_t end, gs_wire_vie
     out->header.echo_hold = gs__getf64(buf + 40);
     if (!gs__finite(out->header.send_time) || !gs__finite(out->header.echo_time) ||
         !gs__finite(out->header.echo_hold)) { *why = GS_REJECT_NOT_FINITE; return 0; }
+    /* both are clocks, which no host lets leave [0, GS_WIRE_MAX_TIME]: a
+       send time out there (-1e300) would make an age of any size */
+    if (!gs__wire_time_ok(out->header.send_time) || !gs__wire_time_ok(out->header.echo_time)) {
+        *why = GS_REJECT_TIME;
+        return 0;
+    }
     for (i = 0; i < n; ++i)
         if (!gs__wire_chunk(buf, end, &off, &out->chunks[i], why)) return 0;
     if (off != end) { *why = GS_REJECT_LAYOUT; return 0; }
@@ -7099,7 +7734,7 @@ GS_API int gs_wire_decode(const unsigned char *buf, size_t size,
     gs_reject dummy;
     size_t end;
     if (!why) why = &dummy;
-    if (!out) { *why = GS_REJECT_SHORT; return 0; }
+    if (!out || !buf) { *why = GS_REJECT_SHORT; return 0; }
     if (!gs__wire_front(buf, size, why)) return 0;
     end = size - 4;
     if (gs__crc32(buf, end) != gs__get32(buf + end)) { *why = GS_REJECT_CHECKSUM; return 0; }
@@ -7215,8 +7850,9 @@ GS_API gs_result gs_net_create(gs_world *w, const gs_net_desc *desc,
     if (d.session == 0) d.session = 1;
     if (d.bandwidth == 0.0) d.bandwidth = 1e7;
     if (d.max_peers == 0) d.max_peers = GS__MAX_PEERS;
+    /* divided first: a bandwidth near DBL_MAX must not make it inf */
     if (d.max_rate == 0.0 && gs__finite(d.bandwidth))
-        d.max_rate = fmax(20000.0, 2.0 * d.bandwidth / GS_WIRE_MAX_DATAGRAM);
+        d.max_rate = fmax(20000.0, 2.0 * (d.bandwidth / GS_WIRE_MAX_DATAGRAM));
     if (!d.send) gs__check_fail(&c, GS_ERR_INVALID_ARG, "send is NULL");
     gs__check_positive(&c, "bandwidth", d.bandwidth);
     gs__check_nonneg(&c, "time_window", d.time_window);
@@ -7243,11 +7879,25 @@ GS_API gs_result gs_net_create(gs_world *w, const gs_net_desc *desc,
     return GS_OK;
 }
 
+/* Is the net inside one of its own calls (user code under its lock), or
+   is the simnet it joined running? Then it must not be freed. Read
+   without the lock: destroying a net whose other threads still run is
+   refused by its own contract already (close its gs_udp first). */
+GS__PRIVATE int gs__net_in_use(const gs_net *net) {
+    return net && (net->inside || net->held);
+}
+
+/* Refused from a callback, as gs_world_destroy. */
 GS_API void gs_net_destroy(gs_net *net) {
     gs_world *w;
     int i, p;
     if (!net) return;
     w = net->world;
+    if (gs__world_locked(w) || gs__net_in_use(net)) {
+        gs__fail(w, GS_ERR_BUSY, "gs_net_destroy: called from a callback of the "
+                 "world or the net, or while its simnet runs; refused, nothing freed");
+        return;
+    }
     for (i = 0; i < w->agent_count; ++i) { /* queues belong to peers */
         gs__ghost *g = gs__ghost_of(w->agents[i]);
         for (p = 0; g && p < GS__MAX_PEERS; ++p) {
@@ -7262,7 +7912,33 @@ GS_API void gs_net_destroy(gs_net *net) {
 
 GS_API gs_net *gs_world_net(const gs_world *w) { return w->net; }
 
-GS_API void gs_net_set_lock(gs_net *net, gs_net_lock lock) { net->lock = lock; }
+GS_API void gs_net_set_lock(gs_net *net, gs_net_lock lock) {
+    if (!net) return;
+    if (gs__world_locked(net->world) || net->inside) { /* it may be held now */
+        gs__fail(net->world, GS_ERR_BUSY, "gs_net_set_lock: called from a callback; "
+                 "the lock stays as it was");
+        return;
+    }
+    net->lock = lock;
+}
+
+/* The guard of the calls that change the net: the world's (these belong
+   to its thread), then, under the net's lock, the net's own (a send
+   callback or weight rule that calls back). Returns GS_OK with the lock
+   NOT held. */
+GS__PRIVATE gs_result gs__net_unlocked(gs_net *net, const char *who) {
+    int inside;
+    gs_result r;
+    if (!net) return GS_ERR_INVALID_ARG;
+    r = gs__world_unlocked(net->world, who);
+    if (r != GS_OK) return r;
+    gs__lock(net);
+    inside = net->inside;
+    gs__unlock(net);
+    return inside ? gs__fail(net->world, GS_ERR_BUSY, "%s: called from a callback the "
+                             "net runs (a send or a weight rule)", who)
+                  : GS_OK;
+}
 
 GS__PRIVATE int gs__peer_slot(const gs_net *net, uint32_t host) {
     int p;
@@ -7271,9 +7947,23 @@ GS__PRIVATE int gs__peer_slot(const gs_net *net, uint32_t host) {
     return -1;
 }
 
+/* Frees every ghost's queue for peer slot p (a slot no peer uses). */
+GS__PRIVATE void gs__net_drop_queues(gs_world *w, int p) {
+    int i;
+    for (i = 0; i < w->agent_count; ++i) {
+        gs__ghost *g = gs__ghost_of(w->agents[i]);
+        if (!g) continue;
+        gs__free(w, g->q[p]);
+        g->q[p] = NULL;
+    }
+}
+
 GS_API gs_result gs_net_add_peer(gs_net *net, uint32_t host) {
-    gs_world *w = net->world;
+    gs_world *w;
     int p, i, count = 0;
+    gs_result r = gs__net_unlocked(net, "gs_net_add_peer");
+    if (r != GS_OK) return r;
+    w = net->world;
     if (host == 0 || host == w->host_id)
         return gs__fail(w, GS_ERR_INVALID_ARG, "gs_net_add_peer: host %lu is 0 or this host",
                         (unsigned long)host);
@@ -7285,7 +7975,11 @@ GS_API gs_result gs_net_add_peer(gs_net *net, uint32_t host) {
                         net->d.max_peers);
     for (i = 0; i < w->agent_count; ++i) {
         gs__ghost *g = gs__ghost_of(w->agents[i]);
-        if (g && gs__ghost_add_peer(g, p) != GS_OK) return GS_ERR_NO_MEMORY;
+        if (g && gs__ghost_add_peer(g, p) != GS_OK) {
+            gs__net_drop_queues(w, p); /* the queues made so far go too */
+            return gs__fail(w, GS_ERR_NO_MEMORY, "gs_net_add_peer: out of memory "
+                            "for the ghosts' queues of host %lu", (unsigned long)host);
+        }
     }
     gs__lock(net);
     memset(&net->peers[p], 0, sizeof net->peers[p]);
@@ -7297,25 +7991,24 @@ GS_API gs_result gs_net_add_peer(gs_net *net, uint32_t host) {
 }
 
 GS_API gs_result gs_net_remove_peer(gs_net *net, uint32_t host) {
-    gs_world *w = net->world;
-    int p = gs__peer_slot(net, host), i;
+    gs_world *w;
+    int p;
+    gs_result r = gs__net_unlocked(net, "gs_net_remove_peer");
+    if (r != GS_OK) return r;
+    w = net->world;
+    p = gs__peer_slot(net, host);
     if (p < 0) return gs__fail(w, GS_ERR_INVALID_ARG, "gs_net_remove_peer: no peer %lu",
                                (unsigned long)host);
     gs__lock(net);
     net->peers[p].used = 0;
-    for (i = 0; i < w->agent_count; ++i) {
-        gs__ghost *g = gs__ghost_of(w->agents[i]);
-        if (!g) continue;
-        gs__free(w, g->q[p]);
-        g->q[p] = NULL;
-    }
+    gs__net_drop_queues(w, p);
     gs__unlock(net);
     return GS_OK;
 }
 
 GS_API gs_result gs_net_peer_stats(const gs_net *net, uint32_t host,
                                    gs_peer_stats *out) {
-    int p = gs__peer_slot(net, host);
+    int p = net ? gs__peer_slot(net, host) : -1;
     if (p < 0 || !out) return GS_ERR_INVALID_ARG;
     gs__lock((gs_net *)net);
     *out = net->peers[p].st;
@@ -7325,6 +8018,7 @@ GS_API gs_result gs_net_peer_stats(const gs_net *net, uint32_t host,
 
 GS_API gs_result gs_net_unknown_stats(const gs_net *net,
                                       uint64_t rejected[GS_REJECT_COUNT]) {
+    if (!net || !rejected) return GS_ERR_INVALID_ARG;
     gs__lock((gs_net *)net);
     memcpy(rejected, net->unknown_rejected, sizeof net->unknown_rejected);
     gs__unlock((gs_net *)net);
@@ -7448,11 +8142,19 @@ GS__PRIVATE int gs__ghost_due(const gs__ghost *g, double now) {
 /* Every due ghost is encoded once into datagrams that go to every peer
    (a peer whose budget is spent misses that datagram). */
 GS_API gs_result gs_net_update(gs_net *net, double now) {
-    gs_world *w = net->world;
+    gs_world *w;
     int p, i, peers = 0;
     size_t size;
+    if (!net) return GS_ERR_INVALID_ARG;
     if (!gs__finite(now)) return GS_ERR_NOT_FINITE;
+    if (!gs__wire_time_ok(now)) return GS_ERR_INVALID_ARG; /* a clock */
+    w = net->world;
     gs__lock(net);
+    if (net->inside) { /* from its own send callback or a weight rule */
+        gs__unlock(net);
+        return GS_ERR_BUSY;
+    }
+    net->inside++;
     net->now = now;
     for (p = 0; p < GS__MAX_PEERS; ++p) peers += net->peers[p].used;
     if (peers) gs__datagram_begin(net, now, &size);
@@ -7464,6 +8166,7 @@ GS_API gs_result gs_net_update(gs_net *net, double now) {
         g->next_send = now + 1.0 / g->d.send_rate;
     }
     if (peers) gs__datagram_flush(net, now, &size);
+    net->inside--;
     gs__unlock(net);
     return GS_OK;
 }
@@ -7659,11 +8362,16 @@ GS__PRIVATE void gs__peer_clock(gs__peer *pe, const gs_wire_header *h, double no
 
 /* How long a datagram was on the way (s): its arrival less its send time
    less the clocks' offset. Per datagram, so one held back on the way is as
-   old as it is. -1 before the first round trip (unknown). */
+   old as it is. -1 (unknown) before the first round trip, and for a send
+   time more than GS_MAX_AGE off the peer's clock as we know it: a forged
+   one, or a clock that stepped and is not read again yet. Believed, it
+   would carry the snapshot's time that far (a send time of 0 an hour into
+   a session: an hour). */
 GS__PRIVATE double gs__datagram_age(const gs__peer *pe, const gs_wire_header *h, double now) {
     double age;
     if (!pe->clock_known) return -1.0;
     age = now - h->send_time - pe->clock_offset;
+    if (!(age <= GS_MAX_AGE && age >= -GS_MAX_AGE)) return -1.0;
     return age > 0.0 ? age : 0.0;
 }
 
@@ -7810,8 +8518,13 @@ GS__PRIVATE gs_result gs__deliver_locked(gs_net *net, const void *data, size_t s
 GS_API gs_result gs_net_deliver(gs_net *net, const void *data, size_t size,
                                 double now, gs_reject *why) {
     gs_result r;
+    if (!net || (!data && size > 0)) return GS_ERR_INVALID_ARG;
+    if (!gs__wire_time_ok(now)) /* a clock; NaN included */
+        return gs__finite(now) ? GS_ERR_INVALID_ARG : GS_ERR_NOT_FINITE;
     gs__lock(net);
-    r = gs__deliver_locked(net, data, size, now, why);
+    /* from a weight rule (the queues are being blended) or the send
+       callback: refused, not counted */
+    r = net->inside ? GS_ERR_BUSY : gs__deliver_locked(net, data, size, now, why);
     gs__unlock(net);
     return r;
 }
@@ -7856,6 +8569,7 @@ struct gs_simnet {
     int *free_slots, nfree;
     int count, cap;
     uint64_t order, dropped, duplicated, delivered;
+    int running;        /* inside gs_simnet_run: its hosts are in use */
 };
 
 /* xorshift64*: one stream for the whole simnet, so a seed fixes the run. */
@@ -7880,7 +8594,9 @@ GS_API gs_result gs_simnet_create(const gs_simnet_desc *desc, gs_simnet **out) {
     if (d.max_in_flight < 1 || d.max_in_flight > (1 << 22)) return GS_ERR_INVALID_ARG;
     if (!d.allocator.alloc != !d.allocator.free) return GS_ERR_INVALID_ARG;
     if (!d.allocator.alloc) { d.allocator.alloc = gs__default_alloc; d.allocator.free = gs__default_free; }
-    bytes = sizeof *s + (size_t)d.max_in_flight * (sizeof(gs__flight) + sizeof(int) + GS_WIRE_MAX_DATAGRAM);
+    if (!gs__size((size_t)d.max_in_flight, sizeof(gs__flight) + sizeof(int) + GS_WIRE_MAX_DATAGRAM,
+                  sizeof *s, &bytes))
+        return GS_ERR_OUT_OF_RANGE;
     s = (gs_simnet *)d.allocator.alloc(bytes, d.allocator.user);
     if (!s) return GS_ERR_NO_MEMORY;
     memset(s, 0, sizeof *s);
@@ -7896,8 +8612,9 @@ GS_API gs_result gs_simnet_create(const gs_simnet_desc *desc, gs_simnet **out) {
     return GS_OK;
 }
 
+/* From a callback inside gs_simnet_run: ignored (the run goes on in it). */
 GS_API void gs_simnet_destroy(gs_simnet *s) {
-    if (s) s->alloc.free(s, s->alloc.user);
+    if (s && !s->running) s->alloc.free(s, s->alloc.user);
 }
 
 GS__PRIVATE int gs__flight_less(const gs__flight *a, const gs__flight *b) {
@@ -7996,9 +8713,12 @@ GS_API gs_result gs_simnet_join(gs_simnet *s, gs_world *w, const gs_net_desc *de
     gs_net_desc d;
     gs__sim_host *h;
     gs_result r;
-    int i;
+    uint32_t had = 0;
+    int i, k;
     if (!s || !w || !out) return GS_ERR_INVALID_ARG;
     *out = NULL;
+    if (s->running)
+        return gs__fail(w, GS_ERR_BUSY, "gs_simnet_join: the simnet is running");
     if (s->hosts == GS__SIM_MAX_HOSTS || gs__sim_slot(s, w->host_id) >= 0)
         return gs__fail(w, GS_ERR_INVALID_ARG, "gs_simnet_join: host %lu already joined or "
                         "the simnet is full", (unsigned long)w->host_id);
@@ -8014,14 +8734,30 @@ GS_API gs_result gs_simnet_join(gs_simnet *s, gs_world *w, const gs_net_desc *de
     d.send_user = h;
     r = gs_net_create(w, &d, &h->net);
     if (r != GS_OK) return r;
+    /* validated by doing, then undone: the hosts before the one that
+       refused forget the new host again (unless they had it already) */
+    for (i = 0; i < s->hosts; ++i) {
+        gs__sim_host *o = &s->host[i];
+        if (gs__peer_slot(o->net, h->host) >= 0) had |= 1u << i;
+        r = gs_net_add_peer(h->net, o->host);
+        if (r != GS_OK) break;
+        r = gs_net_add_peer(o->net, h->host);
+        if (r != GS_OK) { /* its message is on the other world: bring it here */
+            gs__fail(w, r, "gs_simnet_join: host %lu: %s", (unsigned long)o->host,
+                     gs_world_error(o->world));
+            break;
+        }
+    }
+    if (r != GS_OK) {
+        for (k = 0; k < i; ++k)
+            if (!(had & (1u << k))) gs_net_remove_peer(s->host[k].net, h->host);
+        gs_net_destroy(h->net);
+        h->net = NULL;
+        return r;
+    }
     for (i = 0; i < s->hosts; ++i) {
         memset(&s->link[i][s->hosts], 0, sizeof(gs_link_desc));
         memset(&s->link[s->hosts][i], 0, sizeof(gs_link_desc));
-        if (gs_net_add_peer(h->net, s->host[i].host) != GS_OK ||
-            gs_net_add_peer(s->host[i].net, h->host) != GS_OK) {
-            gs_net_destroy(h->net);
-            return GS_ERR_NO_MEMORY;
-        }
     }
     s->hosts++;
     gs__sync_set_clock(w, gs__sim_clock_fn, h);
@@ -8031,8 +8767,12 @@ GS_API gs_result gs_simnet_join(gs_simnet *s, gs_world *w, const gs_net_desc *de
 
 GS_API gs_result gs_simnet_link(gs_simnet *s, uint32_t a, uint32_t b,
                                 const gs_link_desc *desc) {
-    int i = gs__sim_slot(s, a), j = gs__sim_slot(s, b), k;
-    if (i < 0 || j < 0 || !desc) return GS_ERR_INVALID_ARG;
+    int i, j, k;
+    if (!s || !desc) return GS_ERR_INVALID_ARG;
+    if (s->running) return GS_ERR_BUSY;
+    i = gs__sim_slot(s, a);
+    j = gs__sim_slot(s, b);
+    if (i < 0 || j < 0) return GS_ERR_INVALID_ARG;
     if (!(desc->latency >= 0.0) || !(desc->jitter >= 0.0) || !(desc->loss >= 0.0) ||
         !(desc->loss <= 1.0) || !(desc->duplicate >= 0.0) || !(desc->duplicate <= 1.0) ||
         !(desc->reorder >= 0.0) || !(desc->reorder <= 1.0) || !(desc->bandwidth >= 0.0) ||
@@ -8086,8 +8826,13 @@ GS_API gs_result gs_simnet_run(gs_simnet *s, double seconds, double frame) {
     double end;
     gs_result first = GS_OK;
     int i;
-    if (!s || !gs__finite(seconds) || seconds < 0.0 || !gs__finite(frame) || frame <= 0.0)
+    /* a frame under GS_MIN_DT could leave now + frame == now (no progress) */
+    if (!s || !gs__finite(seconds) || seconds < 0.0 || !gs__finite(frame) ||
+        !(frame >= GS_MIN_DT) || seconds > GS_WIRE_MAX_TIME - s->now)
         return GS_ERR_INVALID_ARG;
+    if (s->running) return GS_ERR_BUSY; /* from a callback of one of its worlds */
+    s->running = 1;
+    for (i = 0; i < s->hosts; ++i) s->host[i].net->held = 1;
     end = s->now + seconds;
     while (s->now < end - 0.5 * frame) {
         s->now += frame;
@@ -8098,6 +8843,8 @@ GS_API gs_result gs_simnet_run(gs_simnet *s, double seconds, double frame) {
         }
         gs__sim_deliver_due(s);
     }
+    for (i = 0; i < s->hosts; ++i) s->host[i].net->held = 0;
+    s->running = 0;
     return first;
 }
 
@@ -8210,6 +8957,20 @@ GS__PRIVATE void gs__udp_unlock(void *user) {
     if (wake) gs__udp_kick(u);
 }
 
+/* A port in decimal, 0..65535 (getaddrinfo takes "99999" as 34463), or a
+   service name for getaddrinfo to look up. */
+GS__PRIVATE int gs__udp_port_ok(const char *port) {
+    unsigned long v = 0;
+    const char *c;
+    if (*port < '0' || *port > '9') return 1;
+    for (c = port; *c; ++c) {
+        if (*c < '0' || *c > '9') return 0;
+        v = v * 10 + (unsigned long)(*c - '0');
+        if (v > 65535) return 0;
+    }
+    return 1;
+}
+
 /* "HOST:PORT" or "[IPV6]:PORT" to a socket address. */
 GS__PRIVATE int gs__udp_resolve(const char *text, struct sockaddr_storage *out,
                                 socklen_t *len) {
@@ -8234,6 +8995,7 @@ GS__PRIVATE int gs__udp_resolve(const char *text, struct sockaddr_storage *out,
         port = colon + 1;
     }
     host[n] = '\0';
+    if (!gs__udp_port_ok(port)) return 0;
     memset(&hints, 0, sizeof hints);
     hints.ai_family = AF_UNSPEC;
     hints.ai_socktype = SOCK_DGRAM;
@@ -8480,7 +9242,14 @@ GS_API gs_result gs_udp_open(gs_world *w, const gs_udp_desc *desc, gs_udp **out)
     memset(u, 0, sizeof *u);
     u->world = w;
     u->threads = desc->threads;
-    pthread_mutex_init(&u->mu, NULL);
+    {   /* recursive: a weight rule runs under it, and its calls into the
+           net (stats; the refused ones see net->inside) take it again */
+        pthread_mutexattr_t ma;
+        pthread_mutexattr_init(&ma);
+        pthread_mutexattr_settype(&ma, PTHREAD_MUTEX_RECURSIVE);
+        pthread_mutex_init(&u->mu, &ma);
+        pthread_mutexattr_destroy(&ma);
+    }
     pthread_mutex_init(&u->wake_mu, NULL);
     pthread_mutex_init(&u->send_mu, NULL);
     pthread_cond_init(&u->wake, NULL);
@@ -8510,10 +9279,17 @@ GS_API gs_result gs_udp_open(gs_world *w, const gs_udp_desc *desc, gs_udp **out)
     return GS_OK;
 }
 
+/* From a callback of its world (a weight rule holds the lock that its
+   threads wait on): refused, as gs_world_destroy. */
 GS_API void gs_udp_close(gs_udp *u) {
     gs_world *w;
     if (!u) return;
     w = u->world;
+    if (gs__world_locked(w)) {
+        gs__fail(w, GS_ERR_BUSY, "gs_udp_close: called from a callback of its world; "
+                 "refused, nothing closed");
+        return;
+    }
     if (u->threads) {
         __atomic_store_n(&u->stop, 1, __ATOMIC_RELEASE);
         gs__udp_kick(u);
@@ -8529,13 +9305,14 @@ GS_API void gs_udp_close(gs_udp *u) {
     gs__free(w, u);
 }
 
-GS_API gs_net *gs_udp_net(gs_udp *u) { return u->net; }
+GS_API gs_net *gs_udp_net(gs_udp *u) { return u ? u->net : NULL; }
 
 GS_API gs_result gs_udp_add_peer(gs_udp *u, uint32_t host, const char *addr) {
     struct sockaddr_storage a;
     socklen_t len;
     int p, slot = -1, was_new = 0;
-    gs_result r;
+    gs_result r = gs__world_unlocked(u ? u->world : NULL, "gs_udp_add_peer");
+    if (r != GS_OK) return r;
     if (!gs__udp_resolve(addr, &a, &len))
         return gs__fail(u->world, GS_ERR_INVALID_ARG, "gs_udp_add_peer: address \"%s\" is not "
                         "HOST:PORT or [IPV6]:PORT", addr ? addr : "(null)");
@@ -8570,8 +9347,11 @@ GS_API gs_result gs_udp_add_peer(gs_udp *u, uint32_t host, const char *addr) {
 }
 
 GS_API gs_result gs_udp_remove_peer(gs_udp *u, uint32_t host) {
-    gs_result r = gs_net_remove_peer(u->net, host); /* the net first: see add */
+    gs_result r;
     int p;
+    if (!u) return GS_ERR_INVALID_ARG;
+    r = gs_net_remove_peer(u->net, host); /* the net first: see add */
+    if (r == GS_ERR_BUSY) return r;
     pthread_mutex_lock(&u->mu);
     for (p = 0; p < GS__MAX_PEERS; ++p)
         if (u->peers[p].used && u->peers[p].host == host) u->peers[p].used = 0;
@@ -8580,11 +9360,17 @@ GS_API gs_result gs_udp_remove_peer(gs_udp *u, uint32_t host) {
 }
 
 GS_API gs_result gs_udp_poll(gs_udp *u, double now) {
+    gs_result r;
+    if (!u) return GS_ERR_INVALID_ARG;
     if (!gs__finite(now)) return GS_ERR_NOT_FINITE;
     if (u->threads) {
         gs__udp_kick(u);
         return GS_OK;
     }
+    /* poll mode belongs to the world's thread: it delivers into queues
+       that a weight rule may be blending */
+    r = gs__world_unlocked(u->world, "gs_udp_poll");
+    if (r != GS_OK) return r;
     gs__udp_drain(u, 4096);
     return gs_net_update(u->net, now);
 }

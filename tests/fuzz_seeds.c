@@ -1,5 +1,6 @@
-/* fuzz_seeds.c - writes the seed corpus of tests/fuzz_wire.c: valid
-   datagrams made by the library's own encoder.
+/* fuzz_seeds.c - writes the seed corpus of tests/fuzz_wire.c (valid
+   datagrams made by the library's own encoder) and tests/fuzz_clock.c
+   (clock-*: programs of round trips and forged datagrams).
 
        fuzz_seeds DIR
 
@@ -198,6 +199,30 @@ static void extremes(double *v) {
     wire_seed("wire-time-max", 14, c, 2, v);
 }
 
+/* Programs of tests/fuzz_clock.c (4-byte operations; its top comment):
+   frames of honest round trips, then one forged datagram of each kind
+   (send time off by 100 s, 0, -1e300; a snapshot a year on), a wall-time
+   jump and a peer's clock stepped, frames between. */
+static void clock_seeds(void) {
+    static const unsigned char frame[4] = {0, 0, 0, 0};
+    static const unsigned char odd[6][4] = {
+        {2, 0, 6, 0x21}, {2, 0, 10, 0x20}, {3, 0, 14, 0xe0}, {2, 12, 2, 0x21}, {5, 7, 3, 0},
+        {4, 4, 0, 0}};
+    char name[64];
+    FILE *fp;
+    int i, k;
+    for (i = 0; i < 6; ++i) {
+        snprintf(name, sizeof name, "%s/clock-%d", out_dir, i);
+        fp = fopen(name, "wb");
+        if (!fp) { perror(name); exit(1); }
+        for (k = 0; k < 20; ++k) fwrite(frame, 1, 4, fp);
+        fwrite(odd[i], 1, 4, fp);
+        for (k = 0; k < 10; ++k) fwrite(frame, 1, 4, fp);
+        if (fclose(fp) != 0) { perror(name); exit(1); }
+        written++;
+    }
+}
+
 int main(int argc, char **argv) {
     static sink all;
     if (argc != 2) {
@@ -209,6 +234,7 @@ int main(int argc, char **argv) {
     from_host(FUZZ_PEER_B, 2, &all);
     write_seed("run-both", &all, 0, all.count);
     hand_made();
+    clock_seeds();
     printf("fuzz_seeds: %d seed files in %s\n", written, out_dir);
     return 0;
 }

@@ -18,6 +18,9 @@
         checksum made right, so that mutations reach past the CRC.
      4. The world advances 4 ms (ghosts blend what was queued) and the net
         sends what is due; every datagram it sends must decode.
+   Every advance moves each agent's time by its steps, at most
+   GS_MAX_TIME_CORRECTION of blending and the world's follow; after each,
+   every agent's and the world's time is in [0, GS_WIRE_MAX_TIME].
    At the end the world advances 50 ms more, and then: every agent's state
    and render state is finite, no statistic is NaN, and the counters add
    up: per reason, what the peers and the unknown-sender counters hold is
@@ -202,12 +205,40 @@ static void fuzz_check_states(const fuzz_world *f) {
         FUZZ_CHECK(n <= sizeof s / sizeof s[0]);
         FUZZ_CHECK(gs_agent_get_state(a, s, n) == GS_OK);
         FUZZ_CHECK(fuzz_finite_all(s, n));
+        FUZZ_CHECK(s[0] >= 0.0 && s[0] <= GS_WIRE_MAX_TIME);
         FUZZ_CHECK(gs_ghost_render_state(a, s, n) == GS_OK);
         FUZZ_CHECK(fuzz_finite_all(s, n));
         FUZZ_CHECK(gs_ghost_get_stats(a, &gst) == GS_OK);
         FUZZ_CHECK(!isnan(gst.last_correction));
     }
-    FUZZ_CHECK(isfinite(gs_world_time(f->w)));
+    FUZZ_CHECK(gs_world_time(f->w) >= 0.0 && gs_world_time(f->w) <= GS_WIRE_MAX_TIME);
+}
+
+/* Advances the world; what moved each agent is its steps (steps * dt),
+   at most GS_MAX_TIME_CORRECTION of blending, and the world's follow (a
+   lagging agent jumps to the clock the others set: the world's time less
+   the advance). A refused advance moves nothing. */
+static void fuzz_advance(fuzz_world *f, double seconds) {
+    double t0[FUZZ_OBJECTS], w0 = gs_world_time(f->w), w1;
+    uint64_t n0[FUZZ_OBJECTS];
+    gs_result r;
+    int i;
+    for (i = 0; i < FUZZ_OBJECTS; ++i) {
+        t0[i] = gs_agent_time(f->agent[i]);
+        n0[i] = gs_agent_get_stats(f->agent[i]).steps;
+    }
+    r = gs_world_advance(f->w, seconds, NULL);
+    w1 = gs_world_time(f->w);
+    if (r == GS_ERR_INVALID_ARG) FUZZ_CHECK(w1 == w0);
+    for (i = 0; i < FUZZ_OBJECTS; ++i) {
+        const gs_agent *a = f->agent[i];
+        double t = gs_agent_time(a), follow = w1 - seconds - t0[i];
+        double stepped = (double)(gs_agent_get_stats(a).steps - n0[i]) * gs_agent_dt(a);
+        /* t = steps * dt + offset: sums of numbers up to 1e9 round */
+        double eps = 1e-12 * (fabs(t) + fabs(t0[i]) + stepped) + 1e-9;
+        FUZZ_CHECK(fabs(t - t0[i] - stepped) <=
+                   GS_MAX_TIME_CORRECTION + (follow > 0.0 ? follow : 0.0) + eps);
+    }
 }
 
 /* The library's counters against the harness's tally. */
@@ -252,7 +283,7 @@ static void fuzz_check_counters(const fuzz_world *f, const fuzz_tally *t) {
    queued; it may report GS_ERR_UNSTABLE), the net sends what is due, and
    every state is checked. */
 static void fuzz_step(fuzz_world *f, double now) {
-    gs_world_advance(f->w, FUZZ_STEP, NULL);
+    fuzz_advance(f, FUZZ_STEP);
     FUZZ_CHECK(gs_net_update(f->net, now) == GS_OK);
     fuzz_check_states(f);
 }
@@ -260,7 +291,7 @@ static void fuzz_step(fuzz_world *f, double now) {
 /* The end of an input: 50 ms more, the states, and the counters against
    the tally; the world goes. */
 static void fuzz_finish(fuzz_world *f, const fuzz_tally *t, double now) {
-    gs_world_advance(f->w, 0.05, NULL);
+    fuzz_advance(f, 0.05);
     FUZZ_CHECK(gs_net_update(f->net, now + 0.05) == GS_OK);
     fuzz_check_states(f);
     fuzz_check_counters(f, t);

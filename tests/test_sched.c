@@ -8,7 +8,10 @@
    that fail and agents whose time is set back from another agent's step
    (what a ghost's blend does), every activation must see the span a scan of
    the live agents gives, and the order of steps must be the order the scan
-   gave (pinned as a hash recorded before the change). */
+   gave (pinned as a hash recorded before the change). The set-back goes
+   through the private path a blend takes (gs__agent_put_state): the public
+   gs_agent_set_state is refused from a step (GS_ERR_BUSY), so this file
+   compiles the implementation itself (GHOSTSIM_STATIC), as test_sap.c. */
 #include <setjmp.h>
 #include <stdarg.h>
 #include <stddef.h>
@@ -18,6 +21,8 @@
 #include <stdlib.h>
 #include <string.h>
 
+#define GHOSTSIM_STATIC
+#define GHOSTSIM_IMPLEMENTATION
 #include "ghostsim.h"
 
 #define NAGENTS 40
@@ -68,7 +73,9 @@ static gs_result member_step(void *user, double t, double dt) {
         double s[2];
         assert_int_equal(gs_agent_get_state(o, s, 2), GS_OK);
         s[0] -= 1.5 * gs_agent_dt(o);
-        assert_int_equal(gs_agent_set_state(o, s, 2), GS_OK);
+        if (s[0] < 0.0) s[0] = 0.0; /* no time is negative */
+        assert_int_equal(gs_agent_set_state(o, s, 2), GS_ERR_BUSY);
+        assert_int_equal(gs__agent_put_state(o, s), GS_OK);
     }
     return GS_OK;
 }
@@ -166,9 +173,11 @@ static void test_sched_span_matches_scan(void **state) {
 }
 
 /* The order of steps, failures and set-backs included, is the order the
-   scan gave: hashes recorded with the scan, before the heaps. */
+   scan gave: hashes recorded with the scan, before the heaps. Case 1's was
+   recorded again when set-backs stopped at time 0 (no agent time is
+   negative); case 0's did not change. */
 static void test_sched_order_pinned(void **state) {
-    static const uint64_t want[2] = {0x1e794df3675f69d4ull, 0x7c3a17e67ae67a4aull};
+    static const uint64_t want[2] = {0x1e794df3675f69d4ull, 0xf538ec9eb135c41full};
     int k;
     (void)state;
     for (k = 0; k < 2; ++k) {
