@@ -282,13 +282,18 @@ typedef enum gs_sync_mode {
     GS_SYNC_DEFAULT = 0,   /* present */
     GS_SYNC_PRESENT,       /* the paper: a snapshot blends at the local
                               present, after the next step of its agent */
-    GS_SYNC_REPLAY,        /* a snapshot whose time lies in the history
-                              blends when its agent reaches that time, in a
-                              re-run from the last recorded moment before
-                              it, then on to the present, inside the same
-                              gs_world_advance; older ones, or past the
-                              replay budget, blend at the present. Meant
-                              with the session clock; time is not blended */
+    GS_SYNC_REPLAY,        /* a peer's snapshots blend as a whole set (every
+                              ghost, every chunk, one time) when the world
+                              reaches that time, in a re-run from the last
+                              recorded moment before it, then on to the
+                              present, inside the same gs_world_advance;
+                              sets older than the history, or past the
+                              replay budget, blend at the present; partial
+                              sets a newer whole one supersedes are dropped.
+                              A peer's probe goes on along its velocity
+                              between snapshots. Meant with the session
+                              clock, and ghosts of one send rate; time is
+                              not blended */
     GS__SYNC_COUNT
 } gs_sync_mode;
 
@@ -297,7 +302,8 @@ typedef struct gs_sync_desc {
     gs_sync_clock clock;   /* default local */
     gs_clock_fn now;       /* the wall clock the session clock reads (s);
                               default the world's clock; gs_simnet_join
-                              sets the simnet's clock of the host */
+                              sets the simnet's clock of the host (so the
+                              simnet must outlive the world's advances) */
     void *now_user;
     int history_frames;    /* advances the world history keeps, to re-run
                               from (gs_world_sync_test); default 16, a
