@@ -6650,6 +6650,7 @@ GS__PRIVATE void gs__world_blend(gs_world *w) {
 #define GS__SYNC_RIGID 13   /* v_prev, w_prev, target, target_q */
 #define GS__SYNC_NONE UINT64_MAX /* a log entry applied before the advance */
 #define GS__SYNC_SPLIT (UINT64_MAX - 1) /* one applied at a blend time */
+#define GS__LOG_HEAD 5      /* doubles before an input log entry's values */
 #define GS__SPLITS 16       /* blend times an advance may take, and one
                                frame may hold: a set per peer and frame */
 #define GS__RERUN_TEST 1    /* a re-run that checks (gs_world_sync_test) */
@@ -6686,6 +6687,8 @@ typedef struct gs__sync {
     int cap;             /* frames in the ring, 0: no history */
     int agents;          /* the agent count the layout was made for */
     size_t stride;       /* doubles per frame */
+    size_t room;         /* doubles per frame the ring has room for */
+    size_t need;         /* doubles per frame the agents need */
     double *ring;        /* cap + 2 frames: the last two keep the present
                             and a re-run's end (gs_world_sync_test) */
     gs__hframe *frames;  /* cap */
@@ -6746,38 +6749,83 @@ GS__PRIVATE uint64_t gs__d2u(double d) { uint64_t u; memcpy(&u, &d, sizeof u); r
 
 /* Allocates the ring for the agents there are now (create time only: an
    agent created or destroyed). The history starts again. */
-GS__PRIVATE gs_result gs__sync_relayout(gs_world *w) {
+/* The history's bytes at most: a world of 30000 bodies would want 285 MB
+   for 16 frames; it keeps fewer frames, or none. */
+#define GS__SYNC_MAX_BYTES ((size_t)64 << 20)
+
+/* Makes room for frames of `stride` doubles (create time only: an agent
+   created or destroyed). The history starts again. The ring grows to twice
+   what it needs, so that creating n agents allocates O(log n) times. */
+GS__PRIVATE gs_result gs__sync_reserve(gs_world *w, size_t stride) {
     gs__sync *sy = w->sync;
-    size_t stride = 2 * (size_t)w->nbodies, bytes;
-    int i, cap = sy->d.history_frames > 0 ? sy->d.history_frames : 0;
-    char *block;
-    for (i = 0; i < w->agent_count; ++i) stride += gs__sync_agent_size(w->agents[i]);
+    size_t room, per, fixed, frames, bytes, n = (size_t)w->agent_count;
+    int pass;
+    char *block = NULL;
     sy->valid_from = sy->seq;
     sy->agents = w->agent_count;
-    if (cap == 0) return GS_OK;
-    if (sy->ring && stride <= sy->stride) {
-        sy->stride = stride;
-        return GS_OK;
-    }
-    /* the log holds two worlds' worth of entries per frame: a blend of
-       every ghost once or twice a frame */
-    sy->log_cap = 2 * (uint64_t)cap * (stride + 4 * (size_t)w->agent_count) + 64;
-    bytes = ((size_t)cap + 2) * stride * sizeof(double) + (size_t)cap * sizeof(gs__hframe) +
-            (size_t)sy->log_cap * sizeof(double);
-    block = (char *)gs__alloc(w, bytes);
-    if (!block) return gs__fail(w, GS_ERR_NO_MEMORY, "world history: out of memory");
-    gs__free(w, sy->ring);
-    sy->ring = (double *)block;
-    sy->log = sy->ring + ((size_t)cap + 2) * stride;
-    sy->frames = (gs__hframe *)(sy->log + sy->log_cap);
-    sy->cap = cap;
     sy->stride = stride;
-    sy->log_head = sy->log_tail = 0;
+    if (sy->d.history_frames <= 0) return GS_OK;
+    if (sy->ring && stride <= sy->room) return GS_OK;
+    for (pass = 0; pass < 2 && !block; ++pass) {
+        size_t most = GS__SYNC_MAX_BYTES / sizeof(double), heads = 2 * GS__LOG_HEAD * (2 * n + 8) + 8;
+        /* first twice the need; past the byte cap, the most that two frames
+           can have, so that the capped sizes too allocate once */
+        room = pass == 0 && stride <= SIZE_MAX / 4 ? 2 * stride
+               : most > 64 + 2 * heads ? (most - 64 - 2 * heads) / 8 : 0;
+        if (room < stride || room > most) continue;
+        /* a frame: its slot, two of its size in the log (a blend of every
+           ghost once or twice a frame) and its entries' heads; and two
+           slots more (the present and a re-run's end, gs_world_sync_test) */
+        per = 3 * room + 2 * GS__LOG_HEAD * (2 * n + 8) + sizeof(gs__hframe) / sizeof(double) + 1;
+        fixed = 2 * room + 64;
+        if (fixed >= GS__SYNC_MAX_BYTES / sizeof(double)) continue;
+        frames = (GS__SYNC_MAX_BYTES / sizeof(double) - fixed) / per;
+        if (frames > (size_t)sy->d.history_frames) frames = (size_t)sy->d.history_frames;
+        if (frames < 2) continue;
+        sy->log_cap = 2 * (uint64_t)frames * (room + GS__LOG_HEAD * (2 * n + 8)) + 64;
+        bytes = (frames + 2) * room * sizeof(double) + frames * sizeof(gs__hframe) +
+                (size_t)sy->log_cap * sizeof(double);
+        block = (char *)gs__alloc(w, bytes);
+        if (!block) return gs__fail(w, GS_ERR_NO_MEMORY, "world history: out of memory");
+        gs__free(w, sy->ring);
+        sy->ring = (double *)block;
+        sy->log = sy->ring + (frames + 2) * room;
+        sy->frames = (gs__hframe *)(sy->log + sy->log_cap);
+        sy->cap = (int)frames;
+        sy->room = room;
+        sy->log_head = sy->log_tail = 0;
+    }
+    if (!block) /* too big for any history: the world goes without (its sync
+                   stats say 0 frames; replays blend at the present) */
+        sy->agents = -1;
     return GS_OK;
 }
 
+/* The doubles of a frame for the agents there are now. */
+GS__PRIVATE size_t gs__sync_need(const gs_world *w) {
+    size_t stride = 2 * (size_t)w->nbodies, part;
+    int i;
+    for (i = 0; i < w->agent_count; ++i) {
+        part = gs__sync_agent_size(w->agents[i]);
+        if (part > SIZE_MAX / 2 - stride) return SIZE_MAX / 2;
+        stride += part;
+    }
+    return stride;
+}
+
+GS__PRIVATE gs_result gs__sync_relayout(gs_world *w) {
+    w->sync->need = gs__sync_need(w);
+    return gs__sync_reserve(w, w->sync->need);
+}
+
+/* A new agent: its record and, for a body, its places in the broad phase's
+   two orders (counted on, not recounted: 30000 bodies in a row). */
 GS__PRIVATE gs_result gs__sync_added(gs_world *w, gs_agent *a, gs_agent **out) {
-    gs_result r = gs__sync_relayout(w);
+    gs__sync *sy = w->sync;
+    size_t part = gs__sync_agent_size(a) + (gs__as_rigid(a) ? 2 : 0);
+    gs_result r;
+    sy->need = part > SIZE_MAX / 2 - sy->need ? SIZE_MAX / 2 : sy->need + part;
+    r = gs__sync_reserve(w, sy->need);
     if (r != GS_OK) {
         gs_agent_destroy(a);
         gs__fail(w, r, "agent create: out of memory for the world history");
@@ -6866,7 +6914,6 @@ GS__PRIVATE void gs__sync_load(gs_world *w, const double *p) {
    applied after that dispatch, before the frame (GS__SYNC_NONE), or at
    blend time `at` of the frame (GS__SYNC_SPLIT: a replay's blends, which
    a later replay's new blend times would move off their dispatch) ---- */
-#define GS__LOG_HEAD 5
 GS__PRIVATE double gs__log_get(const gs__sync *sy, uint64_t at) {
     return sy->log[at % sy->log_cap];
 }
