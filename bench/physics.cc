@@ -124,6 +124,7 @@ struct gs_cloth_engine : cloth_engine {
     gs_cloth_engine(int n_, gs_integrator integ_) : cloth_engine(n_), w(NULL), cloth(NULL),
                                                     integ(integ_) {
         name = integ == GS_INTEGRATOR_IMPLICIT_EULER ? "ghostsim implicit Euler"
+               : integ == GS_INTEGRATOR_XPBD         ? "ghostsim XPBD"
                                                       : "ghostsim symplectic Euler";
         gs_world_desc wd = gs_world_desc_default();
         gs_cloth_desc cd = gs_cloth_desc_default();
@@ -151,11 +152,17 @@ struct gs_cloth_engine : cloth_engine {
         return st.steps ? (double)st.substeps / (double)st.steps : 0.0;
     }
     int springs() const { return gs_mesh_spring_count(cloth); }
+    /* ns per spring per substep at `us` microseconds per step */
+    double ns_per_spring(double us) const { return 1e3 * us / substeps_per_step() / springs(); }
     std::string note() const {
         char b[256];
         if (integ == GS_INTEGRATOR_IMPLICIT_EULER)
             snprintf(b, sizeof b, "backward Euler, springs linearized, conjugate gradient to 1e-6; "
                                   "%d springs", springs());
+        else if (integ == GS_INTEGRATOR_XPBD)
+            snprintf(b, sizeof b, "XPBD small steps: %.2f substeps per step of one pass over the "
+                                  "springs (compliance 1/k, the same N/m); %d springs",
+                     substeps_per_step(), springs());
         else
             snprintf(b, sizeof b, "explicit, %.2f substeps per step to stay under its "
                                   "stability bound (stable dt %.3g ms); %d springs",
@@ -591,6 +598,44 @@ struct row {
     bool ok; /* the engine's result is sane (it did not blow up) */
 };
 
+/* ghostsim alone, 16x16 .. 128x128 (quick: to 64x64): the cost of one
+   spring in one substep, symplectic Euler and XPBD, in the thread's CPU
+   time (median of 7 batches of about 20 ms each, after 20 warm-up steps). */
+struct spring_cost { int n; double symp, xpbd; };
+static double ns_per_spring_substep(int n, gs_integrator integ) {
+    gs_cloth_engine e(n, integ);
+    std::vector<double> b;
+    for (int i = 0; i < 20; ++i) e.step();
+    gs_agent_stats s0 = gs_agent_get_stats(e.cloth);
+    int per = 1;
+    for (double t0 = bu_cpu_now(); bu_cpu_now() - t0 < 0.02; ++per) e.step();
+    for (int k = 0; k < 7; ++k) {
+        gs_agent_stats a = gs_agent_get_stats(e.cloth);
+        double t0 = bu_cpu_now();
+        for (int i = 0; i < per; ++i) e.step();
+        gs_agent_stats z = gs_agent_get_stats(e.cloth);
+        b.push_back(1e9 * (bu_cpu_now() - t0) / (double)(z.substeps - a.substeps) / e.springs());
+    }
+    (void)s0;
+    return median(b);
+}
+
+static std::vector<spring_cost> spring_cost_table(bool quick) {
+    std::vector<spring_cost> out;
+    fprintf(stderr, "\nghostsim alone: ns per spring per substep (thread CPU time)\n%5s %9s %12s %8s\n",
+            "n", "springs", "symplectic", "XPBD");
+    for (int n = 16; n <= (quick ? 64 : 128); n *= 2) {
+        spring_cost c;
+        c.n = n;
+        c.symp = ns_per_spring_substep(n, GS_INTEGRATOR_SYMPLECTIC_EULER);
+        c.xpbd = ns_per_spring_substep(n, GS_INTEGRATOR_XPBD);
+        fprintf(stderr, "%5d %9d %12.2f %8.2f\n", n, gs__cloth_spring_count(n, n, 7), c.symp,
+                c.xpbd);
+        out.push_back(c);
+    }
+    return out;
+}
+
 /* A cloth that stretched by more than 100% or left the neighbourhood blew up:
    its time per step means nothing. */
 static bool cloth_sane(double sag, double stretch) {
@@ -615,6 +660,7 @@ int main(int argc, char **argv) {
     std::vector<row> rows;
     /* headline ratios per size, for the plots and the summary */
     std::vector<double> cx, r_pbd1, r_pbd10, r_spring, r_impl, px, r_ode, p_gs, p_ode;
+    std::vector<double> x_pbd1, x_pbd10, x_spring, ns_symp, ns_xpbd;
 
     fprintf(stderr, "physics: dt = %g ms for every engine; %d batches per size; "
                     "ratio = other / ghostsim time per step (> 1: ghostsim faster)\n",
@@ -633,6 +679,8 @@ int main(int argc, char **argv) {
         es.push_back(new bullet_pbd_engine(n, 10));
         es.push_back(new bullet_spring_engine(
             n, (int)ceil(DT / (0.9 * gs_mesh_stable_dt(ref->cloth)) - 1e-9)));
+        gs_cloth_engine *xpbd = new gs_cloth_engine(n, GS_INTEGRATOR_XPBD);
+        es.push_back(xpbd);
         int per = steps_for(ref, batch_s / 4);
         race(es, quick ? 100 : 300, batches, per);
         cx.push_back(n * n);
@@ -667,12 +715,24 @@ int main(int argc, char **argv) {
             r_pbd1.push_back(rows[base + 2].ratio_to_ghostsim);
             r_pbd10.push_back(rows[base + 3].ratio_to_ghostsim);
             r_spring.push_back(rows[base + 4].ratio_to_ghostsim);
+            x_pbd1.push_back(ratio(es[2], xpbd));
+            x_pbd10.push_back(ratio(es[3], xpbd));
+            x_spring.push_back(ratio(es[4], xpbd));
+            ns_symp.push_back(ref->ns_per_spring(rows[base].us_per_step));
+            ns_xpbd.push_back(xpbd->ns_per_spring(rows[base + 5].us_per_step));
+            fprintf(stderr, "       per spring per substep: symplectic %.2f ns, XPBD %.2f ns; "
+                            "Bullet / ghostsim XPBD: PBD 1 pass %.3f, PBD 10 passes %.3f, "
+                            "mass-spring %.3f\n",
+                    ns_symp.back(), ns_xpbd.back(), x_pbd1.back(), x_pbd10.back(),
+                    x_spring.back());
         }
         for (size_t k = 0; k < es.size(); ++k) fprintf(stderr, "       %s: %s\n",
                                                        es[k]->name.c_str(),
                                                        ((cloth_engine *)es[k])->note().c_str());
         for (size_t k = 0; k < es.size(); ++k) delete es[k];
     }
+
+    std::vector<spring_cost> costs = spring_cost_table(quick);
 
     fprintf(stderr, "\nsphere pile (r %g m, 1000 kg/m^3, contacts k %g N/m, c %g N s/m, mu %g, "
                     "in a box on the ground)\n", R, K_CONTACT, C_CONTACT, MU);
@@ -781,6 +841,14 @@ int main(int argc, char **argv) {
         bu_json_str(j, "note", r.note.c_str());
         bu_json_obj_end(j);
     }
+    for (size_t i = 0; i < costs.size(); ++i) {
+        bu_json_obj_begin(j, NULL);
+        bu_json_str(j, "scene", "cloth_cost");
+        bu_json_int(j, "n_per_side", costs[i].n);
+        bu_json_num(j, "symplectic_ns_per_spring_substep", costs[i].symp);
+        bu_json_num(j, "xpbd_ns_per_spring_substep", costs[i].xpbd);
+        bu_json_obj_end(j);
+    }
     bu_json_arr_end(j);
     bu_json_obj_begin(j, "summary");
     {
@@ -794,6 +862,28 @@ int main(int argc, char **argv) {
             bu_json_num(j, key, r_spring[i]);
             snprintf(key, sizeof key, "cloth%d_ghostsim_implicit_over_symplectic", cloth_sizes[i]);
             bu_json_num(j, key, r_impl[i]);
+            snprintf(key, sizeof key, "cloth%d_bullet_pbd1_over_ghostsim_xpbd", cloth_sizes[i]);
+            bu_json_num(j, key, x_pbd1[i]);
+            snprintf(key, sizeof key, "cloth%d_bullet_pbd10_over_ghostsim_xpbd", cloth_sizes[i]);
+            bu_json_num(j, key, x_pbd10[i]);
+            snprintf(key, sizeof key, "cloth%d_bullet_massspring_over_ghostsim_xpbd", cloth_sizes[i]);
+            bu_json_num(j, key, x_spring[i]);
+            snprintf(key, sizeof key, "cloth%d_symplectic_ns_per_spring_substep", cloth_sizes[i]);
+            bu_json_num(j, key, ns_symp[i]);
+            snprintf(key, sizeof key, "cloth%d_xpbd_ns_per_spring_substep", cloth_sizes[i]);
+            bu_json_num(j, key, ns_xpbd[i]);
+        }
+        {
+            size_t last = cloth_sizes.size() - 1;
+            char t[160];
+            snprintf(t, sizeof t, "symplectic Euler <= 3 ns per spring per substep at %dx%d",
+                     cloth_sizes[last], cloth_sizes[last]);
+            bu_json_str(j, "target_ns", t);
+            bu_json_bool(j, "target_met_ns", ns_symp[last] <= 3.0);
+            snprintf(t, sizeof t, "XPBD >= 3x faster than Bullet PBD 10 passes at %dx%d",
+                     cloth_sizes[last], cloth_sizes[last]);
+            bu_json_str(j, "target_xpbd", t);
+            bu_json_bool(j, "target_met_xpbd", x_pbd10[last] >= 3.0);
         }
         for (size_t i = 0; i < pile_sizes.size(); ++i) {
             snprintf(key, sizeof key, "pile%d_ode_quickstep_over_ghostsim", pile_sizes[i]);

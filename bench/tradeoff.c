@@ -45,6 +45,7 @@ static const integ_info INTEGS[] = {
     {GS_INTEGRATOR_RK4, "RK4"},
     {GS_INTEGRATOR_IMPLICIT_EULER, "implicit Euler"},
     {GS_INTEGRATOR_EXPLICIT_EULER, "explicit Euler"},
+    {GS_INTEGRATOR_XPBD, "XPBD"}, /* at its default 4 substeps per step */
 };
 #define NINTEG ((int)(sizeof INTEGS / sizeof INTEGS[0]))
 
@@ -437,7 +438,7 @@ static void part1_print(const part1 *p) {
     }
     fprintf(stderr, "\none spring (k 1000 N/m, m 0.01 kg, undamped, omega %.1f rad/s): measured "
                     "omega*dt_max (theory: symplectic Euler 2, Verlet 2, RK4 2.83, implicit "
-                    "none, explicit Euler 0)\n", p->spring_omega);
+                    "none, explicit Euler 0, XPBD none)\n", p->spring_omega);
     for (ii = 0; ii < NINTEG; ++ii) {
         const stab *s = &p->spring_stab[ii];
         if (s->capped) fprintf(stderr, "  %-17s stable up to %g s\n", INTEGS[ii].name, DT_HI);

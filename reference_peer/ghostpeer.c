@@ -105,7 +105,7 @@ static void usage(const char *why) {
     fprintf(stderr,
             "usage: ghostpeer --id N --listen HOST:PORT [--peer ID@HOST:PORT]... [--duration S]\n"
             "                 [--cloth N] [--spheres K] [--weight cs|exp[:RATE]|owner]\n"
-            "                 [--integrator explicit|symplectic|verlet|rk4|implicit] [--dt S]\n"
+            "                 [--integrator explicit|symplectic|verlet|rk4|implicit|xpbd] [--dt S]\n"
             "                 [--probe-until S] [--seed N] [--encoding f64|f32]\n"
             "                 [--stats-every S] [--trace FILE] [--key FILE]\n"
             "                 [--clock-step AT:SECONDS] [--probe-wild AT:SECONDS:SPEED]\n"
@@ -143,10 +143,11 @@ static void parse_weight(options *o, const char *s) {
 }
 
 static gs_integrator parse_integrator(const char *s) {
-    static const char *const names[] = {"explicit", "symplectic", "verlet", "rk4", "implicit"};
+    static const char *const names[] = {"explicit", "symplectic", "verlet", "rk4", "implicit",
+                                        "xpbd"};
     static const gs_integrator ids[] = {GS_INTEGRATOR_EXPLICIT_EULER, GS_INTEGRATOR_SYMPLECTIC_EULER,
                                         GS_INTEGRATOR_VERLET, GS_INTEGRATOR_RK4,
-                                        GS_INTEGRATOR_IMPLICIT_EULER};
+                                        GS_INTEGRATOR_IMPLICIT_EULER, GS_INTEGRATOR_XPBD};
     size_t i;
     char msg[160];
     for (i = 0; i < sizeof names / sizeof names[0]; ++i)
