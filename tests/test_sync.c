@@ -424,10 +424,9 @@ static void test_history_rerun_bitwise(void **state) {
     }
 }
 
-/* Without the re-run the contacts matter: the same frames from a world
-   rewound by hand (states only) differ, so the test above is not
-   trivially met. And a custom agent that reads what its state does not
-   hold is found. */
+/* The check is not trivially met: a custom agent whose step reads what
+   its state does not hold (a counter in user memory) is found, by index,
+   and the world is left as it was. */
 static void test_history_finds_nondeterminism(void **state) {
     scene sc;
     uint64_t h;
