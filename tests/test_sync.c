@@ -353,7 +353,9 @@ static void scene_new(scene *sc, gs_integrator integ, int history) {
     rd.shape.type = GS_SHAPE_SPHERE;
     rd.shape.radius = 0.1;
     rd.position = v3(0.1, 0.15, 0.05);
-    rd.solver.integrator = integ == GS_INTEGRATOR_IMPLICIT_EULER ? GS_INTEGRATOR_DEFAULT : integ;
+    /* rigid bodies take neither implicit Euler nor XPBD */
+    rd.solver.integrator = integ == GS_INTEGRATOR_IMPLICIT_EULER || integ == GS_INTEGRATOR_XPBD
+                               ? GS_INTEGRATOR_DEFAULT : integ;
     assert_int_equal(gs_rigid_create(sc->w, &rd, &sc->ball), GS_OK);
     rd.shape.type = GS_SHAPE_BOX;
     rd.shape.half_extents = v3(0.05, 0.05, 0.05);
@@ -395,7 +397,7 @@ static void scene_frame(scene *sc, int f) {
 static void test_history_rerun_bitwise(void **state) {
     static const gs_integrator integ[] = {
         GS_INTEGRATOR_EXPLICIT_EULER, GS_INTEGRATOR_SYMPLECTIC_EULER, GS_INTEGRATOR_VERLET,
-        GS_INTEGRATOR_RK4, GS_INTEGRATOR_IMPLICIT_EULER};
+        GS_INTEGRATOR_RK4, GS_INTEGRATOR_IMPLICIT_EULER, GS_INTEGRATOR_XPBD};
     size_t i;
     (void)state;
     for (i = 0; i < sizeof integ / sizeof *integ; ++i) {
