@@ -6664,8 +6664,20 @@ typedef struct gs__snap {
     double *data;       /* the state after its time; valid where got */
 } gs__snap;
 
-/* What a ghost keeps of one peer on the sending and receiving side. */
+/* What a ghost keeps of one peer slot: its queue, what the blend learnt
+   of its clock, and whether it said the object rests. */
 struct gs__ghost_peer {
+    gs__snap *q;          /* queue_size snapshots (and the last values) */
+    double divergence;    /* m; RMS distance to its latest snapshot */
+    double newest;        /* s; the latest remote time that told the
+                             peer's clock, -HUGE_VAL at first */
+    double lead;          /* s; how far the peer's clock is ahead of ours
+                             (see gs__peer_lead) */
+    double lead_at;       /* s; local time of its last sample, -HUGE_VAL
+                             before the first */
+    double heard_at;      /* s; local time of the last blend with a
+                             snapshot of the peer, -HUGE_VAL */
+    double heard_x;       /* s; its x_comp then (the freshest) */
     int resting;          /* its latest word on the object was a heartbeat */
 };
 
@@ -6679,7 +6691,6 @@ struct gs__ghost {
     uint32_t b_seq, sent_seq;
     double next_publish;  /* s, simulation time */
     double next_send;     /* s, wall time */
-    gs__snap *q[GS__MAX_PEERS]; /* queue_size snapshots per peer slot */
     double *local, *scratch;
     double *offset, *offset_next; /* render offsets; a blend writes the next
                                      ones and swaps only if it is applied */
@@ -6689,16 +6700,6 @@ struct gs__ghost {
     double offset_t;      /* s; simulation time the offset was last set */
     double t_local;       /* s; the agent's time after its last step, for
                              the receiving side (written under the lock) */
-    double divergence[GS__MAX_PEERS];
-    double newest[GS__MAX_PEERS];  /* s; the latest remote time that told
-                                      the peer's clock, -HUGE_VAL at first */
-    double lead[GS__MAX_PEERS];    /* s; how far each peer's clock is ahead
-                                      of ours (see gs__peer_lead) */
-    double lead_at[GS__MAX_PEERS]; /* s; local time of its last sample,
-                                      -HUGE_VAL before the first */
-    double heard_at[GS__MAX_PEERS];/* s; local time of the last blend with
-                                      a snapshot of the peer, -HUGE_VAL */
-    double heard_x[GS__MAX_PEERS]; /* s; its x_comp then (the freshest) */
     double moved;         /* s; |time| the blends moved the agent by in the
                              world's epoch moved_epoch (one advance) */
     uint64_t moved_epoch;
@@ -6820,17 +6821,17 @@ GS__PRIVATE gs__snap *gs__snaps_new(gs_world *w, const gs__ghost *g) {
 GS__PRIVATE gs__ghost *gs__ghost_of(const gs_agent *a);
 GS__PRIVATE gs_result gs__ghost_add_peer(gs__ghost *g, int slot) {
     gs_world *w = g->agent->world;
-    if (g->q[slot]) return GS_OK;
+    if (g->gp[slot].q) return GS_OK;
     g->gp[slot].resting = 0;
     g->sent_any = 0; /* the new peer has none of our states */
-    g->q[slot] = gs__snaps_new(w, g);
-    return g->q[slot] ? GS_OK : gs__fail(w, GS_ERR_NO_MEMORY, "ghost: out of memory for a peer queue");
+    g->gp[slot].q = gs__snaps_new(w, g);
+    return g->gp[slot].q ? GS_OK : gs__fail(w, GS_ERR_NO_MEMORY, "ghost: out of memory for a peer queue");
 }
 
 GS__PRIVATE void gs__ghost_free(gs__ghost *g) {
     gs_world *w = g->agent->world;
     int i;
-    for (i = 0; i < GS__MAX_PEERS; ++i) gs__free(w, g->q[i]);
+    for (i = 0; i < GS__MAX_PEERS; ++i) gs__free(w, g->gp[i].q);
     gs__free(w, g);
 }
 
@@ -6971,7 +6972,7 @@ GS_API gs_result gs_ghost_attach(gs_agent *a, const gs_ghost_desc *desc) {
     g->b_seq = 1;
     g->t_local = g->B[0];
     for (i = 0; i < GS__MAX_PEERS; ++i)
-        g->newest[i] = g->lead_at[i] = g->heard_at[i] = -HUGE_VAL;
+        g->gp[i].newest = g->gp[i].lead_at = g->gp[i].heard_at = -HUGE_VAL;
     a->ghost = g;
     r = gs__ghost_queues(g);
     if (r != GS_OK) {
@@ -7135,12 +7136,12 @@ GS__PRIVATE double gs__snap_xcomp(const gs__ghost *g, const gs__snap *s, double 
 GS__PRIVATE void gs__ghost_hear(gs__ghost *g, double t_i) {
     int p, k;
     for (p = 0; p < GS__MAX_PEERS; ++p)
-        for (k = 0; g->q[p] && k < g->d.queue_size; ++k) {
+        for (k = 0; g->gp[p].q && k < g->d.queue_size; ++k) {
             double x;
-            if (!g->q[p][k].used) continue;
-            x = gs__snap_xcomp(g, &g->q[p][k], t_i);
-            if (g->heard_at[p] != t_i || x > g->heard_x[p]) g->heard_x[p] = x;
-            g->heard_at[p] = t_i;
+            if (!g->gp[p].q[k].used) continue;
+            x = gs__snap_xcomp(g, &g->gp[p].q[k], t_i);
+            if (g->gp[p].heard_at != t_i || x > g->gp[p].heard_x) g->gp[p].heard_x = x;
+            g->gp[p].heard_at = t_i;
         }
 }
 
@@ -7159,14 +7160,14 @@ GS__PRIVATE double gs__ghost_lead(gs__ghost *g, double t_i, uint32_t *lead) {
     int p, k;
     gs__ghost_hear(g, t_i);
     for (p = 0; p < GS__MAX_PEERS; ++p) {
-        for (k = 0; g->q[p] && k < g->d.queue_size; ++k)
-            if (g->q[p][k].used) x_max = fmax(x_max, gs__snap_xcomp(g, &g->q[p][k], t_i));
-        if (t_i - g->heard_at[p] <= GS__LIVE_TIME) x_live = fmax(x_live, g->heard_x[p]);
+        for (k = 0; g->gp[p].q && k < g->d.queue_size; ++k)
+            if (g->gp[p].q[k].used) x_max = fmax(x_max, gs__snap_xcomp(g, &g->gp[p].q[k], t_i));
+        if (t_i - g->gp[p].heard_at <= GS__LIVE_TIME) x_live = fmax(x_live, g->gp[p].heard_x);
     }
     *lead = x_live <= band ? wd->host_id : 0;
     for (p = 0; p < GS__MAX_PEERS; ++p) {
         uint32_t h = wd->net->peers[p].host;
-        if (t_i - g->heard_at[p] <= GS__LIVE_TIME && g->heard_x[p] >= x_live - band &&
+        if (t_i - g->gp[p].heard_at <= GS__LIVE_TIME && g->gp[p].heard_x >= x_live - band &&
             (*lead == 0 || h < *lead))
             *lead = h;
     }
@@ -7186,8 +7187,8 @@ GS__PRIVATE double gs__ghost_weigh(gs__ghost *g, double t_i, double *wq) {
     in0.lead = lead;
     wmax = w0 = gs__sane_weight(g, g->d.weight(&in0, g->d.weight_user));
     for (p = 0; p < GS__MAX_PEERS; ++p)
-        for (k = 0; g->q[p] && k < g->d.queue_size; ++k) {
-            const gs__snap *s = &g->q[p][k];
+        for (k = 0; g->gp[p].q && k < g->d.queue_size; ++k) {
+            const gs__snap *s = &g->gp[p].q[k];
             gs_weight_in in;
             if (!s->used) continue;
             in = gs__weight_in(g, wd->net->peers[p].host, s->time - t_i, s->age, 0);
@@ -7205,8 +7206,8 @@ GS__PRIVATE double gs__ghost_weigh(gs__ghost *g, double t_i, double *wq) {
 GS__PRIVATE void gs__ghost_clear(gs__ghost *g) {
     int p, k;
     for (p = 0; p < GS__MAX_PEERS; ++p)
-        for (k = 0; g->q[p] && k < g->d.queue_size; ++k) {
-            gs__snap *s = &g->q[p][k];
+        for (k = 0; g->gp[p].q && k < g->d.queue_size; ++k) {
+            gs__snap *s = &g->gp[p].q[k];
             if (!s->used) continue;
             s->used = 0;
             s->chunks = 0;
@@ -7221,7 +7222,7 @@ GS__PRIVATE double gs__peer_divergence(const gs_world *w, int p) {
     int i;
     for (i = 0; i < w->agent_count; ++i) {
         const gs__ghost *o = gs__ghost_of(w->agents[i]);
-        if (o && o->divergence[p] > worst) worst = o->divergence[p];
+        if (o && o->gp[p].divergence > worst) worst = o->gp[p].divergence;
     }
     return worst;
 }
@@ -7243,9 +7244,9 @@ GS__PRIVATE int gs__snap_tells_time(const gs__ghost *g, int p, const gs__snap *s
                                     double t_i) {
     int k;
     if (gs__time_literal(g)) return 1;
-    if (s->time < g->newest[p] && s->time > g->newest[p] - 1.0) return 0;
+    if (s->time < g->gp[p].newest && s->time > g->gp[p].newest - 1.0) return 0;
     for (k = 0; k < g->d.queue_size; ++k)
-        if (g->q[p][k].used && g->q[p][k].time > s->time) return 0;
+        if (g->gp[p].q[k].used && g->gp[p].q[k].time > s->time) return 0;
     return s->age_known || s->time > t_i;
 }
 
@@ -7259,11 +7260,11 @@ GS__PRIVATE int gs__snap_tells_time(const gs__ghost *g, int p, const gs__snap *s
 GS__PRIVATE double gs__peer_lead(gs__ghost *g, int p, double x, double t_i) {
     double fall;
     if (gs__time_literal(g)) return x;
-    fall = g->lead_at[p] == -HUGE_VAL ? HUGE_VAL : GS__LEAD_FALL * fabs(t_i - g->lead_at[p]);
-    if (x > g->lead[p] - fall) g->lead[p] = x;
-    else g->lead[p] -= fall;
-    g->lead_at[p] = t_i;
-    return g->lead[p];
+    fall = g->gp[p].lead_at == -HUGE_VAL ? HUGE_VAL : GS__LEAD_FALL * fabs(t_i - g->gp[p].lead_at);
+    if (x > g->gp[p].lead - fall) g->gp[p].lead = x;
+    else g->gp[p].lead -= fall;
+    g->gp[p].lead_at = t_i;
+    return g->gp[p].lead;
 }
 
 /* Lists every queued snapshot with its weight in g->src, in queue order,
@@ -7274,9 +7275,9 @@ GS__PRIVATE int gs__ghost_gather(gs__ghost *g, double t_i, double *num_t,
     gs_net *net = g->agent->world->net;
     int p, k, m = 0;
     for (p = 0; p < GS__MAX_PEERS; ++p) {
-        double newest = g->newest[p];
-        for (k = 0; g->q[p] && k < g->d.queue_size; ++k) {
-            gs__snap *s = &g->q[p][k];
+        double newest = g->gp[p].newest;
+        for (k = 0; g->gp[p].q && k < g->d.queue_size; ++k) {
+            gs__snap *s = &g->gp[p].q[k];
             gs__src *src = &g->src[m];
             double tq;
             if (!s->used) continue;
@@ -7295,7 +7296,7 @@ GS__PRIVATE int gs__ghost_gather(gs__ghost *g, double t_i, double *num_t,
                 newest = s->time;
             }
         }
-        g->newest[p] = newest;
+        g->gp[p].newest = newest;
     }
     g->nsrc = m;
     return m;
@@ -7478,7 +7479,7 @@ GS__PRIVATE uint32_t gs__ghost_divergence(gs__ghost *g) {
     int j;
     for (j = 0; j < g->nsrc; ++j) {
         const gs__src *q = &g->src[j];
-        g->divergence[q->peer] = q->counted ? sqrt(3.0 * q->d2 / (double)q->counted) : 0.0;
+        g->gp[q->peer].divergence = q->counted ? sqrt(3.0 * q->d2 / (double)q->counted) : 0.0;
         seen |= (uint32_t)1 << q->peer;
     }
     return seen;
@@ -7530,7 +7531,7 @@ GS__PRIVATE int gs__blend_apply(gs__ghost *g, double t_i) {
     if (gs__agent_put_state(g->agent, g->scratch) != GS_OK) return 0;
     gs__sync_log_blend(g->agent, g->scratch);
     g->moved += fabs(g->scratch[0] - t_i);
-    for (e = 0; e < GS__MAX_PEERS; ++e) g->lead[e] -= g->scratch[0] - t_i;
+    for (e = 0; e < GS__MAX_PEERS; ++e) g->gp[e].lead -= g->scratch[0] - t_i;
     t = g->offset; /* the next offsets are now the offsets */
     g->offset = g->offset_next;
     g->offset_next = t;
@@ -7586,8 +7587,8 @@ GS__PRIVATE void gs__world_blend(gs_world *w);
 GS__PRIVATE int gs__ghost_pending(const gs__ghost *g) {
     int p, k;
     for (p = 0; p < GS__MAX_PEERS; ++p)
-        for (k = 0; g->q[p] && k < g->d.queue_size; ++k)
-            if (g->q[p][k].used) return 1;
+        for (k = 0; g->gp[p].q && k < g->d.queue_size; ++k)
+            if (g->gp[p].q[k].used) return 1;
     return 0;
 }
 
@@ -8239,8 +8240,8 @@ GS__PRIVATE void gs__sync_blend_to(gs_world *w, double t) {
         for (i = 0; i < w->agent_count; ++i) {
             gs__ghost *g = gs__ghost_of(w->agents[i]);
             for (p = 0; g && p < GS__MAX_PEERS; ++p)
-                for (q = 0; g->q[p] && q < g->d.queue_size; ++q) {
-                    gs__snap *sn = &g->q[p][q];
+                for (q = 0; g->gp[p].q && q < g->d.queue_size; ++q) {
+                    gs__snap *sn = &g->gp[p].q[q];
                     if (pass == 0 && sn->used && (sn->time > t || sn->waited == 1)) {
                         sn->used = 0;
                         sn->held = 1;
@@ -8383,16 +8384,16 @@ GS__PRIVATE double gs__sync_whole_set(gs_world *w, int p, double half) {
     int i, q, i2, q2;
     for (i = 0; i < w->agent_count; ++i) {
         gs__ghost *g = gs__ghost_of(w->agents[i]);
-        for (q = 0; g && g->q[p] && q < g->d.queue_size; ++q) {
-            const gs__snap *c = &g->q[p][q];
+        for (q = 0; g && g->gp[p].q && q < g->d.queue_size; ++q) {
+            const gs__snap *c = &g->gp[p].q[q];
             int all = 1;
             if (!c->used || c->chunks < g->nchunks || !(c->time > best)) continue;
             for (i2 = 0; all && i2 < w->agent_count; ++i2) {
                 gs__ghost *o = gs__ghost_of(w->agents[i2]);
                 int has = 0;
                 if (!o) continue;
-                for (q2 = 0; o->q[p] && q2 < o->d.queue_size; ++q2) {
-                    const gs__snap *d = &o->q[p][q2];
+                for (q2 = 0; o->gp[p].q && q2 < o->d.queue_size; ++q2) {
+                    const gs__snap *d = &o->gp[p].q[q2];
                     has |= d->used && d->chunks == o->nchunks && fabs(d->time - c->time) <= half;
                 }
                 all = has;
@@ -8420,8 +8421,8 @@ GS__PRIVATE void gs__sync_times(gs_world *w, double half) {
         if (set > -HUGE_VAL && !gs__sync_fresh_add(sy, set, half)) set = HUGE_VAL; /* all go */
         for (i = 0; i < w->agent_count; ++i) {
             gs__ghost *g = gs__ghost_of(w->agents[i]);
-            for (q = 0; g && g->q[p] && q < g->d.queue_size; ++q) {
-                gs__snap *sn = &g->q[p][q];
+            for (q = 0; g && g->gp[p].q && q < g->d.queue_size; ++q) {
+                gs__snap *sn = &g->gp[p].q[q];
                 if (!sn->used) continue;
                 sn->age = 0.0;
                 if (set > -HUGE_VAL && fabs(sn->time - set) <= half) sn->waited = 0;
@@ -9406,8 +9407,8 @@ GS_API void gs_net_destroy(gs_net *net) {
     for (i = 0; i < w->agent_count; ++i) { /* queues belong to peers */
         gs__ghost *g = gs__ghost_of(w->agents[i]);
         for (p = 0; g && p < GS__MAX_PEERS; ++p) {
-            gs__free(w, g->q[p]);
-            g->q[p] = NULL;
+            gs__free(w, g->gp[p].q);
+            g->gp[p].q = NULL;
         }
     }
     w->net = NULL;
@@ -9459,8 +9460,8 @@ GS__PRIVATE void gs__net_drop_queues(gs_world *w, int p) {
     for (i = 0; i < w->agent_count; ++i) {
         gs__ghost *g = gs__ghost_of(w->agents[i]);
         if (!g) continue;
-        gs__free(w, g->q[p]);
-        g->q[p] = NULL;
+        gs__free(w, g->gp[p].q);
+        g->gp[p].q = NULL;
     }
 }
 
@@ -9876,10 +9877,10 @@ GS__PRIVATE int gs__peer_run(gs_net *net, int p, uint32_t run) {
         for (i = 0; i < w->agent_count; ++i) {
             gs__ghost *g = gs__ghost_of(w->agents[i]);
             if (g) g->gp[p].resting = 0;
-            for (k = 0; g && g->q[p] && k <= g->d.queue_size; ++k) {
-                g->q[p][k].used = 0;
-                g->q[p][k].chunks = 0;
-                memset(g->q[p][k].got, 0, (size_t)g->nchunks);
+            for (k = 0; g && g->gp[p].q && k <= g->d.queue_size; ++k) {
+                g->gp[p].q[k].used = 0;
+                g->gp[p].q[k].chunks = 0;
+                memset(g->gp[p].q[k].got, 0, (size_t)g->nchunks);
             }
         }
     }
@@ -9966,7 +9967,7 @@ GS__PRIVATE int gs__chunks_fit(gs_net *net, const gs_wire_view *v, double now,
    a free one, or the oldest (which is dropped and counted). */
 GS__PRIVATE gs__snap *gs__snap_slot(gs__ghost *g, int p, const gs_wire_chunk *c,
                                     double age) {
-    gs__snap *q = g->q[p], *free_s = NULL, *oldest = NULL;
+    gs__snap *q = g->gp[p].q, *free_s = NULL, *oldest = NULL;
     int k;
     for (k = 0; k < g->d.queue_size; ++k) {
         gs__snap *s = &q[k];
@@ -9995,7 +9996,7 @@ GS__PRIVATE gs__snap *gs__snap_slot(gs__ghost *g, int p, const gs_wire_chunk *c,
    its own), once the last values of every chunk are known. */
 GS__PRIVATE void gs__heartbeat(gs_net *net, gs__ghost *g, int p, const gs_wire_chunk *c,
                                double age) {
-    gs__snap *s, *last = &g->q[p][g->d.queue_size];
+    gs__snap *s, *last = &g->gp[p].q[g->d.queue_size];
     net->peers[p].st.heartbeats_received++;
     if (c->time > net->peers[p].st.last_remote_time) net->peers[p].st.last_remote_time = c->time;
     if (last->chunks < g->nchunks) return;
@@ -10008,7 +10009,7 @@ GS__PRIVATE void gs__heartbeat(gs_net *net, gs__ghost *g, int p, const gs_wire_c
 
 GS__PRIVATE void gs__queue_chunk(gs_net *net, gs__ghost *g, int p, const gs_wire_chunk *c,
                                  double age) {
-    gs__snap *s, *last = &g->q[p][g->d.queue_size];
+    gs__snap *s, *last = &g->gp[p].q[g->d.queue_size];
     g->gp[p].resting = (c->flags & GS_WIRE_CHUNK_REST) != 0;
     if (g->gp[p].resting) {
         gs__heartbeat(net, g, p, c, age);
