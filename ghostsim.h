@@ -9231,6 +9231,12 @@ GS__PRIVATE void gs__wire_nonce(unsigned char *p, uint64_t epoch, uint64_t salt,
     gs__put64(p + 8, salt);
     gs__put64(p + 16, counter);
 }
+GS__PRIVATE void gs__wire_nonce_read(const unsigned char *p, uint64_t *epoch, uint64_t *salt,
+                                     uint64_t *counter) {
+    *epoch = gs__get64(p);
+    *salt = gs__get64(p + 8);
+    *counter = gs__get64(p + 16);
+}
 
 #ifdef GHOSTSIM_SODIUM
 /* Seals a datagram of `size` bytes (header and chunks, no CRC; cap leaves
@@ -10174,9 +10180,7 @@ GS__PRIVATE int gs__receive_sealed(gs_net *net, const unsigned char *buf, size_t
     }
     if (!gs__receive_sender(net, gs__hdr_session(buf), gs__hdr_sender(buf), p, why)) return 0;
     if (!(flags & GS_WIRE_FLAG_SEALED)) { *why = GS_REJECT_KEY; return 0; }
-    epoch = gs__get64(nonce);
-    salt = gs__get64(nonce + 8);
-    counter = gs__get64(nonce + 16);
+    gs__wire_nonce_read(nonce, &epoch, &salt, &counter);
     order = gs__replay_check(&net->peers[*p].guard.replay, epoch, salt, counter);
     if (order <= 0) {
         if (order == 0) net->peers[*p].st.duplicates++;
