@@ -1649,11 +1649,12 @@ struct gs_world {
     uint64_t dispatches;
     gs_net *net;         /* at most one */
     struct gs__rigid **bodies; /* the broad phase: rigid bodies and probes
-                                  sorted by the low end of their sweep on x
-                                  (the order contacts are summed in) */
+                                  in creation order (the order contacts
+                                  are summed in: fixed, so nothing is
+                                  re-sorted as bodies move) */
     int nbodies, bodies_cap;
-    int sap_dirty;       /* bodies and near are not sorted yet: creation
-                            appends, the next query or advance sorts */
+    int sap_dirty;       /* near is not sorted yet: creation appends, the
+                            next query or advance sorts */
     struct gs__rigid **near;   /* the same sorted by x - bound (searched) */
     struct gs__rigid **wide;   /* bodies with a sweep over wide_at */
     int nwide;
@@ -1666,6 +1667,9 @@ struct gs_world {
                                   2 * bodies_cap hashed cells */
     double cell;         /* m; its cell size, 0 when unused */
     double wide_at;      /* m; a sweep over this makes a body wide */
+    double wide_lag;     /* s; the travel time a sweep counts: the lag the
+                            scheduler allows (tolerance + largest dt, at
+                            most 0.1 s); 0.1 until the first advance */
     double bound_max;    /* m; the largest bound of a body not wide */
     double speed_max;    /* m/s; the largest speed of a body not wide (not
                             a probe: contacts do not carry those on) */
@@ -4662,9 +4666,8 @@ typedef struct gs__rigid {
     int64_t cell[3];           /* its cell in world->grid, if in_grid */
     int in_grid;
     struct gs__rigid *gnext, *gprev; /* in its grid bucket */
-    double sweep;              /* m; half-width on x: bound + 0.1 s of travel
-                                  (contacts look up to 0.1 s ahead or back) */
-    double key;                /* m; x - sweep, the sort key */
+    double sweep;              /* m; bound + the travel of world->wide_lag
+                                  (what makes it wide) */
     gs_quat q;
     gs_vec3 force, torque;     /* contact sums for the current substep */
     double k_sum, c_sum;       /* N/m, N s/m of the contacts touching it */
@@ -5183,17 +5186,20 @@ GS_API double gs_rigid_stable_dt(const gs_agent *a) {
    from the other's state carried to their own simulation time.
    ======================================================================== */
 /* ---- broad phase: sweep and prune on x ----
-   Two lists of the same bodies, kept sorted by bubbling a body that moved
-   to its place (a step moves it little, so this is about O(1)):
-   - bodies, by the low end of the sweep, bound + 0.1 s of travel: the order
-     in which contacts are summed, so that forces keep their last bits;
-   - near, by x - bound: what a query searches. Travel is added at the
-     query, for the lag the scheduler allows now (its tolerance and a step,
-     not 0.1 s: gs__lag_bound), so a falling pile does not make every
-     query span the world.
-   A body whose sweep is over wide_at (a wall, a floor, a body moving fast)
-   is listed apart and left out of bound_max and speed_max, which stretch
-   the search: one wall used to stretch every query over the whole world.
+   Two lists of the same bodies:
+   - bodies, in creation order: the order in which contacts are summed, so
+     that forces keep their last bits whichever way a query found them
+     (fixed: a list sorted on moving keys cost a bubble of O(n^(2/3))
+     swaps per step in a pile, a slab of it being passed on x);
+   - near, by x - bound, kept sorted by bubbling a body that moved to its
+     place: what a range query searches. Travel is added at the query, for
+     the lag the scheduler allows now (its tolerance and a step, not 0.1 s:
+     gs__lag_bound), so a falling pile does not make every query span the
+     world.
+   A body whose sweep (bound + its travel over the lag the scheduler
+   allows) is over wide_at (a wall, a floor, a body moving fast) is listed
+   apart and left out of bound_max and speed_max, which stretch the
+   search: one wall used to stretch every query over the whole world.
    A body's query looks in a uniform grid of the bodies not wide (a range
    on x, a mesh's, searches near). Either gathers candidates, adds the wide
    ones, then puts them in the order of bodies. */
@@ -5210,18 +5216,14 @@ GS__PRIVATE void gs__sap_swap(gs__rigid **list, int i, int j, int near) {
     }
 }
 
-GS__PRIVATE double gs__sap_key(const gs__rigid *b, int near) {
-    return near ? b->near_key : b->key;
-}
-
-/* Moves r to its place in one list (near: by near_key, else by key).
-   Lists not sorted yet wait for gs__sap_sort. */
-GS__PRIVATE void gs__sap_bubble(gs__rigid **list, int n, gs__rigid *r, int near) {
-    int i = near ? r->near : r->sap;
-    double k = gs__sap_key(r, near);
+/* Moves r to its place in near (by near_key). A list not sorted yet waits
+   for gs__sap_sort. */
+GS__PRIVATE void gs__sap_bubble(gs__rigid **list, int n, gs__rigid *r) {
+    int i = r->near;
+    double k = r->near_key;
     if (r->base.world->sap_dirty) return;
-    while (i > 0 && gs__sap_key(list[i - 1], near) > k) { gs__sap_swap(list, i - 1, i, near); --i; }
-    while (i + 1 < n && gs__sap_key(list[i + 1], near) < k) { gs__sap_swap(list, i, i + 1, near); ++i; }
+    while (i > 0 && list[i - 1]->near_key > k) { gs__sap_swap(list, i - 1, i, 1); --i; }
+    while (i + 1 < n && list[i + 1]->near_key < k) { gs__sap_swap(list, i, i + 1, 1); ++i; }
 }
 
 /* Puts r in the wide list or takes it out, as its sweep says. */
@@ -5297,24 +5299,26 @@ GS__PRIVATE void gs__grid_rebuild(gs_world *w) {
 /* A body's speed for the broad phase: what its carried position moves by
    per second of lag (gs__rigid_vs_rigid: its velocity, and the change of
    velocity of its last step over up to one step). */
-GS__PRIVATE void gs__sap_update(gs__rigid *r) {
-    gs_world *w = r->base.world;
+GS__PRIVATE void gs__sap_sweep(const gs_world *w, gs__rigid *r) {
     double v = gs__len(r->v) + gs__len(r->a_own) * r->base.dt;
-    r->sweep = r->shape.bound + 0.1 * v;
-    r->key = r->x.x - r->sweep;
+    r->sweep = r->shape.bound + (w->wide_lag > 0.0 ? w->wide_lag : 0.1) * v;
     r->speed = r->probe ? 0.0 : v;
     r->near_key = r->x.x - r->shape.bound;
+}
+
+GS__PRIVATE void gs__sap_update(gs__rigid *r) {
+    gs_world *w = r->base.world;
+    gs__sap_sweep(w, r);
     gs__sap_classify(w, r);
-    gs__sap_bubble(w->bodies, w->nbodies, r, 0);
-    gs__sap_bubble(w->near, w->nbodies, r, 1);
+    gs__sap_bubble(w->near, w->nbodies, r);
     gs__grid_place(w, r);
 }
 
-/* A stable merge sort of list[0, n) by key (near: near_key) through tmp,
-   then each body's index in it: the order that bubbling each new body in
-   from the end gives, in O(n log n) for all of them where bubbling was
-   O(n) for each one. */
-GS__PRIVATE void gs__sap_sort_list(gs__rigid **list, gs__rigid **tmp, int n, int near) {
+/* A stable merge sort of near[0, n) by near_key through tmp, then each
+   body's index in it: the order that bubbling each new body in from the
+   end gives, in O(n log n) for all of them where bubbling was O(n) for
+   each one. */
+GS__PRIVATE void gs__sap_sort_list(gs__rigid **list, gs__rigid **tmp, int n) {
     gs__rigid **src = list, **dst = tmp, **t;
     int width, i;
     for (width = 1; width < n; width *= 2) {
@@ -5322,22 +5326,21 @@ GS__PRIVATE void gs__sap_sort_list(gs__rigid **list, gs__rigid **tmp, int n, int
             int a = i, m = n - i > width ? i + width : n, b = m, k = i;
             int e = n - i > 2 * width ? i + 2 * width : n;
             while (a < m && b < e)
-                dst[k++] = gs__sap_key(src[b], near) < gs__sap_key(src[a], near) ? src[b++] : src[a++];
+                dst[k++] = src[b]->near_key < src[a]->near_key ? src[b++] : src[a++];
             while (a < m) dst[k++] = src[a++];
             while (b < e) dst[k++] = src[b++];
         }
         t = src; src = dst; dst = t;
     }
     if (src != list) memcpy(list, src, (size_t)n * sizeof *list);
-    for (i = 0; i < n; ++i) *(near ? &list[i]->near : &list[i]->sap) = i;
+    for (i = 0; i < n; ++i) list[i]->near = i;
 }
 
-/* Sorts both lists if bodies were appended since (cand is the scratch:
-   nothing is being asked then). */
+/* Sorts near if bodies were appended since (cand is the scratch: nothing
+   is being asked then). */
 GS__PRIVATE void gs__sap_sort(gs_world *w) {
     if (!w->sap_dirty) return;
-    gs__sap_sort_list(w->bodies, w->cand, w->nbodies, 0);
-    gs__sap_sort_list(w->near, w->cand, w->nbodies, 1);
+    gs__sap_sort_list(w->near, w->cand, w->nbodies);
     w->sap_dirty = 0;
 }
 
@@ -5372,9 +5375,8 @@ GS__PRIVATE gs_result gs__sap_add(gs_world *w, gs__rigid *r) {
     sorted = !w->sap_dirty;
     w->sap_dirty = 1; /* appended, not bubbled in: gs__sap_sort will */
     gs__sap_update(r);
-    if (sorted && (r->sap == 0 || (gs__sap_key(w->bodies[r->sap - 1], 0) <= r->key &&
-                                   gs__sap_key(w->near[r->near - 1], 1) <= r->near_key)))
-        w->sap_dirty = 0; /* it belongs at the end of both */
+    if (sorted && (r->near == 0 || w->near[r->near - 1]->near_key <= r->near_key))
+        w->sap_dirty = 0; /* it belongs at the end */
     return GS_OK;
 }
 
@@ -5404,20 +5406,30 @@ GS__PRIVATE void gs__agent_unlink(gs_agent *a) {
 }
 
 /* At each advance: wide means a sweep over 4 times the mean body bound,
-   and bound_max and speed_max are those of the others, exactly (updates
-   only ever raise them). */
+   the sweep counting the travel over the lag the scheduler allows (a body
+   falling at 5 m/s is not wide: with 0.1 s of travel, every body of a
+   falling pile was, and every query went through all of them), and
+   bound_max and speed_max are those of the others, exactly (updates only
+   ever raise them). */
 GS__PRIVATE void gs__sap_refresh(gs_world *w) {
-    double mean = 0.0;
+    double mean = 0.0, dt_max = 0.0;
     int i;
     gs__sap_sort(w);
+    for (i = 0; i < w->agent_count; ++i) dt_max = fmax(dt_max, w->agents[i]->dt);
+    w->wide_lag = fmin(0.1, w->tolerance + dt_max);
     for (i = 0; i < w->nbodies; ++i) mean += w->bodies[i]->shape.bound;
     w->wide_at = w->nbodies ? 4.0 * mean / (double)w->nbodies : 0.0;
     w->bound_max = w->speed_max = 0.0;
     w->nwide = 0;
-    for (i = 0; i < w->nbodies; ++i) w->bodies[i]->wide = -1;
+    for (i = 0; i < w->nbodies; ++i) {
+        w->bodies[i]->wide = -1;
+        gs__sap_sweep(w, w->bodies[i]);
+    }
     for (i = 0; i < w->nbodies; ++i) gs__sap_classify(w, w->bodies[i]);
-    /* a query of a body not wide reaches about 2 bound_max: two cells a side */
-    w->cell = 4.0 * w->bound_max;
+    /* a query of a body not wide at rest spans 4 bound_max: 3 cells a side
+       of one body each in a pile (cells of 4 bound_max: 2 a side of 8
+       bodies each, 2.4 times the bodies to test) */
+    w->cell = 2.0 * w->bound_max;
     if (w->nbodies) gs__grid_rebuild(w);
 }
 
@@ -5478,6 +5490,17 @@ GS__PRIVATE int gs__sap_query(gs_world *w, double lo, double hi, double lag) {
    search instead. Returns how many. */
 #define GS__GRID_MAX_CELLS 64
 GS__PRIVATE double gs__own_reach(const gs__rigid *r, double lag);
+
+/* gs__sap_meets(o, lo, hi, lag) && gs__sweeps_meet(r, o, lag), with r's
+   reach (own) and o's found once: the same answer, bit for bit. */
+GS__PRIVATE int gs__sap_meets3(const gs__rigid *o, const gs__rigid *r, double own,
+                               double lo, double hi, double lag) {
+    double reach = gs__sap_reach(o, lag), eps = 1e-12 * (fabs(lo) + fabs(hi));
+    double both = reach + own * (1.0 + 1e-9);
+    return o->x.x - reach <= hi + eps && o->x.x + reach >= lo - eps &&
+           fabs(r->x.y - o->x.y) <= both && fabs(r->x.z - o->x.z) <= both;
+}
+
 GS__PRIVATE int gs__sap_query_near(gs_world *w, const gs__rigid *r, double lag) {
     double own = gs__own_reach(r, lag);
     double lo = r->x.x - own, hi = r->x.x + own;
@@ -5492,15 +5515,18 @@ GS__PRIVATE int gs__sap_query_near(gs_world *w, const gs__rigid *r, double lag) 
     a[2] = gs__grid_coord(w, r->x.z - reach); b[2] = gs__grid_coord(w, r->x.z + reach);
     if ((b[0] - a[0] + 1) * (b[1] - a[1] + 1) * (b[2] - a[2] + 1) > GS__GRID_MAX_CELLS)
         return gs__sap_query(w, lo, hi, lag);
+    /* on y and z too (gs__sweeps_meet, as the caller would): the cells hold
+       about 27 times the bodies r can touch, and the fewer candidates the
+       cheaper their sort */
     for (i = 0; i < w->nwide; ++i)
-        if (gs__sap_meets(w->wide[i], lo, hi, lag)) w->cand[n++] = w->wide[i];
+        if (gs__sap_meets3(w->wide[i], r, own, lo, hi, lag)) w->cand[n++] = w->wide[i];
     for (c[0] = a[0]; c[0] <= b[0]; ++c[0])
         for (c[1] = a[1]; c[1] <= b[1]; ++c[1])
             for (c[2] = a[2]; c[2] <= b[2]; ++c[2]) {
                 gs__rigid *o;
                 for (o = w->grid[gs__grid_bucket(w, c)]; o; o = o->gnext)
                     if (o->cell[0] == c[0] && o->cell[1] == c[1] && o->cell[2] == c[2] &&
-                        gs__sap_meets(o, lo, hi, lag))
+                        gs__sap_meets3(o, r, own, lo, hi, lag))
                         w->cand[n++] = o;
             }
     gs__sap_order(w, n);
