@@ -285,6 +285,11 @@ typedef struct gs_world_desc {
                               gs_world_advance call runs at most, so that
                               every call returns whatever it is asked;
                               default GS_DEFAULT_MAX_STEPS */
+    double sleep_time;     /* s; a rigid body whose every point has moved
+                              slower than sleep_speed for this long sleeps
+                              (see gs_agent_sleeping); default 0.5; < 0:
+                              nothing sleeps */
+    double sleep_speed;    /* m/s, > 0; default 0.1 */
 } gs_world_desc;
 
 /* The default of gs_world_desc.max_steps: 4 194 304 steps, about 70 minutes
@@ -387,6 +392,8 @@ typedef struct gs_agent_stats {
     uint64_t held;           /* times it was passed over for leading */
     uint64_t max_wait;       /* most dispatches it waited in its queue */
     uint64_t aged;           /* times it ran because it had waited too long */
+    uint64_t sleeps;         /* times it fell asleep (gs_agent_sleeping) */
+    uint64_t wakes;          /* times it woke */
 } gs_agent_stats;
 
 /* ========================================================================
@@ -498,6 +505,27 @@ GS_API gs_agent_stats gs_agent_get_stats(const gs_agent *a);
 /* Removes the agent from its world and frees it. GS_ERR_BUSY from a
    callback (see ERRORS). */
 GS_API gs_result gs_agent_destroy(gs_agent *a);
+
+/* Sleeping ("model only what a scene requires"). A rigid body at rest
+   (every point slower than gs_world_desc.sleep_speed for sleep_time)
+   sleeps: its velocities are zeroed, it takes no steps and no contacts
+   are computed among sleepers; awake bodies meet it as a fixed body. Its
+   time follows the world: at each advance it jumps to the target, so
+   gs_agent_time of a sleeper is gs_world_time (a ghost attached to it
+   publishes and blends at that time). It wakes, its time then that of
+   what woke it, on: a contact from an awake body moving faster than
+   sleep_speed, or from cloth particles that are; a probe that moved in
+   the last sleep_time touching it (and while one does, nothing it
+   touches falls asleep; a probe held still that long is scenery, as the
+   walls of a box); gs_agent_set_state (ghost snapshots use it),
+   gs_agent_step, gs_agent_wake; gs_world_set_gravity and
+   gs_world_set_ground wake every body. Only gs_world_advance puts bodies
+   to sleep. Returns 1 when a sleeps, 0 otherwise (other kinds never
+   sleep). */
+GS_API int gs_agent_sleeping(const gs_agent *a);
+/* Wakes a sleeping agent (its rest time starts again); nothing for an
+   awake one. GS_ERR_BUSY from a callback (see ERRORS). */
+GS_API gs_result gs_agent_wake(gs_agent *a);
 
 /* A user agent. Its variables live in user memory; ghostsim keeps its time
    and schedules it like any other. */
@@ -1618,6 +1646,11 @@ struct gs_agent {
     int span_lo, span_hi; /* its place in them, -1 when out (failed) */
     gs_agent_stats stats;
     void *ghost;         /* gs__ghost, if one is attached */
+    /* The sleep state, all of it (a re-run from a saved moment restores
+       these two with the agent's state): */
+    int sleeping;        /* 1: not stepped, time follows the world */
+    double rest;         /* s it has been at rest (a probe: since it
+                            last moved) */
 };
 
 struct gs_world {
@@ -1633,6 +1666,8 @@ struct gs_world {
     gs_vec3 gravity;
     gs_clock_fn clock;
     void *clock_user;
+    double sleep_time;   /* s; < 0: nothing sleeps */
+    double sleep_speed;  /* m/s */
     double target;       /* s */
     int busy;            /* inside gs_world_advance */
     int inside;          /* depth of the other calls that run user code on
@@ -1743,6 +1778,8 @@ GS_API gs_world_desc gs_world_desc_default(void) {
     d.aging_limit = 64;
     d.gravity = gs__v3(0.0, -9.81, 0.0);
     d.max_steps = GS_DEFAULT_MAX_STEPS;
+    d.sleep_time = 0.5;
+    d.sleep_speed = 0.1;
     return d;
 }
 
@@ -1756,6 +1793,8 @@ GS__PRIVATE gs_world_desc gs__world_defaults(const gs_world_desc *in) {
     if (d.aging_limit == 0) d.aging_limit = def.aging_limit;
     if (gs__is_zero3(d.gravity)) d.gravity = def.gravity;
     if (d.max_steps == 0) d.max_steps = def.max_steps;
+    if (d.sleep_time == 0.0) d.sleep_time = def.sleep_time;
+    if (d.sleep_speed == 0.0) d.sleep_speed = def.sleep_speed;
     return d;
 }
 
@@ -1766,6 +1805,8 @@ GS__PRIVATE gs_result gs__world_check(const gs_world_desc *d) {
     gs__check_int(&c, "aging_limit", d->aging_limit, 1, 1L << 30);
     gs__check_nonneg(&c, "budget", d->budget);
     gs__check_vec(&c, "gravity", d->gravity);
+    gs__check_finite(&c, "sleep_time", d->sleep_time);
+    gs__check_positive(&c, "sleep_speed", d->sleep_speed);
     if (!d->allocator.alloc != !d->allocator.free)
         gs__check_fail(&c, GS_ERR_INVALID_ARG,
                        "allocator needs both alloc and free, or neither");
@@ -1798,6 +1839,8 @@ GS_API gs_result gs_world_create(const gs_world_desc *desc, gs_world **out) {
     w->budget = d.budget;
     w->max_steps = d.max_steps;
     w->gravity = d.gravity;
+    w->sleep_time = d.sleep_time;
+    w->sleep_speed = d.sleep_speed;
     w->clock = d.clock ? d.clock : gs__default_clock;
     w->clock_user = d.clock ? d.clock_user : NULL;
     *out = w;
@@ -1869,6 +1912,15 @@ GS_API gs_agent *gs_world_agent(const gs_world *w, int i) {
 
 GS_API gs_vec3 gs_world_gravity(const gs_world *w) { return w->gravity; }
 
+GS__PRIVATE void gs__agent_wake_at(gs_agent *a, double t);
+GS__PRIVATE double gs__agent_time(const gs_agent *a);
+
+/* What held a sleeper still (gravity, the ground) changed. */
+GS__PRIVATE void gs__wake_all(gs_world *w) {
+    int i;
+    for (i = 0; i < w->agent_count; ++i) gs__agent_wake_at(w->agents[i], gs__agent_time(w->agents[i]));
+}
+
 GS_API gs_result gs_world_set_gravity(gs_world *w, gs_vec3 g) {
     gs_result r = gs__world_unlocked(w, "gs_world_set_gravity");
     if (r != GS_OK) return r;
@@ -1876,6 +1928,7 @@ GS_API gs_result gs_world_set_gravity(gs_world *w, gs_vec3 g) {
         return gs__fail(w, GS_ERR_NOT_FINITE,
                         "gs_world_set_gravity: gravity must be finite");
     w->gravity = g;
+    gs__wake_all(w);
     return GS_OK;
 }
 
@@ -2008,7 +2061,7 @@ GS__PRIVATE void gs__span_build(gs_world *w) {
     for (i = 0; i < w->agent_count; ++i) {
         gs_agent *a = w->agents[i];
         a->span_lo = a->span_hi = -1;
-        if (a->failed) continue;
+        if (a->failed || a->sleeping) continue; /* a sleeper is at the target */
         a->span_t = gs__agent_time(a);
         gs__span_put(w->span_lo, w->span_n, a, 0);
         gs__span_put(w->span_hi, w->span_n, a, 1);
@@ -2016,6 +2069,20 @@ GS__PRIVATE void gs__span_build(gs_world *w) {
     }
     for (hi = 0; hi < 2; ++hi)
         for (i = w->span_n / 2 - 1; i >= 0; --i) gs__span_down(w, hi, i);
+}
+
+/* An agent that woke during the advance joins the span. */
+GS__PRIVATE void gs__span_insert(gs_agent *a) {
+    gs_world *w = a->world;
+    int hi;
+    if (a->span_lo >= 0) return;
+    a->span_t = gs__agent_time(a);
+    for (hi = 0; hi < 2; ++hi) {
+        gs__span_put(hi ? w->span_hi : w->span_lo, w->span_n, a, hi);
+        w->span_n++;
+        gs__span_sift(w, hi, w->span_n - 1);
+        if (!hi) w->span_n--; /* both heaps grow by the one agent */
+    }
 }
 
 /* Widens the range of the failed agents' times to take in a's. */
@@ -2039,12 +2106,13 @@ GS__PRIVATE void gs__span_update(gs_agent *a) {
     gs__span_sift(w, 1, a->span_hi);
 }
 
-/* A failed agent leaves the span. */
-GS__PRIVATE void gs__span_remove(gs_agent *a) {
+/* An agent leaves the span: failed (its time still bounds the lag), or
+   asleep (it is a fixed body until it wakes). */
+GS__PRIVATE void gs__span_leave(gs_agent *a, int failed) {
     gs_world *w = a->world;
     int hi;
     if (a->span_lo < 0) return;
-    gs__span_failed(a);
+    if (failed) gs__span_failed(a);
     w->span_n--;
     for (hi = 0; hi < 2; ++hi) {
         gs_agent **heap = hi ? w->span_hi : w->span_lo;
@@ -2056,6 +2124,8 @@ GS__PRIVATE void gs__span_remove(gs_agent *a) {
     }
     a->span_lo = a->span_hi = -1;
 }
+
+GS__PRIVATE void gs__span_remove(gs_agent *a) { gs__span_leave(a, 1); }
 
 /* The slowest and fastest time of the agents still live (the target when
    none is). */
@@ -2178,6 +2248,39 @@ GS__PRIVATE gs_result gs__agent_step(gs_agent *a) {
     return r;
 }
 
+/* ---- sleeping: a sleeper is left out of the queues and the span; its
+   time jumps to the target at each advance. Woken during an advance, it
+   takes the time t of what woke it (its state stood since it slept, so it
+   is its state at t too): a body that wakes it at t computes the pair from
+   t on, and a time left at the target would have told that body that the
+   sleeper had already computed the pair up to there. ---- */
+GS__PRIVATE void gs__sleepers_follow(gs_world *w) {
+    int i;
+    for (i = 0; i < w->agent_count; ++i) {
+        gs_agent *a = w->agents[i];
+        if (a->sleeping) a->t_offset = w->target - (double)a->steps * a->dt;
+    }
+}
+
+/* A sleeper's ghost still publishes and blends, at the target. */
+GS__PRIVATE void gs__sleepers_ghosts(gs_world *w) {
+    int i;
+    for (i = 0; i < w->agent_count; ++i)
+        if (w->agents[i]->sleeping && w->agents[i]->ghost) gs__ghost_after_step(w->agents[i]);
+}
+
+GS__PRIVATE void gs__agent_wake_at(gs_agent *a, double t) {
+    gs_world *w = a->world;
+    if (!a->sleeping) return;
+    a->sleeping = 0;
+    a->rest = 0.0;
+    a->stats.wakes++;
+    if (!w->busy || a->failed) return;
+    a->t_offset = t - (double)a->steps * a->dt;
+    gs__span_insert(a);
+    if (!a->queued && !gs__agent_done(a)) gs__queue_push(w, a);
+}
+
 GS__PRIVATE void gs__queue_all(gs_world *w) {
     int i;
     for (i = 0; i < w->agent_count; ++i) {
@@ -2215,7 +2318,8 @@ GS__PRIVATE int gs__dispatch(gs_world *w, gs_result *first_error,
         return 1;
     }
     rep->steps++;
-    if (!gs__agent_done(a)) gs__queue_push(w, a);
+    if (a->sleeping) gs__span_leave(a, 0); /* fell asleep in that step */
+    else if (!gs__agent_done(a)) gs__queue_push(w, a);
     return 1;
 }
 
@@ -2294,10 +2398,12 @@ GS_API gs_result gs_world_advance(gs_world *w, double seconds,
     w->epoch++;
     gs__world_follow(w, from);
     w->target += seconds;
+    gs__sleepers_follow(w);
     gs__sap_refresh(w);
     if (w->budget > 0.0) start = w->clock(w->clock_user);
     gs__queue_all(w);
     gs__span_build(w);
+    gs__sleepers_ghosts(w);
     rep.reached = 1;
     for (;;) {
         if ((w->budget > 0.0 && w->clock(w->clock_user) - start >= w->budget) ||
@@ -2410,6 +2516,16 @@ GS_API gs_agent_stats gs_agent_get_stats(const gs_agent *a) {
     return a->stats;
 }
 
+GS_API int gs_agent_sleeping(const gs_agent *a) { return a && a->sleeping; }
+
+GS_API gs_result gs_agent_wake(gs_agent *a) {
+    gs_result r = gs__world_unlocked(a ? a->world : NULL, "gs_agent_wake");
+    if (r != GS_OK) return r;
+    gs__agent_wake_at(a, gs__agent_time(a));
+    a->rest = 0.0;
+    return GS_OK;
+}
+
 GS_API size_t gs_agent_state_size(const gs_agent *a) {
     return 1 + a->kind->state_size(a);
 }
@@ -2434,6 +2550,7 @@ GS_API gs_result gs_agent_get_state(const gs_agent *a, double *out,
 GS__PRIVATE gs_result gs__agent_put_state(gs_agent *a, const double *in) {
     gs_result r = a->kind->set_state(a, in + 1);
     if (r != GS_OK) return r;
+    gs__agent_wake_at(a, gs__agent_time(a)); /* a state set moves it */
     a->t_offset = in[0] - (double)a->steps * a->dt;
     gs__span_update(a);
     return GS_OK;
@@ -2467,6 +2584,7 @@ GS_API gs_result gs_agent_step(gs_agent *a) {
     gs_result r = gs__world_unlocked(a ? a->world : NULL, "gs_agent_step");
     if (r != GS_OK) return r;
     a->world->epoch++; /* one call is one advance for the correction bound */
+    gs__agent_wake_at(a, gs__agent_time(a));
     a->world->inside++; /* its step, ghost and weight rules are user code */
     r = gs__agent_step(a);
     a->world->inside--;
@@ -4655,6 +4773,8 @@ typedef struct gs__rigid {
                                   from later in it, times how much later
                                   (the part of a pair after the other
                                   body's time) */
+    int probe_touch;           /* in this step a probe that moves touched
+                                  it: it does not rest (see gs__rigid_rest) */
     gs_vec3 a_own;             /* m/s^2; the change of v over its last step,
                                   of its own forces and gravity (pushes
                                   land between its steps) */
@@ -4893,6 +5013,30 @@ GS__PRIVATE gs_result gs__rigid_plan(gs__rigid *r, double dt, int *n_sub) {
     return GS_OK;
 }
 
+/* How fast its fastest point moves (m/s): what sleeping compares. */
+GS__PRIVATE double gs__rigid_speed(const gs__rigid *r) {
+    return gs__len(r->v) + gs__len(r->w) * r->shape.bound;
+}
+
+/* After a step of dt: at rest for the world's sleep_time, it sleeps, still
+   (its velocities zeroed, so that its state stays what it is). Only the
+   world's advance puts it to sleep: gs_agent_step steps what it is asked
+   to, as tools and tests expect. */
+GS__PRIVATE void gs__rigid_rest(gs__rigid *r, double dt) {
+    const gs_world *w = r->base.world;
+    if (!w->busy) return;
+    if (w->sleep_time < 0.0 || r->probe_touch || !(gs__rigid_speed(r) < w->sleep_speed)) {
+        r->base.rest = 0.0;
+        return;
+    }
+    r->base.rest += dt;
+    if (r->base.rest < w->sleep_time) return;
+    r->base.sleeping = 1;
+    r->base.stats.sleeps++;
+    r->v = r->w = r->a_own = gs__v3(0.0, 0.0, 0.0);
+    gs__sap_update(r);
+}
+
 GS__PRIVATE int gs__rigid_sane(const gs__rigid *r) {
     double vmax = r->solver.max_speed;
     return gs__in_range3(r->x) && gs__finite(r->q.x + r->q.y + r->q.z + r->q.w) &&
@@ -4912,6 +5056,7 @@ GS__PRIVATE gs_result gs__rigid_step(gs_agent *a, double dt) {
     double t = gs__agent_time(a), h;
     int n_sub, i;
     gs_result res;
+    r->probe_touch = 0;
     gs__rigid_contacts(r, t, dt);
     res = gs__rigid_plan(r, dt, &n_sub);
     if (res != GS_OK) {
@@ -4937,8 +5082,11 @@ GS__PRIVATE gs_result gs__rigid_step(gs_agent *a, double dt) {
     r->a_own = gs__scale(gs__sub(r->v, v0), 1.0 / dt);
     a->stats.substeps += (uint64_t)n_sub;
     gs__sap_update(r);
+    gs__rigid_rest(r, dt);
     return GS_OK;
 }
+
+GS__PRIVATE void gs__probe_wake(gs__rigid *p);
 
 /* A probe moves toward its target at no more than max_speed. Target and
    position are in range, so their difference is finite; its velocity d / dt
@@ -4956,12 +5104,15 @@ GS__PRIVATE gs_result gs__probe_step(gs_agent *a, double dt) {
                         "gives a non-finite velocity or leaves "
                         "+-GS_MAX_COORD; state kept",
                         a->index, dt, r->target.x, r->target.y, r->target.z);
+    a->rest = (d.x != 0.0 || d.y != 0.0 || d.z != 0.0 || memcmp(&r->q, &r->target_q, sizeof r->q))
+                  ? 0.0 : a->rest + dt;
     r->v = v;
     r->x = x;
     r->q = r->target_q;
     r->w = gs__v3(0.0, 0.0, 0.0);
     a->stats.substeps++;
     gs__sap_update(r);
+    gs__probe_wake(r);
     return GS_OK;
 }
 
@@ -5975,11 +6126,18 @@ GS__PRIVATE void gs__push_end(gs_world *w, int land) {
 GS__PRIVATE void gs__rigid_vs_rigid(gs__rigid *r, gs__rigid *o, double t, double h) {
     gs_contact cs[2 * GS_MAX_HULL_POINTS];
     gs__body a = gs__body_of(r), b = gs__body_of(o);
-    double reach = r->shape.bound + o->shape.bound, t_o = gs__agent_time(&o->base);
-    double lag = fmax(-0.1, fmin(0.1, t - t_o)), share = 1.0, ahead = 0.0;
+    double reach = r->shape.bound + o->shape.bound, t_o, lag, share = 1.0, ahead = 0.0;
     gs_vec3 ov = o->v, ow = o->w;
-    int n, i;
-    if (!o->probe) {
+    int n, i, fixed;
+    /* a sleeper is a fixed body to what rests on it; one that moves wakes it
+       (at r's time: the pair is r's to compute from there) */
+    if (o->base.sleeping && gs__dot(gs__sub(r->x, o->x), gs__sub(r->x, o->x)) < reach * reach &&
+        !(gs__rigid_speed(r) < r->base.world->sleep_speed))
+        gs__agent_wake_at(&o->base, gs__agent_time(&r->base));
+    fixed = o->probe || o->base.sleeping;
+    t_o = gs__agent_time(&o->base);
+    lag = fmax(-0.1, fmin(0.1, t - t_o));
+    if (!fixed) {
         double la;
         /* the part after o's time; under 1e-9 it is the rounding of two
            times that are equal (steps * dt), and counting it would plan
@@ -6012,13 +6170,30 @@ GS__PRIVATE void gs__rigid_vs_rigid(gs__rigid *r, gs__rigid *o, double t, double
        would do; this one is the same whichever it is) */
     n = gs__collide(&a, &b, gs__v3(0.0, r->base.index < o->base.index ? -1.0 : 1.0, 0.0),
                     cs, 2 * GS_MAX_HULL_POINTS);
+    if (n > 0 && o->probe && o->base.rest < r->base.world->sleep_time) r->probe_touch = 1;
     for (i = 0; i < n; ++i) {
         gs_vec3 vo = gs__add(ov, gs__cross(ow, gs__sub(cs[i].point, b.p))), roll, f;
         gs_vec3 vr = gs__add(r->v, gs__cross(r->w, gs__sub(cs[i].point, a.p)));
         f = gs__rigid_apply(r, &cs[i], gs__sub(vr, vo), ow,
-                            &o->mat, o->probe ? 0.0 : o->reach2, share, &roll);
+                            &o->mat, fixed ? 0.0 : o->reach2, share, &roll);
         r->late = gs__madd(r->late, f, ahead);
-        if (!o->probe) gs__push(r->base.world, o, cs[i].point, b.p, f, roll);
+        if (!fixed) gs__push(r->base.world, o, cs[i].point, b.p, f, roll);
+    }
+}
+
+/* A probe that moves wakes the sleepers it reaches (they take no steps in
+   which to find it). */
+GS__PRIVATE void gs__probe_wake(gs__rigid *p) {
+    gs_world *w = p->base.world;
+    double t = gs__agent_time(&p->base);
+    int n, i;
+    if (w->sleep_time < 0.0 || !(p->base.rest < w->sleep_time)) return;
+    n = gs__sap_query_near(w, p, gs__lag_bound(w, t, 0.1));
+    for (i = 0; i < n; ++i) {
+        gs__rigid *o = w->cand[i];
+        double reach = p->shape.bound + o->shape.bound;
+        if (o->base.sleeping && gs__dot(gs__sub(p->x, o->x), gs__sub(p->x, o->x)) < reach * reach)
+            gs__agent_wake_at(&o->base, t);
     }
 }
 
@@ -6091,6 +6266,7 @@ GS_API gs_result gs_world_set_ground(gs_world *w, int enabled, double height,
     w->ground = enabled != 0;
     w->ground_height = height;
     w->ground_material = material;
+    gs__wake_all(w);
     return GS_OK;
 }
 
@@ -6167,7 +6343,7 @@ GS__PRIVATE void gs__mesh_touch(gs__mesh *m, int i, const gs_contact *c,
    most 0.1 s ahead or behind): held still, a body that steps less often
    than the mesh would jump into particles that have already relaxed against
    it, and each jump would store penalty energy the particles then release. */
-GS__PRIVATE void gs__mesh_vs_rigid(gs__mesh *m, const gs__rigid *r, double t) {
+GS__PRIVATE void gs__mesh_vs_rigid(gs__mesh *m, gs__rigid *r, double t) {
     double reach = r->shape.bound;
     double lag = fmax(-0.1, fmin(0.1, t - gs__agent_time(&r->base)));
     gs_vec3 centre = r->probe ? r->x : gs__madd(r->x, r->v, lag);
@@ -6179,8 +6355,11 @@ GS__PRIVATE void gs__mesh_vs_rigid(gs__mesh *m, const gs__rigid *r, double t) {
     for (i = 0; i < m->n; ++i) {
         gs_contact c;
         if (m->pinned[i] || !gs__particle_contact(m->x[i], m->radius, r, centre, &c)) continue;
+        /* particles that move wake a sleeper (it is fixed to them until then) */
+        if (r->base.sleeping && !(gs__len(m->v[i]) < m->base.world->sleep_speed))
+            gs__agent_wake_at(&r->base, t);
         gs__mesh_touch(m, i, &c, gs__point_velocity(r, c.point), &r->mat,
-                       r->probe ? 0.0 : r->reach2);
+                       r->probe || r->base.sleeping ? 0.0 : r->reach2);
     }
 }
 
