@@ -6192,7 +6192,10 @@ GS__PRIVATE void gs__probe_wake(gs__rigid *p) {
     for (i = 0; i < n; ++i) {
         gs__rigid *o = w->cand[i];
         double reach = p->shape.bound + o->shape.bound;
-        if (o->base.sleeping && gs__dot(gs__sub(p->x, o->x), gs__sub(p->x, o->x)) < reach * reach)
+        gs__body a = gs__body_of(p), b = gs__body_of(o);
+        gs_contact c[2 * GS_MAX_HULL_POINTS];
+        if (o->base.sleeping && gs__dot(gs__sub(p->x, o->x), gs__sub(p->x, o->x)) < reach * reach &&
+            gs__collide(&a, &b, gs__v3(0.0, 1.0, 0.0), c, 2 * GS_MAX_HULL_POINTS) > 0)
             gs__agent_wake_at(&o->base, t);
     }
 }
