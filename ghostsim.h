@@ -1709,6 +1709,9 @@ struct gs_world {
     double speed_max;    /* m/s; the largest speed of a body not wide (not
                             a probe: contacts do not carry those on) */
     int nmeshes;         /* spring-mass agents (contacts loop over them) */
+    gs_agent **meshes;   /* them, in creation order (agent_cap) */
+    int meshes_dirty;    /* an agent came or went: meshes is rebuilt when
+                            next used */
     int ground;          /* a plane y = ground_height */
     double ground_height;
     gs_material ground_material;
@@ -1878,10 +1881,10 @@ GS_API void gs_world_destroy(gs_world *w) {
 GS__PRIVATE gs_result gs__world_add(gs_world *w, gs_agent *a) {
     if (w->agent_count == w->agent_cap) {
         int cap = w->agent_cap ? 2 * w->agent_cap : 8;
-        if (w->agent_cap > INT_MAX / 2 || (size_t)cap > SIZE_MAX / (2 * sizeof(gs_agent *)))
+        if (w->agent_cap > INT_MAX / 2 || (size_t)cap > SIZE_MAX / (3 * sizeof(gs_agent *)))
             return gs__fail(w, GS_ERR_CAPACITY, "agent list: too many agents");
         gs_agent **list = (gs_agent **)gs__alloc(w, (size_t)cap * sizeof *list);
-        gs_agent **heaps = (gs_agent **)gs__alloc(w, 2 * (size_t)cap * sizeof *heaps);
+        gs_agent **heaps = (gs_agent **)gs__alloc(w, 3 * (size_t)cap * sizeof *heaps);
         if (!list || !heaps) {
             gs__free(w, list);
             gs__free(w, heaps);
@@ -1894,8 +1897,10 @@ GS__PRIVATE gs_result gs__world_add(gs_world *w, gs_agent *a) {
         w->agents = list;
         w->span_lo = heaps; /* the heaps are rebuilt at each advance */
         w->span_hi = heaps + cap;
+        w->meshes = heaps + 2 * cap; /* and the mesh list where it is used */
         w->agent_cap = cap;
     }
+    w->meshes_dirty = 1;
     a->index = w->agent_count;
     w->agents[w->agent_count++] = a;
     return GS_OK;
@@ -2617,6 +2622,7 @@ GS_API gs_result gs_agent_destroy(gs_agent *a) {
     if (r != GS_OK) return r;
     if (a->ghost) gs_ghost_detach(a);
     gs__agent_unlink(a);
+    w->meshes_dirty = 1;
     for (i = a->index + 1; i < w->agent_count; ++i) {
         w->agents[i - 1] = w->agents[i];
         w->agents[i - 1]->index = i - 1;
@@ -6234,6 +6240,16 @@ GS__PRIVATE void gs__rigid_vs_mesh(gs__rigid *r, const gs_agent *m, double t) {
     }
 }
 
+/* The spring-mass agents into w->meshes: a body's contacts loop over them,
+   where a loop over every agent made each body step O(agents). */
+GS__PRIVATE void gs__meshes_list(gs_world *w) {
+    int i, n = 0;
+    for (i = 0; i < w->agent_count; ++i)
+        if (gs__mesh_info(w->agents[i], NULL, NULL, NULL, NULL)) w->meshes[n++] = w->agents[i];
+    w->nmeshes = n;
+    w->meshes_dirty = 0;
+}
+
 /* Contact forces on r over its substep [t, t + h], and the pushes of this
    substep on the bodies it touches (found again: a first look for the
    plan is followed by the first substep's own). */
@@ -6249,8 +6265,9 @@ GS__PRIVATE void gs__rigid_contacts(gs__rigid *r, double t, double h) {
     for (i = 0; i < n; ++i)
         if (w->cand[i] != r && gs__sweeps_meet(r, w->cand[i], lag))
             gs__rigid_vs_rigid(r, w->cand[i], t, h);
-    for (i = 0; w->nmeshes > 0 && i < w->agent_count; ++i)
-        if (gs__mesh_info(w->agents[i], NULL, NULL, NULL, NULL)) gs__rigid_vs_mesh(r, w->agents[i], t);
+    if (w->nmeshes == 0) return;
+    if (w->meshes_dirty) gs__meshes_list(w);
+    for (i = 0; i < w->nmeshes; ++i) gs__rigid_vs_mesh(r, w->meshes[i], t);
 }
 
 GS_API gs_result gs_world_set_ground(gs_world *w, int enabled, double height,
