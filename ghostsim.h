@@ -4713,11 +4713,18 @@ GS__PRIVATE void gs__box_build(gs__shape *s, gs_vec3 h) {
     s->inertia.zz = s->volume * (h.x * h.x + h.y * h.y) / 3.0;
 }
 
-/* Validates a shape desc and builds the collision shape. */
+/* The bytes of a shape that its type uses: a sphere stops before the
+   vertex arrays (a body is allocated at that size: gs__rigid_size). */
+GS__PRIVATE size_t gs__shape_size(gs_shape_type type) {
+    return type == GS_SHAPE_SPHERE ? offsetof(gs__shape, v) : sizeof(gs__shape);
+}
+
+/* Validates a shape desc and builds the collision shape (s holds at least
+   gs__shape_size(d->type) bytes; the arrays are read only up to nv, nf). */
 GS__PRIVATE void gs__shape_build(gs__check *c, const gs_shape_desc *d,
                                  gs__shape *s) {
     int i;
-    memset(s, 0, sizeof *s);
+    memset(s, 0, offsetof(gs__shape, v));
     s->type = d->type;
     if (d->type == GS_SHAPE_SPHERE) {
         gs__check_size(c, "shape.radius", d->radius);
@@ -4818,6 +4825,14 @@ GS__PRIVATE void gs__sap_update(gs__rigid *r);
 GS__PRIVATE void gs__sap_remove(gs_world *w, gs__rigid *r);
 
 GS__PRIVATE gs__rigid *gs__as_rigid(const gs_agent *a);
+
+/* A body of this shape type: a sphere without the 5.6 kB of vertex arrays,
+   so that a pile's bodies sit 0.9 kB apart, not 6.5 kB (a page each: in a
+   pile of 4096 the misses of cache and TLB grew the step as n^1.3 where
+   its instructions grew as n). */
+GS__PRIVATE size_t gs__rigid_size(gs_shape_type type) {
+    return offsetof(gs__rigid, shape) + gs__shape_size(type);
+}
 
 GS_API gs_rigid_desc gs_rigid_desc_default(void) {
     gs_rigid_desc d;
@@ -5219,9 +5234,9 @@ GS_API gs_result gs_rigid_create(gs_world *w, const gs_rigid_desc *desc,
     gs_result res = gs__create_begin(w, desc, out, "gs_rigid_create");
     if (res != GS_OK) return res;
     d = gs__rigid_defaults(desc);
-    r = (gs__rigid *)gs__alloc(w, sizeof *r);
+    r = (gs__rigid *)gs__alloc(w, gs__rigid_size(d.shape.type));
     if (!r) return gs__fail(w, GS_ERR_NO_MEMORY, "gs_rigid_create: out of memory");
-    memset(r, 0, sizeof *r);
+    memset(r, 0, gs__rigid_size(d.shape.type));
     c = gs__check_begin(w, "gs_rigid_create");
     gs__rigid_check(&c, &d, &r->shape);
     if (c.r == GS_OK) gs__rigid_mass_check(&c, r, &d);
@@ -5260,9 +5275,9 @@ GS_API gs_result gs_probe_create(gs_world *w, const gs_probe_desc *desc,
     if (d.dt == 0.0) d.dt = 0.001;
     if (d.max_speed == 0.0) d.max_speed = 10.0;
     if (d.owner == 0) d.owner = w->host_id;
-    r = (gs__rigid *)gs__alloc(w, sizeof *r);
+    r = (gs__rigid *)gs__alloc(w, gs__rigid_size(d.shape.type));
     if (!r) return gs__fail(w, GS_ERR_NO_MEMORY, "gs_probe_create: out of memory");
-    memset(r, 0, sizeof *r);
+    memset(r, 0, gs__rigid_size(d.shape.type));
     c = gs__check_begin(w, "gs_probe_create");
     gs__shape_build(&c, &d.shape, &r->shape);
     gs__check_pos(&c, "position", d.position);
