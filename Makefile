@@ -140,12 +140,16 @@ test-build: examples $(addprefix $(BUILD)/,$(TESTS) $(TESTS_NOSODIUM)) \
             $(addprefix $(BUILD)/asan/,$(TESTS) $(TESTS_NOSODIUM)) $(BUILD)/tsan/test_net \
             $(BUILD)/fuzz_wire $(BUILD)/fuzz_sealed $(BUILD)/fuzz_clock
 
+# Suites that only count (compile checks, the fuzzers' fixed times, the
+# cmocka suites) run two at a time, each one's output kept together; the
+# ones that measure wall-clock pace or convergence between processes
+# (tsan and valgrind on the UDP threads, the peers, the fault suite) run
+# alone, as a loaded machine would fail them for the wrong reason.
 test: deps
 	@$(MAKE) --no-print-directory -j2 test-build
-	@$(MAKE) --no-print-directory compile-checks examples cmake-check install-check
-	@$(MAKE) --no-print-directory fuzz-ci
-	@$(MAKE) --no-print-directory test-plain
-	@$(MAKE) --no-print-directory test-asan
+	@$(MAKE) --no-print-directory -j2 --output-sync=target compile-checks examples \
+	  cmake-check install-check fuzz-ci
+	@$(MAKE) --no-print-directory -j2 --output-sync=target test-plain test-asan
 	@$(MAKE) --no-print-directory tsan valgrind-udp
 	@$(MAKE) --no-print-directory test-peers faults-short
 

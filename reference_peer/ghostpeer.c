@@ -5,6 +5,7 @@
                [--integrator NAME] [--dt S] [--probe-until S] [--seed N]
                [--encoding f64|f32] [--stats-every S] [--trace FILE] [--key FILE]
                [--clock-step AT:SECONDS] [--probe-wild AT:SECONDS:SPEED]
+               [--sync present|replay]
 
    Every host builds the same scene (gs_scene_create: a cloth pinned by its
    corners, K spheres above it, one probe per host of the session) and runs
@@ -16,6 +17,16 @@
    pulls the others toward their states of a latency ago, and the scene
    never quite comes to rest), probe i object 200 + i (owner authority:
    host i + 1 owns it).
+
+   --sync replay runs the world on the session clock (GS_SYNC_CLOCK_SESSION:
+   the hosts' simulation times follow the lowest id's timeline) and blends
+   each snapshot at its own simulation time in a replay from the world
+   history (GS_SYNC_REPLAY); present (the default) is the paper's blend at
+   the local present on the local clock. Each JSON line then carries a
+   "replay" object: the mode, replays, agent steps replayed per second of
+   wall time, fallbacks (snapshots older than the history or past the
+   replay budget, blended at the present), the lag (s the slowest agent
+   is behind the target: this host not keeping pace) and the timekeeper.
 
    --key FILE seals every datagram under a pre-shared key (32 raw bytes, or
    64 hex digits and an optional newline) that every host of the session
@@ -79,6 +90,7 @@ typedef struct options {
     double wild_at, wild_for, wild_speed; /* --probe-wild: s, s, m/s */
     int has_key;
     unsigned char key[KEY_BYTES];
+    int replay;            /* --sync replay */
 } options;
 
 static volatile sig_atomic_t g_stop = 0; /* the only static: signal handlers need one */
@@ -96,7 +108,8 @@ static void usage(const char *why) {
             "                 [--integrator explicit|symplectic|verlet|rk4|implicit|xpbd] [--dt S]\n"
             "                 [--probe-until S] [--seed N] [--encoding f64|f32]\n"
             "                 [--stats-every S] [--trace FILE] [--key FILE]\n"
-            "                 [--clock-step AT:SECONDS] [--probe-wild AT:SECONDS:SPEED]\n");
+            "                 [--clock-step AT:SECONDS] [--probe-wild AT:SECONDS:SPEED]\n"
+            "                 [--sync present|replay]\n");
     exit(2);
 }
 
@@ -280,6 +293,11 @@ static void parse_args(int argc, char **argv, options *o) {
             o->wild_speed = t[2];
         }
         else if (strcmp(f, "--key") == 0) parse_key(o, v);
+        else if (strcmp(f, "--sync") == 0) {
+            if (strcmp(v, "present") == 0) o->replay = 0;
+            else if (strcmp(v, "replay") == 0) o->replay = 1;
+            else usage("--sync: present or replay");
+        }
         else {
             char msg[160];
             snprintf(msg, sizeof msg, "unknown flag '%s'", f);
@@ -334,6 +352,11 @@ static int build(peer_host *h) {
     gs_udp_desc ud;
     int i;
     wd.host_id = o->id;
+    if (o->replay) {
+        wd.sync.mode = GS_SYNC_REPLAY;
+        wd.sync.clock = GS_SYNC_CLOCK_SESSION; /* reads CLOCK_MONOTONIC, as gs_udp does */
+        wd.sync.history_frames = 64; /* 5 ms frames: 320 ms, a 250 ms round trip and more */
+    }
     if (gs_world_create(&wd, &h->w) != GS_OK) return fail(h, "world");
     sd.cloth_n = o->cloth;
     sd.sphere_count = o->spheres;
@@ -434,6 +457,17 @@ static void print_line(peer_host *h, int final) {
         sent += ps.snapshots_sent;
     }
     printf("}");
+    {
+        gs_sync_stats st;
+        double wall = gs_udp_now() - h->mono0;
+        memset(&st, 0, sizeof st);
+        gs_world_sync_stats(h->w, &st);
+        printf(", \"replay\": {\"mode\": \"%s\", \"replays\": %llu, \"steps_per_s\": %.1f, "
+               "\"fallbacks\": %llu, \"lag\": %.6f, \"timekeeper\": %u}",
+               h->o.replay ? "replay" : "present", (unsigned long long)st.replays,
+               wall > 0.0 ? (double)st.replay_steps / wall : 0.0,
+               (unsigned long long)st.fallbacks, st.lag, (unsigned)st.timekeeper);
+    }
     if (final) {
         gs_net_unknown_stats(net, unknown);
         for (i = 0; i < GS_REJECT_COUNT; ++i) unknown_total += unknown[i];
@@ -552,9 +586,10 @@ int main(int argc, char **argv) {
         }
     }
     if (rc == 0) {
-        fprintf(stderr, "ghostpeer %u: listening on %s, %d peer(s), %d sphere(s), %d probe(s)%s\n",
+        fprintf(stderr, "ghostpeer %u: listening on %s, %d peer(s), %d sphere(s), %d probe(s)%s, "
+                "sync %s\n",
                 (unsigned)h.o.id, h.o.listen, h.o.npeers, h.sc.sphere_count, h.sc.probe_count,
-                h.o.has_key ? ", datagrams sealed (--key)" : "");
+                h.o.has_key ? ", datagrams sealed (--key)" : "", h.o.replay ? "replay" : "present");
         rc = run(&h);
     }
     if (h.trace) fclose(h.trace);
