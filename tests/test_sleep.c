@@ -277,6 +277,34 @@ static void test_sleep_deterministic(void **state) {
     gs_world_destroy(b.w);
 }
 
+/* The world history re-runs advances in which bodies fall asleep and are
+   woken bit for bit (gs_world_sync_test): the sleep state is in it. */
+static void test_sleep_history_rerun(void **state) {
+    scene s;
+    gs_rigid_desc rd = gs_rigid_desc_default();
+    gs_agent *ball;
+    int bad = 0, i, slept = 0, woke = 0;
+    (void)state;
+    scene_make(&s, 0.0);
+    rd.shape.type = GS_SHAPE_SPHERE;
+    rd.shape.radius = 0.05;
+    rd.position.y = 0.2 * STACK + 2.0; /* lands after the stack sleeps */
+    assert_int_equal(gs_rigid_create(s.w, &rd, &ball), GS_OK);
+    s.body[s.n++] = ball;
+    for (i = 0; i < 240; ++i) {
+        int before = asleep(&s), after;
+        assert_int_equal(gs_world_advance(s.w, FRAME, NULL), GS_OK);
+        after = asleep(&s);
+        slept |= after > before;
+        woke |= after < before;
+        assert_int_equal(gs_world_sync_test(s.w, i < 8 ? 1 : 8, &bad), GS_OK);
+        assert_int_equal(bad, -1);
+    }
+    assert_true(slept);
+    assert_true(woke);
+    gs_world_destroy(s.w);
+}
+
 int main(void) {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_sleep_resting_stack_sleeps),
@@ -285,6 +313,7 @@ int main(void) {
         cmocka_unit_test(test_sleep_probe_keeps_awake),
         cmocka_unit_test(test_sleep_set_state_wakes),
         cmocka_unit_test(test_sleep_deterministic),
+        cmocka_unit_test(test_sleep_history_rerun),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }
