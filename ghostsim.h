@@ -7762,10 +7762,10 @@ GS__PRIVATE void gs__world_blend(gs_world *w) {
                                counts */
 #define GS__SYNC_STEP 0.05  /* s; a local clock that moved this much more or
                                less than the seconds advanced was stepped */
-#define GS__SYNC_AGENT 9    /* doubles per agent before its state: steps,
-                               t_offset, priority, 6 counters */
-#define GS__SYNC_RIGID 13   /* a_own, sleeping, rest, 1 spare, target,
-                               target_q */
+#define GS__SYNC_AGENT 11   /* doubles per agent before its state: steps,
+                               t_offset, priority, 6 counters, sleeping,
+                               rest */
+#define GS__SYNC_RIGID 13   /* a_own, 3 spare, target, target_q */
 #define GS__SYNC_NONE UINT64_MAX /* a log entry applied before the advance */
 #define GS__SYNC_SPLIT (UINT64_MAX - 1) /* one applied at a blend time */
 #define GS__LOG_HEAD 5      /* doubles before an input log entry's values */
@@ -7966,12 +7966,12 @@ GS__PRIVATE double *gs__sync_save_agent(const gs_agent *a, double *p) {
     p[1] = a->t_offset;
     p[2] = (double)a->priority;
     for (i = 0; i < 6; ++i) p[3 + i] = gs__u2d(st[i]);
+    p[9] = (double)a->sleeping;
+    p[10] = a->rest;
     p += GS__SYNC_AGENT;
     if (r) {
         p[0] = r->a_own.x; p[1] = r->a_own.y; p[2] = r->a_own.z;
-        p[3] = (double)a->sleeping; /* the sleep state (>>rigid) */
-        p[4] = a->rest;
-        p[5] = 0.0; /* room kept: the layout stays 13 */
+        p[3] = p[4] = p[5] = 0.0; /* room kept: the layout stays 13 */
         p[6] = r->target.x; p[7] = r->target.y; p[8] = r->target.z;
         p[9] = r->target_q.x; p[10] = r->target_q.y; p[11] = r->target_q.z;
         p[12] = r->target_q.w;
@@ -7994,11 +7994,11 @@ GS__PRIVATE const double *gs__sync_load_agent(gs_agent *a, const double *p) {
     a->t_offset = p[1];
     a->priority = (int)p[2];
     for (i = 0; i < 6; ++i) st[i] = gs__d2u(p[3 + i]);
+    a->sleeping = p[9] != 0.0;
+    a->rest = p[10];
     if (r) {
         const double *x = p + GS__SYNC_AGENT;
         r->a_own = gs__v3(x[0], x[1], x[2]);
-        a->sleeping = x[3] != 0.0;
-        a->rest = x[4];
         r->target = gs__v3(x[6], x[7], x[8]);
         r->target_q = gs__quat(x[9], x[10], x[11], x[12]);
         r->q = gs__quat(e[3], e[4], e[5], e[6]); /* set_state renormalizes */
