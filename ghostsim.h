@@ -566,9 +566,12 @@ GS_API gs_agent_stats gs_agent_get_stats(const gs_agent *a);
 GS_API gs_result gs_agent_destroy(gs_agent *a);
 
 /* Sleeping ("model only what a scene requires"). A rigid body at rest
-   (every point slower than gs_world_desc.sleep_speed for sleep_time)
-   sleeps: its velocities are zeroed, it takes no steps and no contacts
-   are computed among sleepers; awake bodies meet it as a fixed body. Its
+   (every point slower than gs_world_desc.sleep_speed for sleep_time), or a
+   whole spring-mass mesh (every particle), sleeps: its velocities are
+   zeroed, it takes no steps and no contacts are computed among sleepers;
+   awake bodies meet it as fixed. A mesh also wakes when a pin moves
+   (gs_mesh_move_pin) and when a moving probe comes within its bounds; a
+   mesh under a ghost does not sleep. Its
    time follows the world: at each advance it jumps to the target, so
    gs_agent_time of a sleeper is gs_world_time (a ghost attached to it
    publishes and blends at that time). It wakes, its time then that of
@@ -578,9 +581,9 @@ GS_API gs_result gs_agent_destroy(gs_agent *a);
    touches falls asleep; a probe held still that long is scenery, as the
    walls of a box); gs_agent_set_state (ghost snapshots use it),
    gs_agent_step, gs_agent_wake; gs_world_set_gravity and
-   gs_world_set_ground wake every body. Only gs_world_advance puts bodies
-   to sleep. Returns 1 when a sleeps, 0 otherwise (other kinds never
-   sleep). */
+   gs_world_set_ground wake everything. Only gs_world_advance puts agents
+   to sleep. Returns 1 when a sleeps, 0 otherwise (probes and custom agents
+   never sleep). */
 GS_API int gs_agent_sleeping(const gs_agent *a);
 /* Wakes a sleeping agent (its rest time starts again); nothing for an
    awake one. GS_ERR_BUSY from a callback (see ERRORS). */
@@ -717,7 +720,8 @@ GS_API double gs_mesh_stable_dt(const gs_agent *a);
    metres. GS_ERR_INVALID_ARG if the agent is not a spring-mass agent or the
    particle is not pinned, GS_ERR_OUT_OF_RANGE for a bad index or a
    position outside +-GS_MAX_COORD, GS_ERR_NOT_FINITE for a non-finite
-   position, GS_ERR_BUSY from a callback; the mesh is unchanged then. */
+   position, GS_ERR_BUSY from a callback; the mesh is unchanged then. A
+   sleeping mesh wakes (see gs_agent_sleeping). */
 GS_API gs_result gs_mesh_move_pin(gs_agent *a, int particle, gs_vec3 pos);
 
 /* ========================================================================
@@ -3008,6 +3012,8 @@ typedef struct gs__mesh {
     double *cdepth;   /* XPBD: the deepest contact's depth (m) at x, */
     gs_vec3 *cvel;    /* and the velocity of what it touches (m/s) */
     int ext_active;   /* ext holds a non-zero force */
+    int probe_touch;  /* in this step a probe that moves touched it: it
+                         does not rest (gs__mesh_rest) */
     double radius;    /* m, particle radius for contacts */
     gs_material mat;
     gs_vec3 lo, hi;   /* m; bounding box of the particles */
@@ -3845,12 +3851,36 @@ GS__PRIVATE void gs__mesh_park(gs__mesh *m, const gs_vec3 *x_start) {
     t = m->vn; m->vn = m->v0; m->v0 = t;
 }
 
+/* A whole mesh sleeps as a rigid body does (gs__rigid_rest): every free
+   particle slower than sleep_speed for sleep_time, no moving probe on it
+   (probe_touch, set by its contacts), inside an advance. Not under a
+   ghost: the blend of a cloth, still or not, moves every particle by a
+   little, each one a wake, and a cloth that sleeps between blends lagged
+   its peers (test_ghost's latency trap). */
+GS__PRIVATE void gs__mesh_rest(gs__mesh *m, double dt) {
+    const gs_world *w = m->base.world;
+    double s2 = w->sleep_speed * w->sleep_speed;
+    int i, still = w->sleep_time >= 0.0 && !m->probe_touch && !m->base.ghost;
+    if (!w->busy) return;
+    for (i = 0; still && i < m->n; ++i) still = gs__dot(m->v[i], m->v[i]) < s2;
+    if (!still) {
+        m->base.rest = 0.0;
+        return;
+    }
+    m->base.rest += dt;
+    if (m->base.rest < w->sleep_time) return;
+    m->base.sleeping = 1;
+    m->base.stats.sleeps++;
+    memset(m->v, 0, (size_t)m->n * sizeof *m->v);
+}
+
 GS__PRIVATE gs_result gs__mesh_step(gs_agent *a, double dt) {
     gs__mesh *m = (gs__mesh *)a;
     const gs_vec3 *x_start = m->x;
     gs_vec3 lo = m->lo, hi = m->hi, *t;
     int n_sub, i;
     gs_result r = gs__mesh_plan(m, dt, &n_sub);
+    m->probe_touch = 0;
     if (r != GS_OK) return r;
     for (i = 0; i < n_sub; ++i) {
         r = gs__mesh_substep(m, gs__agent_time(a) + i * (dt / n_sub), dt / n_sub);
@@ -3867,6 +3897,7 @@ GS__PRIVATE gs_result gs__mesh_step(gs_agent *a, double dt) {
         return r;
     }
     a->stats.substeps += (uint64_t)n_sub;
+    gs__mesh_rest(m, dt);
     return GS_OK;
 }
 
@@ -4594,6 +4625,7 @@ GS_API gs_result gs_mesh_move_pin(gs_agent *a, int particle, gs_vec3 pos) {
                         GS_MAX_COORD);
     m->x[particle] = pos;
     gs__mesh_update_bounds(m);
+    gs__agent_wake_at(a, gs__agent_time(a));
     return GS_OK;
 }
 
@@ -6375,6 +6407,9 @@ GS__PRIVATE void gs__rigid_vs_rigid(gs__rigid *r, gs__rigid *o, double t, double
     }
 }
 
+GS__PRIVATE void gs__meshes_list(gs_world *w);
+GS__PRIVATE void gs__mesh_bounds(const gs_agent *a, gs_vec3 *lo, gs_vec3 *hi);
+
 /* A probe that moves wakes the sleepers it reaches (they take no steps in
    which to find it). */
 GS__PRIVATE void gs__probe_wake(gs__rigid *p) {
@@ -6382,6 +6417,16 @@ GS__PRIVATE void gs__probe_wake(gs__rigid *p) {
     double t = gs__agent_time(&p->base);
     int n, i;
     if (w->sleep_time < 0.0 || !(p->base.rest < w->sleep_time)) return;
+    if (w->meshes_dirty) gs__meshes_list(w);
+    for (i = 0; i < w->nmeshes; ++i) { /* a mesh within its reach (boxes) */
+        gs_agent *m = w->meshes[i];
+        gs_vec3 lo, hi;
+        double b = p->shape.bound;
+        gs__mesh_bounds(m, &lo, &hi);
+        if (m->sleeping && p->x.x + b >= lo.x && p->x.x - b <= hi.x && p->x.y + b >= lo.y &&
+            p->x.y - b <= hi.y && p->x.z + b >= lo.z && p->x.z - b <= hi.z)
+            gs__agent_wake_at(m, t);
+    }
     n = gs__sap_query_near(w, p, gs__lag_bound(w, t, 0.1));
     for (i = 0; i < n; ++i) {
         gs__rigid *o = w->cand[i];
@@ -6403,7 +6448,7 @@ GS__PRIVATE int gs__mesh_info(const gs_agent *a, const gs_vec3 **x,
 /* The reaction of a mesh's particles on a rigid body, each particle taken
    where its velocity puts it at the body's time (see gs__mesh_vs_rigid: both
    sides of a contact must see the same overlap, or energy appears). */
-GS__PRIVATE void gs__rigid_vs_mesh(gs__rigid *r, const gs_agent *m, double t) {
+GS__PRIVATE void gs__rigid_vs_mesh(gs__rigid *r, gs_agent *m, double t) {
     const gs_vec3 *x = NULL, *v = NULL;
     const gs_material *mat = NULL;
     gs_vec3 lo, hi;
@@ -6418,6 +6463,10 @@ GS__PRIVATE void gs__rigid_vs_mesh(gs__rigid *r, const gs_agent *m, double t) {
         gs_contact c;
         gs_vec3 f;
         if (!gs__particle_contact(gs__madd(x[i], v[i], lag), rp, r, r->x, &c)) continue;
+        /* a sleeping mesh is fixed to a body resting on it; one that moves
+           wakes it (at r's time) */
+        if (m->sleeping && !(gs__rigid_speed(r) < m->world->sleep_speed))
+            gs__agent_wake_at(m, gs__agent_time(&r->base));
         slope = gs__friction_slope(r->reach2, 1.0 / gs__mesh_mass(m, i), r->base.dt);
         f = gs__penalty(&c, gs__sub(v[i], gs__point_velocity(r, c.point)), mat, &r->mat, slope);
         r->k_sum += 0.5 * (r->mat.stiffness + mat->stiffness);
@@ -6566,6 +6615,7 @@ GS__PRIVATE void gs__mesh_vs_rigid(gs__mesh *m, gs__rigid *r, double t) {
         /* particles that move wake a sleeper (it is fixed to them until then) */
         if (r->base.sleeping && !(gs__len(m->v[i]) < m->base.world->sleep_speed))
             gs__agent_wake_at(&r->base, t);
+        if (r->probe && r->base.rest < m->base.world->sleep_time) m->probe_touch = 1;
         gs__mesh_touch(m, i, &c, gs__point_velocity(r, c.point), &r->mat,
                        r->probe || r->base.sleeping ? 0.0 : r->reach2);
     }

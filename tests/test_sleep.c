@@ -305,6 +305,38 @@ static void test_sleep_history_rerun(void **state) {
     gs_world_destroy(s.w);
 }
 
+/* The paper's scene at rest: the cloth (a whole mesh) and the spheres on it
+   sleep once the probe is held still; a pin moved wakes the cloth, which
+   then wakes the spheres as it moves under them. */
+static void test_sleep_cloth_scene(void **state) {
+    gs_world *w = NULL;
+    gs_scene sc;
+    gs_vec3 corner;
+    int i, spheres = 0;
+    uint64_t steps;
+    (void)state;
+    assert_int_equal(gs_world_create(NULL, &w), GS_OK);
+    assert_int_equal(gs_scene_create(w, NULL, &sc), GS_OK);
+    for (i = 0; i < 480; ++i) assert_int_equal(gs_world_advance(w, FRAME, NULL), GS_OK);
+    assert_int_equal(gs_agent_sleeping(sc.cloth), 1);
+    for (i = 0; i < sc.sphere_count; ++i) spheres += gs_agent_sleeping(sc.spheres[i]);
+    assert_int_equal(spheres, sc.sphere_count);
+    steps = gs_agent_get_stats(sc.cloth).steps;
+    assert_int_equal(gs_world_advance(w, 1.0, NULL), GS_OK);
+    assert_true(gs_agent_get_stats(sc.cloth).steps == steps);
+    assert_true(fabs(gs_agent_time(sc.cloth) - gs_world_time(w)) < 1e-9);
+    corner = gs_mesh_positions(sc.cloth)[0];
+    corner.y += 0.1;
+    assert_int_equal(gs_mesh_move_pin(sc.cloth, 0, corner), GS_OK);
+    assert_int_equal(gs_agent_sleeping(sc.cloth), 0);
+    for (i = 0; i < 60; ++i) assert_int_equal(gs_world_advance(w, FRAME, NULL), GS_OK);
+    assert_true(gs_agent_get_stats(sc.cloth).steps > steps);
+    for (i = 0, spheres = 0; i < sc.sphere_count; ++i)
+        spheres += gs_agent_get_stats(sc.spheres[i]).wakes > 0;
+    assert_true(spheres > 0);
+    gs_world_destroy(w);
+}
+
 int main(void) {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_sleep_resting_stack_sleeps),
@@ -314,6 +346,7 @@ int main(void) {
         cmocka_unit_test(test_sleep_set_state_wakes),
         cmocka_unit_test(test_sleep_deterministic),
         cmocka_unit_test(test_sleep_history_rerun),
+        cmocka_unit_test(test_sleep_cloth_scene),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }
