@@ -337,6 +337,28 @@ static void test_sleep_cloth_scene(void **state) {
     gs_world_destroy(w);
 }
 
+/* A ghosted body never sleeps: frozen at its own state, it would stop its
+   hosts from meeting (the copies of a peer still moving it by a little).
+   The same stack, every body under a ghost, stays awake; detached, it
+   falls asleep. */
+static void test_sleep_not_under_ghost(void **state) {
+    scene s;
+    int i;
+    (void)state;
+    scene_make(&s, 0.0);
+    for (i = 0; i < s.n; ++i) {
+        gs_ghost_desc gd = gs_ghost_desc_default();
+        gd.object_id = (uint32_t)(100 + i);
+        assert_int_equal(gs_ghost_attach(s.body[i], &gd), GS_OK);
+    }
+    advance(&s, 3.0);
+    assert_int_equal(asleep(&s), 0);
+    for (i = 0; i < s.n; ++i) assert_int_equal(gs_ghost_detach(s.body[i]), GS_OK);
+    advance(&s, 1.0);
+    assert_int_equal(asleep(&s), BODIES);
+    gs_world_destroy(s.w);
+}
+
 int main(void) {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_sleep_resting_stack_sleeps),
@@ -347,6 +369,7 @@ int main(void) {
         cmocka_unit_test(test_sleep_deterministic),
         cmocka_unit_test(test_sleep_history_rerun),
         cmocka_unit_test(test_sleep_cloth_scene),
+        cmocka_unit_test(test_sleep_not_under_ghost),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }
