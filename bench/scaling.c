@@ -181,9 +181,11 @@ static cloth_row run_cloth(int n, int quick)
 /* ---- rigid agents ---- */
 typedef struct rigid_row {
     int n;
-    double step, bytes;
+    double step, step_asleep, bytes;
 } rigid_row;
 
+/* Awake (sleeping off: what the contacts cost), then the same spheres left
+   to fall asleep (what a resting scene costs). */
 static rigid_row run_rigid(int n, int quick)
 {
     gs_world_desc wd = gs_world_desc_default();
@@ -195,6 +197,8 @@ static rigid_row run_rigid(int n, int quick)
     int steps = 2000 / n + 3, reps = quick ? 5 : 9;
     memset(&c, 0, sizeof c);
     wd.allocator = counting(&c);
+    wd.sleep_time = -1.0;
+again:
     if ((r = gs_world_create(&wd, &w)) != GS_OK) die("gs_world_create", NULL, r);
     gs_world_set_ground(w, 1, 0.0, gs_material_default());
     for (i = 0; i < n; ++i) {
@@ -207,11 +211,59 @@ static rigid_row run_rigid(int n, int quick)
         rd.position.y = 0.05; /* resting on the ground */
         if ((r = gs_rigid_create(w, &rd, &a)) != GS_OK) die("gs_rigid_create", w, r);
     }
-    gs_world_advance(w, 0.05, NULL); /* settle on the ground */
     row.n = n;
-    row.step = time_steps(w, reps, steps);
-    row.bytes = c.live;
+    if (wd.sleep_time < 0.0) {
+        gs_world_advance(w, 0.05, NULL); /* settle on the ground */
+        row.step = time_steps(w, reps, steps);
+        row.bytes = c.live;
+        gs_world_destroy(w);
+        wd.sleep_time = 0.0; /* the default */
+        goto again;
+    }
+    gs_world_advance(w, 1.0, NULL); /* settle and fall asleep */
+    row.step_asleep = time_steps(w, reps, steps);
     gs_world_destroy(w);
+    return row;
+}
+
+/* ---- the paper's scene at rest: asleep against awake ----
+   gs_scene_create's default scene (16x16 cloth, 3 spheres, 1 probe), the
+   probe held still, 6 s after the drop (the spheres lie on the cloth);
+   then CPU time per 1/60 s frame with sleeping on (the default) and off. */
+typedef struct rest_row {
+    double frame_awake, frame_asleep;
+    int asleep;
+} rest_row;
+
+static double scene_frames(int sleep, int frames, int *asleep)
+{
+    gs_world_desc wd = gs_world_desc_default();
+    gs_world *w;
+    gs_scene sc;
+    gs_result r;
+    double t0, v[64];
+    int i, k;
+    wd.sleep_time = sleep ? 0.0 : -1.0;
+    if ((r = gs_world_create(&wd, &w)) != GS_OK) die("gs_world_create", NULL, r);
+    if ((r = gs_scene_create(w, NULL, &sc)) != GS_OK) die("gs_scene_create", w, r);
+    for (i = 0; i < 360; ++i) gs_world_advance(w, 1.0 / 60.0, NULL);
+    for (k = 0; k < 9; ++k) {
+        t0 = bu_cpu_now();
+        for (i = 0; i < frames; ++i) gs_world_advance(w, 1.0 / 60.0, NULL);
+        v[k] = (bu_cpu_now() - t0) / frames;
+    }
+    *asleep = 0;
+    for (i = 0; i < gs_world_agent_count(w); ++i) *asleep += gs_agent_sleeping(gs_world_agent(w, i));
+    gs_world_destroy(w);
+    return bu_median(v, 9);
+}
+
+static rest_row run_rest(int quick)
+{
+    rest_row row;
+    int awake_sleepers;
+    row.frame_asleep = scene_frames(1, quick ? 6 : 20, &row.asleep);
+    row.frame_awake = scene_frames(0, quick ? 6 : 20, &awake_sleepers);
     return row;
 }
 
@@ -302,6 +354,7 @@ int main(int argc, char **argv)
     int ncl, nrg, nhs, i;
     cloth_row crow[8];
     rigid_row rrow[8];
+    rest_row rest;
     host_row hrow[8];
     double x[8], y[8], y2[8], k_same, k_default, k_rigid, k_hosts, k_hosts_total, fa, per_particle,
         per_particle_ghost, per_peer, per_body;
@@ -336,11 +389,12 @@ int main(int argc, char **argv)
     fprintf(stderr, "  exponent: %.2f (same particle), %.2f (1 kg, 1 m); memory %.0f B/particle, %.0f with a ghost\n",
             k_same, k_default, per_particle, per_particle_ghost);
 
-    fprintf(stderr, "%10s %14s %14s %12s\n", "spheres", "step us", "us per body", "bytes");
+    fprintf(stderr, "%10s %14s %14s %12s %14s\n", "spheres", "step us", "us per body", "bytes",
+            "asleep us");
     for (i = 0; i < nrg; ++i) {
         rrow[i] = run_rigid(rg[i], a.quick);
-        fprintf(stderr, "%10d %14.2f %14.3f %12.0f\n", rg[i], rrow[i].step * 1e6, rrow[i].step * 1e6 / rg[i],
-                rrow[i].bytes);
+        fprintf(stderr, "%10d %14.2f %14.3f %12.0f %14.2f\n", rg[i], rrow[i].step * 1e6,
+                rrow[i].step * 1e6 / rg[i], rrow[i].bytes, rrow[i].step_asleep * 1e6);
         x[i] = rg[i];
         y[i] = rrow[i].step;
         y2[i] = rrow[i].bytes;
@@ -348,6 +402,11 @@ int main(int argc, char **argv)
     k_rigid = fit_exponent(x, y, nrg);
     fit_line(x, y2, nrg, &fa, &per_body);
     fprintf(stderr, "  exponent: %.2f; memory %.0f B/body\n", k_rigid, per_body);
+    rest = run_rest(a.quick);
+    fprintf(stderr, "paper scene at rest (16x16 cloth, 3 spheres, probe held): %.1f us per 1/60 s "
+                    "frame asleep (%d agents asleep), %.1f awake: %.2fx\n",
+            rest.frame_asleep * 1e6, rest.asleep, rest.frame_awake * 1e6,
+            rest.frame_awake / rest.frame_asleep);
 
     fprintf(stderr, "%10s %16s %16s %14s %14s\n", "hosts", "us/host-step", "us/step (all)", "bytes/world",
             "simnet bytes");
@@ -394,6 +453,7 @@ int main(int argc, char **argv)
         bu_json_int(j, "size", rg[i]);
         bu_json_num(j, "step_us", rrow[i].step * 1e6);
         bu_json_num(j, "us_per_body", rrow[i].step * 1e6 / rg[i]);
+        bu_json_num(j, "step_us_asleep", rrow[i].step_asleep * 1e6);
         bu_json_num(j, "bytes", rrow[i].bytes);
         bu_json_obj_end(j);
     }
@@ -412,6 +472,10 @@ int main(int argc, char **argv)
     bu_json_num(j, "exponent_particles", k_same);
     bu_json_num(j, "exponent_particles_1kg_1m", k_default);
     bu_json_num(j, "exponent_rigid_agents", k_rigid);
+    bu_json_num(j, "scene_rest_frame_us_asleep", rest.frame_asleep * 1e6);
+    bu_json_num(j, "scene_rest_frame_us_awake", rest.frame_awake * 1e6);
+    bu_json_num(j, "scene_rest_awake_over_asleep", rest.frame_awake / rest.frame_asleep);
+    bu_json_int(j, "scene_rest_agents_asleep", rest.asleep);
     bu_json_num(j, "exponent_hosts_per_host", k_hosts);
     bu_json_num(j, "exponent_hosts_all", k_hosts_total);
     bu_json_num(j, "bytes_per_particle", per_particle);

@@ -6,7 +6,7 @@
                [--encoding f64|f32|quant] [--stats-every S] [--trace FILE] [--key FILE]
                [--clock-step AT:SECONDS] [--probe-wild AT:SECONDS:SPEED]
                [--resolution M] [--rest-threshold M] [--heartbeat-rate HZ]
-               [--sync present|replay]
+               [--sync present|replay] [--clock local|session]
 
    --encoding quant sends positions at --resolution metres (default 5e-5),
    velocities at 1 mm/s and orientations as smallest three (wire v2);
@@ -36,6 +36,9 @@
    wall time, fallbacks (snapshots older than the history or past the
    replay budget, blended at the present), the lag (s the slowest agent
    is behind the target: this host not keeping pace) and the timekeeper.
+   --clock session puts the present blend on the session clock too; local
+   keeps each host's target its own seconds advanced (--sync replay always
+   runs on the session clock).
 
    --key FILE seals every datagram under a pre-shared key (32 raw bytes, or
    64 hex digits and an optional newline) that every host of the session
@@ -103,6 +106,7 @@ typedef struct options {
     int has_key;
     unsigned char key[KEY_BYTES];
     int replay;            /* --sync replay */
+    int session;           /* --clock session (--sync replay implies it) */
 } options;
 
 static volatile sig_atomic_t g_stop = 0; /* the only static: signal handlers need one */
@@ -122,7 +126,7 @@ static void usage(const char *why) {
             "                 [--stats-every S] [--trace FILE] [--key FILE]\n"
             "                 [--clock-step AT:SECONDS] [--probe-wild AT:SECONDS:SPEED]\n"
             "                 [--resolution M] [--rest-threshold M] [--heartbeat-rate HZ]\n"
-            "                 [--sync present|replay]\n");
+            "                 [--sync present|replay] [--clock local|session]\n");
     exit(2);
 }
 
@@ -317,6 +321,11 @@ static void parse_args(int argc, char **argv, options *o) {
             else if (strcmp(v, "replay") == 0) o->replay = 1;
             else usage("--sync: present or replay");
         }
+        else if (strcmp(f, "--clock") == 0) {
+            if (strcmp(v, "local") == 0) o->session = 0;
+            else if (strcmp(v, "session") == 0) o->session = 1;
+            else usage("--clock: local or session");
+        }
         else {
             char msg[160];
             snprintf(msg, sizeof msg, "unknown flag '%s'", f);
@@ -371,9 +380,10 @@ static int build(peer_host *h) {
     gs_udp_desc ud;
     int i;
     wd.host_id = o->id;
+    if (o->replay || o->session)
+        wd.sync.clock = GS_SYNC_CLOCK_SESSION; /* reads CLOCK_MONOTONIC, as gs_udp does */
     if (o->replay) {
         wd.sync.mode = GS_SYNC_REPLAY;
-        wd.sync.clock = GS_SYNC_CLOCK_SESSION; /* reads CLOCK_MONOTONIC, as gs_udp does */
         wd.sync.history_frames = 64; /* 5 ms frames: 320 ms, a 250 ms round trip and more */
     }
     if (gs_world_create(&wd, &h->w) != GS_OK) return fail(h, "world");
@@ -613,9 +623,10 @@ int main(int argc, char **argv) {
     }
     if (rc == 0) {
         fprintf(stderr, "ghostpeer %u: listening on %s, %d peer(s), %d sphere(s), %d probe(s)%s, "
-                "sync %s\n",
+                "sync %s on the %s clock\n",
                 (unsigned)h.o.id, h.o.listen, h.o.npeers, h.sc.sphere_count, h.sc.probe_count,
-                h.o.has_key ? ", datagrams sealed (--key)" : "", h.o.replay ? "replay" : "present");
+                h.o.has_key ? ", datagrams sealed (--key)" : "", h.o.replay ? "replay" : "present",
+                h.o.replay || h.o.session ? "session" : "local");
         rc = run(&h);
     }
     if (h.trace) fclose(h.trace);

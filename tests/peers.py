@@ -10,7 +10,10 @@ Standard library only. Prints one line per test and a summary
 command line. Every process is killed at the end whatever happens (finally,
 atexit, and a watchdog at the global deadline of 300 s); each test waits a
 bounded time for its processes. With PEERS_LOG_DIR=DIR in the environment
-every peer's JSON lines and stderr are kept in DIR for a diagnosis.
+every peer's JSON lines and stderr are kept in DIR for a diagnosis. With
+GHOSTPEER_ARGS="FLAG VALUE ..." every peer this suite or tests/faults.py
+starts gets those flags too (e.g. GHOSTPEER_ARGS="--clock session" runs
+both suites on the session clock).
 
 Convergence: two peers' digests are compared at the same wall time. For each
 line of peer A in the last second both peers were printing, peer B's digest
@@ -126,6 +129,7 @@ class Peer:
         if stats_every is not None:
             self.args += ["--stats-every", "%g" % stats_every]
         self.args += list(extra)
+        self.args += os.environ.get("GHOSTPEER_ARGS", "").split()
         self.lines = []       # parsed objects, in order
         self.bad = []         # lines that are not JSON objects
         self.err = []         # stderr lines
@@ -701,6 +705,7 @@ def test_bad_flag(exe):
         ["--id", "1", "--listen", "%s:47640" % HOST, "--weight", "bogus"],
         ["--id", "1", "--listen", "%s:47640" % HOST, "--dt", "abc"],
         ["--id", "1", "--listen", "%s:47640" % HOST, "--peer", "nonsense"],
+        ["--id", "1", "--listen", "%s:47640" % HOST, "--clock", "sundial"],
         ["--listen", "%s:47640" % HOST],
     ]
     for args in cases:
