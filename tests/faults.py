@@ -92,7 +92,7 @@ def wire_check(b, src=None, dst=None):
         return "layout"
     if b[:4] != b"GSIM":
         return "magic"
-    if b[4] != 1:
+    if b[4] != 2:                   # wire format v2 (v1 is refused as old)
         return "version"
     end = len(b) - 4
     if zlib.crc32(b[:end]) != struct.unpack_from("<I", b, end)[0]:
@@ -107,18 +107,24 @@ def wire_check(b, src=None, dst=None):
     for _ in range(n):
         if off + 32 > end:
             return "short"
-        t, index, count, _first, elements, enc = struct.unpack_from("<dHHIHB", b, off + 8)
-        if enc not in (1, 2) or count == 0 or index >= count:
+        t, index, count, _first, elements, enc, flags, plen, zero = \
+            struct.unpack_from("<dHHIHBBHH", b, off + 8)
+        if enc not in (1, 2, 3) or count == 0 or index >= count or flags & ~1 or zero:
             return "layout"
+        rest = flags & 1            # GS_WIRE_CHUNK_REST: a heartbeat, no values
         size = 8 if enc == 1 else 4
-        if off + 32 + size * elements > end:
+        length = 0 if rest else (plen if enc == 3 else size * elements)
+        if off + 32 + length > end:
             return "short"
+        if plen != length or (rest and (elements or index)):
+            return "layout"
         if not math.isfinite(t) or t < 0.0:
             return "time %.3g" % t
-        vals = struct.unpack_from("<%d%s" % (elements, "d" if enc == 1 else "f"), b, off + 32)
-        if not all(math.isfinite(v) for v in vals):
-            return "not finite"
-        off += 32 + size * elements
+        if enc != 3 and not rest:   # quantized values are finite by construction
+            vals = struct.unpack_from("<%d%s" % (elements, "d" if enc == 1 else "f"), b, off + 32)
+            if not all(math.isfinite(v) for v in vals):
+                return "not finite"
+        off += 32 + length
     if off != end:
         return "layout"
     if session != 1:
