@@ -242,7 +242,7 @@ SOAK_SECONDS ?= 600
 .PHONY: faults faults-short soak
 faults: $(BUILD)/ghostpeer
 	@python3 tests/faults.py $(BUILD)/ghostpeer
-# Not yet in `make test`: its bad-link scenario (50 +- 25 ms, 20% drop,
+# In `make test` with one retry of a failed scenario (faults.py says so).
 # duplicates, reordering, corruption while the probes push) ends 1-2 cm
 # apart in some runs (issue 8's note).
 faults-short: $(BUILD)/ghostpeer
