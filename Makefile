@@ -242,9 +242,8 @@ SOAK_SECONDS ?= 600
 .PHONY: faults faults-short soak
 faults: $(BUILD)/ghostpeer
 	@python3 tests/faults.py $(BUILD)/ghostpeer
-# In `make test` with one retry of a failed scenario (faults.py says so).
-# duplicates, reordering, corruption while the probes push) ends 1-2 cm
-# apart in some runs (issue 8's note).
+# In `make test`, where a failed scenario runs once more (faults.py says
+# so): one in five fails a run at random since the issue 14-17 merges.
 faults-short: $(BUILD)/ghostpeer
 	@python3 tests/faults.py $(BUILD)/ghostpeer --short
 soak: $(BUILD)/ghostpeer
