@@ -7003,6 +7003,7 @@ struct gs__ghost {
     double moved;         /* s; |time| the blends moved the agent by in the
                              world's epoch moved_epoch (one advance) */
     uint64_t moved_epoch;
+    double pulled;        /* s; how far back its last blend took the time */
     gs_ghost_stats stats;
     /* send on change */
     double *sent;         /* the values of the last snapshot sent whole */
@@ -7843,6 +7844,8 @@ GS__PRIVATE int gs__blend_apply(gs__ghost *g, double t_i) {
     if (gs__agent_put_state(g->agent, g->scratch) != GS_OK) return 0;
     gs__sync_log_blend(g->agent, g->scratch);
     g->moved += fabs(g->scratch[0] - t_i);
+    /* the formula as written pulls back by design, and the clock stays */
+    g->pulled = gs__time_literal(g) ? 0.0 : t_i - g->scratch[0];
     for (e = 0; e < GS__MAX_PEERS; ++e) g->gp[e].lead -= g->scratch[0] - t_i;
     t = g->offset; /* the next offsets are now the offsets */
     g->offset = g->offset_next;
@@ -7932,6 +7935,8 @@ GS__PRIVATE void gs__ghost_after_step(gs_agent *a) {
 GS__PRIVATE void gs__world_blend(gs_world *w) {
     uint32_t seen = 0;
     int i, pending;
+    int back = 0;
+    double pull = HUGE_VAL;
     if (!w->net) return;
     for (i = 0; i < w->agent_count; ++i) {
         gs__ghost *g = gs__ghost_of(w->agents[i]);
@@ -7939,8 +7944,24 @@ GS__PRIVATE void gs__world_blend(gs_world *w) {
         gs__lock(w->net);
         pending = gs__ghost_pending(g);
         gs__unlock(w->net);
-        if (pending) seen |= gs__ghost_blend(g, w->net);
+        if (!pending) continue;
+        g->pulled = 0.0;
+        seen |= gs__ghost_blend(g, w->net);
+        if (g->pulled > 0.0) {
+            back++;
+            pull = fmin(pull, g->pulled);
+        }
     }
+    /* The world's clock follows its agents back too: when the blends took
+       most of them back (a host in step that copies its lead, ahead of it
+       by more than the time band), the clock goes back with them, the
+       least of their moves. Otherwise they stepped on to the clock again
+       from the states they took, and the next blend took them back again
+       (or not, as each object's snapshot said), all the time: objects a
+       few tens of ms apart in time pushed each other (spheres kicked off
+       the cloth, measured after a clock step between processes). */
+    if (2 * back > w->agent_count && pull < HUGE_VAL)
+        w->target = w->target - pull > 0.0 ? w->target - pull : 0.0;
     if (!seen) return;
     gs__lock(w->net);
     for (i = 0; i < GS__MAX_PEERS; ++i)
