@@ -1413,7 +1413,10 @@ GS_API void gs_wire_values(const gs_wire_chunk *c, double *out);
    ======================================================================== */
 typedef struct gs_net gs_net;
 
-/* Sends one datagram to a peer host; it may be dropped on the way. */
+/* Sends one datagram to a peer host; it may be dropped on the way. data is
+   valid only during the call (copy it to keep it). GS_OK: sent (or lost on
+   the way, as a network may); an error: not sent, counted as a send
+   failure (gs_peer_stats.send_failures) and returned by gs_net_update. */
 typedef gs_result (*gs_send_fn)(void *user, uint32_t host, const void *data,
                                 size_t size);
 
@@ -1469,6 +1472,11 @@ typedef struct gs_peer_stats {
                                 distance between an object's local position
                                 values and the peer's latest snapshot of it
                                 (brought to local time when extrapolating) */
+    uint64_t send_failures;  /* datagrams to the peer whose send callback
+                                returned an error: taken as not sent (not
+                                in datagrams_sent or bytes_sent, and their
+                                sequence number goes to the next one);
+                                gs_net_update returns the first error */
 } gs_peer_stats;
 
 GS_API gs_result gs_net_create(gs_world *w, const gs_net_desc *desc,
@@ -1481,7 +1489,10 @@ GS_API void gs_net_destroy(gs_net *net);
 GS_API gs_result gs_net_add_peer(gs_net *net, uint32_t host);
 GS_API gs_result gs_net_remove_peer(gs_net *net, uint32_t host);
 /* Sends what is due at wall time `now` (s): each ghost's latest state at its
-   rate, within each peer's bandwidth. `now` is a clock that only moves
+   rate, within each peer's bandwidth. A send callback that fails is
+   counted on its peer (gs_peer_stats.send_failures), the other datagrams
+   still go, and the first failure's result is returned (with the host in
+   gs_world_error). `now` is a clock that only moves
    forward, in [0, GS_WIRE_MAX_TIME] (GS_ERR_INVALID_ARG otherwise,
    GS_ERR_NOT_FINITE for NaN or infinity): the same clock for
    gs_net_deliver. GS_ERR_BUSY from a weight rule or the send callback. */
@@ -7194,6 +7205,8 @@ struct gs_net {
     int published;            /* a ghost published B since gs_udp's scatter
                                  thread last looked (it ticks while they do) */
     double now;               /* s, wall time of the last update/deliver */
+    gs_result send_error;     /* the first failed send of this update, */
+    uint32_t send_error_host; /* and to whom */
     struct gs__ghost **order; /* the due ghosts of an update, by priority */
     int order_cap;            /* its room: at least the world's ghosts */
     unsigned char buf[GS_WIRE_MAX_DATAGRAM];
@@ -10107,6 +10120,7 @@ GS__PRIVATE const unsigned char *gs__datagram_to_peer(gs_net *net, const gs__pee
    are done per peer. */
 GS__PRIVATE void gs__datagram_flush(gs_net *net, double now, size_t *size) {
     size_t wire = *size + (net->guard.keyed ? GS_WIRE_SEAL_TRAILER : 4), n;
+    gs_result r;
     int p;
     if (gs__hdr_chunks(net->buf) == 0) return;
     for (p = 0; p < GS__MAX_PEERS; ++p) {
@@ -10114,10 +10128,18 @@ GS__PRIVATE void gs__datagram_flush(gs_net *net, double now, size_t *size) {
         const unsigned char *d;
         if (!pe->used || !gs__peer_budget(net, pe, wire, now)) continue;
         d = gs__datagram_to_peer(net, pe, now, *size, &n);
+        r = net->d.send(net->d.send_user, pe->host, d, n);
+        if (r != GS_OK) { /* not sent: the peer sees no gap in the sequence */
+            pe->st.send_failures++;
+            if (net->send_error == GS_OK) {
+                net->send_error = r;
+                net->send_error_host = pe->host;
+            }
+            continue;
+        }
         pe->send_seq++;
         pe->st.datagrams_sent++;
         pe->st.bytes_sent += n;
-        net->d.send(net->d.send_user, pe->host, d, n);
     }
     gs__datagram_begin(net, now, size);
 }
@@ -10324,6 +10346,7 @@ GS_API gs_result gs_net_update(gs_net *net, double now) {
     }
     net->inside++;
     net->now = now;
+    net->send_error = GS_OK;
     for (p = 0; p < GS__MAX_PEERS; ++p) peers += net->peers[p].used;
     if (peers) gs__datagram_begin(net, now, &size);
     for (i = 0; i < w->agent_count && n < net->order_cap; ++i) {
@@ -10350,6 +10373,15 @@ GS_API gs_result gs_net_update(gs_net *net, double now) {
     if (peers) gs__datagram_flush(net, now, &size);
     net->inside--;
     gs__unlock(net);
+    if (net->send_error != GS_OK) {
+        gs_peer_stats ps;
+        gs_net_peer_stats(net, net->send_error_host, &ps);
+        return gs__fail(w, net->send_error,
+                        "gs_net_update: the send callback failed for host %lu (%s); %llu "
+                        "datagrams to it have failed, the rest went out",
+                        (unsigned long)net->send_error_host, gs_result_str(net->send_error),
+                        (unsigned long long)ps.send_failures);
+    }
     return GS_OK;
 }
 

@@ -372,6 +372,52 @@ static gs_world *flaky_host(flaky *f, gs_net **net) {
     return w;
 }
 
+/* A send callback that fails: gs_net_update still sends to the others and
+   returns the error, naming the host; the peer's send_failures count it
+   and datagrams_sent / bytes_sent count only what went. Once the
+   transport works again, so does the update. */
+static void test_send_failures(void **state) {
+    flaky f;
+    gs_net *net;
+    gs_world *w;
+    gs_peer_stats p2, p3;
+    int k, failed = 0;
+    (void)state;
+    memset(&f, 0, sizeof f);
+    f.bad = 3;
+    w = flaky_host(&f, &net);
+    for (k = 1; k <= 10; ++k) {
+        gs_result r;
+        assert_int_equal(gs_world_advance(w, 1.0 / 60.0, NULL), GS_OK);
+        r = gs_net_update(net, k / 60.0);
+        if (r != GS_OK) {
+            assert_int_equal(r, GS_ERR_SYSTEM);
+            assert_non_null(strstr(gs_world_error(w), "host 3"));
+            failed++;
+        }
+    }
+    assert_true(failed > 0);
+    assert_int_equal(gs_net_peer_stats(net, 2, &p2), GS_OK);
+    assert_int_equal(gs_net_peer_stats(net, 3, &p3), GS_OK);
+    assert_true(p2.datagrams_sent > 0);
+    assert_int_equal(p2.datagrams_sent, (uint64_t)f.sent);
+    assert_int_equal(p2.send_failures, 0);
+    assert_int_equal(p3.datagrams_sent, 0);
+    assert_int_equal(p3.bytes_sent, 0);
+    assert_int_equal(p3.send_failures, p2.datagrams_sent); /* the same datagrams */
+    assert_int_equal((uint64_t)f.calls, p2.datagrams_sent + p3.send_failures);
+    /* the transport recovers */
+    f.bad = 0;
+    for (; k <= 20; ++k) {
+        assert_int_equal(gs_world_advance(w, 1.0 / 60.0, NULL), GS_OK);
+        assert_int_equal(gs_net_update(net, k / 60.0), GS_OK);
+    }
+    assert_int_equal(gs_net_peer_stats(net, 3, &p3), GS_OK);
+    assert_true(p3.datagrams_sent > 0);
+    assert_int_equal(p3.send_failures, (uint64_t)failed);
+    gs_world_destroy(w);
+}
+
 /* gs_wire_decode and gs_collide_shapes return a gs_result; their answer
    is in the out parameters. */
 static void test_results(void **state) {
@@ -477,6 +523,7 @@ int main(void) {
         cmocka_unit_test(test_default_weight_rule),
         cmocka_unit_test(test_zeroed_scene_desc),
         cmocka_unit_test(test_desc_defaults),
+        cmocka_unit_test(test_send_failures),
         cmocka_unit_test(test_results),
         cmocka_unit_test(test_stats_shape),
     };
