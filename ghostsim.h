@@ -634,8 +634,9 @@ typedef struct gs_spring {
     double damping;     /* N s/m along the spring, >= 0 */
 } gs_spring;
 
+/* A mesh has no default shape: its particles are required. */
 typedef struct gs_mesh_desc {
-    int particle_count;        /* >= 1 */
+    int particle_count;        /* >= 1, required */
     const gs_vec3 *positions;  /* m, within +-GS_MAX_COORD; particle_count
                                   of them, required */
     const gs_vec3 *velocities; /* m/s; NULL = at rest */
@@ -669,7 +670,8 @@ enum {
 };
 
 typedef struct gs_cloth_desc {
-    int nx, ny;          /* particles along u and v; each >= 2 */
+    int nx, ny;          /* particles along u and v; each >= 2; default
+                            16 x 16 (the paper's scene) */
     double width, height; /* m along u and v, at most GS_MAX_COORD;
                              default 1 x 1 */
     gs_vec3 origin;      /* m; where particle (0,0) is; default 0. Every
@@ -4592,6 +4594,7 @@ GS_API gs_result gs_mesh_create(gs_world *w, const gs_mesh_desc *desc,
 GS_API gs_cloth_desc gs_cloth_desc_default(void) {
     gs_cloth_desc d;
     memset(&d, 0, sizeof d);
+    d.nx = d.ny = 16;
     d.width = d.height = 1.0;
     d.axis_u = gs__v3(1.0, 0.0, 0.0);
     d.axis_v = gs__v3(0.0, 0.0, 1.0);
@@ -4608,6 +4611,8 @@ GS_API gs_cloth_desc gs_cloth_desc_default(void) {
 
 GS__PRIVATE gs_cloth_desc gs__cloth_defaults(const gs_cloth_desc *in) {
     gs_cloth_desc def = gs_cloth_desc_default(), d = *in;
+    if (d.nx == 0) d.nx = def.nx;
+    if (d.ny == 0) d.ny = def.ny;
     if (d.width == 0.0) d.width = def.width;
     if (d.height == 0.0) d.height = def.height;
     if (gs__is_zero3(d.axis_u)) d.axis_u = def.axis_u;

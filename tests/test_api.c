@@ -315,6 +315,13 @@ static void test_desc_defaults(void **state) {
     cd.step = custom_step;
     assert_int_equal(gs_custom_create(w, &cd, &b), GS_OK);
     assert_true(gs_agent_dt(a) == 0.001 && gs_agent_dt(b) == 0.001);
+    {   /* a zeroed cloth: 16 x 16 particles, as gs_cloth_desc_default() */
+        gs_cloth_desc clz, cld = gs_cloth_desc_default();
+        memset(&clz, 0, sizeof clz);
+        assert_true(cld.nx == 16 && cld.ny == 16);
+        assert_int_equal(gs_cloth_create(w, &clz, &a), GS_OK);
+        assert_int_equal(gs_mesh_particle_count(a), 16 * 16);
+    }
     {   /* a shape must be given */
         gs_rigid_desc rd = gs_rigid_desc_default();
         rd.shape = gs_shape_desc_default();
