@@ -854,10 +854,11 @@ typedef struct gs_contact {
    output is finite: where libccd returns a non-finite direction (touching
    or coincident shapes) the answer falls back to the direction between the
    centres, and coincident centres to +y (a's normal). GS_ERR_INVALID_ARG
-   for a NULL pointer or a shape gs_rigid_create refuses (so is
-   GS_ERR_NOT_FINITE / GS_ERR_OUT_OF_RANGE, as it says), GS_ERR_NOT_FINITE
-   for a NaN position, GS_ERR_OUT_OF_RANGE for one outside +-GS_MAX_COORD;
-   then *overlap is 0 (if given) and *c untouched. */
+   for a NULL pointer; a shape gs_rigid_create would refuse gives what it
+   would (GS_ERR_INVALID_ARG, GS_ERR_NOT_FINITE, GS_ERR_OUT_OF_RANGE);
+   GS_ERR_NOT_FINITE for a NaN or infinite position, GS_ERR_OUT_OF_RANGE
+   for one outside +-GS_MAX_COORD. On an error *overlap is 0 (if given)
+   and *c untouched. */
 GS_API gs_result gs_collide_shapes(const gs_shape_desc *a, gs_vec3 pa, gs_quat qa,
                                    const gs_shape_desc *b, gs_vec3 pb, gs_quat qb,
                                    gs_contact *c, int *overlap);
