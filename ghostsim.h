@@ -642,11 +642,11 @@ typedef struct gs_mesh_desc {
     const gs_vec3 *velocities; /* m/s; NULL = at rest */
     const double *masses;      /* kg each, > 0; NULL = mass / count */
     double mass;               /* kg in all when masses is NULL; default 1 */
-    int spring_count;
+    int spring_count;          /* default 0: free particles */
     const gs_spring *springs;
-    int pin_count;
+    int pin_count;             /* default 0 */
     const int *pins;           /* particles held where they are */
-    double air_damping;        /* 1/s; force -m * air_damping * v */
+    double air_damping;        /* 1/s; force -m * air_damping * v; default 0 */
     double particle_radius;    /* m, for contacts; default 0.01 */
     gs_material material;      /* contacts; zero fields take defaults */
     gs_solver_desc solver;
@@ -687,8 +687,9 @@ typedef struct gs_cloth_desc {
     double bend_stiffness;    /* N/m; default stretch / 100 */
     double spring_damping;    /* N s/m on every spring; default 0.02 */
     double air_damping;       /* 1/s; default 0.1 */
-    int pin_corners;     /* GS_CORNER_* mask */
-    int pin_count;       /* more pins, as particle index i + nx * j */
+    int pin_corners;     /* GS_CORNER_* mask; default 0: none */
+    int pin_count;       /* more pins, as particle index i + nx * j;
+                            default 0 */
     const int *pins;
     double particle_radius; /* m, for contacts; default half the smaller
                                spacing between particles */
@@ -757,7 +758,7 @@ typedef enum gs_shape_type {
 /* A shape has no default: its type is required (GS_SHAPE_NONE is refused,
    so that a forgotten shape is an error, not some ball). */
 typedef struct gs_shape_desc {
-    gs_shape_type type;
+    gs_shape_type type;     /* required; the sizes of that type too */
     double radius;          /* m, sphere; sizes at most GS_MAX_COORD */
     gs_vec3 half_extents;   /* m, box */
     const gs_vec3 *points;  /* m, hull, in body coordinates (within
@@ -775,15 +776,16 @@ typedef struct gs_rigid_desc {
     double mass;           /* kg; > 0 overrides density */
     gs_vec3 inertia;       /* kg m^2, principal moments in body axes;
                               default from shape and mass */
-    gs_vec3 position;      /* m, within +-GS_MAX_COORD */
+    gs_vec3 position;      /* m, within +-GS_MAX_COORD; default 0 */
     gs_quat orientation;   /* default identity (all zero); normalized on
                               create, whatever its finite size */
-    gs_vec3 velocity;      /* m/s */
-    gs_vec3 angular_velocity; /* rad/s, world frame */
-    gs_material material;
+    gs_vec3 velocity;      /* m/s; default 0 */
+    gs_vec3 angular_velocity; /* rad/s, world frame; default 0 */
+    gs_material material;  /* all zero: gs_material_default() */
     int continuous;        /* 1: substep so that the body never moves more
                               than a quarter of its smallest size per
-                              substep (stops tunnelling of fast bodies) */
+                              substep (stops tunnelling of fast bodies);
+                              default 0: off */
     gs_solver_desc solver; /* symplectic Euler (default), Verlet or RK4;
                               substeps keep contact stiffness stable */
     double rolling;        /* m, >= 0; rolling resistance: at each contact
@@ -798,9 +800,9 @@ typedef struct gs_rigid_desc {
 /* A kinematic body the application moves: nothing pushes it back. */
 typedef struct gs_probe_desc {
     gs_shape_desc shape;
-    gs_vec3 position;      /* m, within +-GS_MAX_COORD */
+    gs_vec3 position;      /* m, within +-GS_MAX_COORD; default 0 */
     gs_quat orientation;   /* default identity */
-    gs_material material;
+    gs_material material;  /* all zero: gs_material_default() */
     double dt;             /* s, >= GS_MIN_DT; default 0.001 */
     double max_speed;      /* m/s it may move at to reach its target;
                               default 10 */
