@@ -48,7 +48,7 @@ EXAMPLES := $(basename $(notdir $(wildcard examples/*.c)))
 
 .PHONY: all deps deps-bench bench bench-quick bench-build test test-build test-plain test-asan tsan valgrind-udp \
         test-peers demo compile-checks examples peer valgrind install uninstall install-check \
-        cmake-check clean fuzz fuzz-ci
+        cmake-check clean fuzz fuzz-ci doc-check
 
 all: examples
 
@@ -93,6 +93,17 @@ $(BUILD)/asan/test_%: tests/test_%.c $(BUILD)/asan/gs_impl.o ghostsim.h
 # The regression test replays the fuzz harness's checks.
 $(BUILD)/test_fuzz_regress $(BUILD)/asan/test_fuzz_regress: tests/fuzz_wire.c tests/fuzz_sealed.c \
   tests/fuzz_clock.c tests/fuzz_world.h
+
+# The manual's quick starts (the top comment of ghostsim.h), extracted as
+# functions that tests/test_manual.c runs: the manual cannot drift from
+# what works.
+$(BUILD)/manual_quickstart.h: ghostsim.h tests/manual_extract.py | $(BUILD)
+	python3 tests/manual_extract.py ghostsim.h $@
+$(BUILD)/test_manual $(BUILD)/asan/test_manual: $(BUILD)/manual_quickstart.h
+
+# Every public declaration of ghostsim.h has its comment (tests/doc_check.py).
+doc-check:
+	@python3 tests/doc_check.py ghostsim.h
 
 # The viewer needs SDL2 (Debian libsdl2-dev); its headless mode draws PNGs.
 $(BUILD)/viewer: examples/viewer.c ghostsim.h | $(BUILD)
@@ -147,7 +158,7 @@ test-build: examples $(addprefix $(BUILD)/,$(TESTS) $(TESTS_NOSODIUM)) \
 # alone, as a loaded machine would fail them for the wrong reason.
 test: deps
 	@$(MAKE) --no-print-directory -j2 test-build
-	@$(MAKE) --no-print-directory -j2 --output-sync=target compile-checks examples \
+	@$(MAKE) --no-print-directory -j2 --output-sync=target compile-checks doc-check examples \
 	  cmake-check install-check fuzz-ci
 	@$(MAKE) --no-print-directory -j2 --output-sync=target test-plain test-asan
 	@$(MAKE) --no-print-directory tsan valgrind-udp

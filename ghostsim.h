@@ -1,10 +1,10 @@
 /* ghostsim.h - v0.1.0 - collaborative interactive physics in one C header
 
    Several people on several hosts push and pull one shared physical scene.
-   Every host runs the whole simulation; ghost objects blend each host's state
-   with the states its peers send, weighted by rules the user supplies
-   (Dequidt, Grisoni, Chaillou: "Collaborative Interactive Physical
-   Simulation"). Nobody freezes when the network is slow or gone.
+   Every host runs the whole simulation; ghosts blend each host's state of
+   an object with the states its peers send, weighted by a rule (Dequidt,
+   Grisoni, Chaillou: "Collaborative Interactive Physical Simulation").
+   Nobody freezes when the network is slow or gone.
 
    GETTING THE IMPLEMENTATION
        In exactly one C or C++ file:
@@ -16,56 +16,205 @@
        -D_POSIX_C_SOURCE=200809L (or -std=gnu99, or as C++). Link with
        $(pkg-config --libs ccd) -lm -lpthread.
 
-   QUICK START
-       gs_world *w;
-       gs_agent *cloth;
-       gs_world_desc wd = {0};
-       gs_cloth_desc cd = {0};
-       if (gs_world_create(&wd, &w) != GS_OK) return 1;
-       cd.nx = 16; cd.ny = 16;                   // particles per side
-       cd.width = 1.0; cd.height = 1.0;          // metres
-       cd.pin_corners = GS_CORNER_ALL;           // hang it by its 4 corners
-       cd.solver.integrator = GS_INTEGRATOR_IMPLICIT_EULER;
-       if (gs_cloth_create(w, &cd, &cloth) != GS_OK) {
-           fprintf(stderr, "%s\n", gs_world_error(w));
-           return 1;
+   QUICK START: two hosts share the paper's scene on a simulated network
+       // The body of main(), with <math.h> and <stdio.h>. tests/test_manual.c
+       // compiles and runs this text as it stands here.
+       gs_simnet *sim;
+       gs_world *w[2];
+       gs_net *net[2];
+       gs_scene sc[2];
+       gs_scene_desc sd = gs_scene_desc_default(); // a cloth, 3 spheres
+       gs_ghost_desc gd = gs_ghost_desc_default();
+       sd.probe_count = 2;                      // one probe per host
+       gd.weight = gs_weight_cs;                // one authority: the leader
+       if (gs_simnet_create(NULL, &sim) != GS_OK) return 1;
+       for (int h = 0; h < 2; ++h) {            // every host builds the same
+           gs_world_desc wd = gs_world_desc_default();
+           wd.host_id = (uint32_t)h + 1;        // hosts 1 and 2
+           if (gs_world_create(&wd, &w[h]) != GS_OK) return 1;
+           if (gs_scene_create(w[h], &sd, &sc[h]) != GS_OK ||
+               gs_scene_attach_ghosts(&sc[h], &gd) != GS_OK ||
+               gs_simnet_join(sim, w[h], NULL, &net[h]) != GS_OK) {
+               fprintf(stderr, "%s\n", gs_world_error(w[h]));
+               return 1;
+           }
        }
-       for (int frame = 0; frame < 120; ++frame)
-           gs_world_advance(w, 1.0 / 60.0, NULL);  // one frame of 1/60 s
-       const gs_vec3 *x = gs_mesh_positions(cloth); // draw these
-       gs_world_destroy(w);
+       for (int f = 1; f <= 360; ++f) {         // 6 s in frames of 1/60 s
+           double t = fmin(f / 60.0, 2.0);      // the probes stop at 2 s
+           for (int h = 0; h < 2; ++h)          // each host moves its own
+               gs_probe_set_target(sc[h].probes[h], gs_scene_probe_path(h, t),
+                                   gs_rigid_orientation(sc[h].probes[h]));
+           gs_simnet_run(sim, 1.0 / 60.0, 1.0 / 60.0); // one frame, all hosts
+       }
+       double gap = 0.0;                        // how far apart the hosts are
+       for (int i = 0; i < sc[0].sphere_count; ++i) {
+           gs_vec3 a = gs_rigid_position(sc[0].spheres[i]);
+           gs_vec3 b = gs_rigid_position(sc[1].spheres[i]);
+           gap = fmax(gap, fabs(a.x - b.x) + fabs(a.y - b.y) + fabs(a.z - b.z));
+       }
+       printf("the hosts' spheres are %.1e m apart\n", gap);
+       for (int h = 0; h < 2; ++h) gs_world_destroy(w[h]);
+       gs_simnet_destroy(sim);
+       return gap < 1e-3 ? 0 : 1;               // within 1 mm: they agree
+
+   QUICK START OVER UDP: the same two hosts on loopback sockets
+       // The body of main(), with <math.h>, <stdio.h> and <time.h>. Both
+       // hosts live in one process here; in an application each is its own
+       // process (or machine) that runs one h of these loops.
+       const char *addr[2] = {"127.0.0.1:47301", "127.0.0.1:47302"};
+       gs_world *w[2];
+       gs_udp *u[2];
+       gs_scene sc[2];
+       gs_scene_desc sd = gs_scene_desc_default();
+       gs_ghost_desc gd = gs_ghost_desc_default();
+       sd.probe_count = 2;
+       gd.weight = gs_weight_cs;
+       for (int h = 0; h < 2; ++h) {
+           gs_world_desc wd = gs_world_desc_default();
+           gs_udp_desc ud = {0};                // threads 0: poll mode
+           wd.host_id = (uint32_t)h + 1;
+           ud.bind = addr[h];
+           if (gs_world_create(&wd, &w[h]) != GS_OK) return 1;
+           if (gs_scene_create(w[h], &sd, &sc[h]) != GS_OK ||
+               gs_scene_attach_ghosts(&sc[h], &gd) != GS_OK ||
+               gs_udp_open(w[h], &ud, &u[h]) != GS_OK ||  // the socket first,
+               gs_udp_add_peer(u[h], 2 - (uint32_t)h, addr[1 - h]) != GS_OK) {
+               fprintf(stderr, "%s\n", gs_world_error(w[h]));  // then the peer
+               return 1;
+           }
+       }
+       double start = gs_udp_now(), last = start, now;
+       while ((now = gs_udp_now()) - start < 6.0) {   // 6 s of wall time
+           double t = fmin(now - start, 2.0);           // probes stop at 2 s
+           for (int h = 0; h < 2; ++h) {
+               gs_probe_set_target(sc[h].probes[h], gs_scene_probe_path(h, t),
+                                   gs_rigid_orientation(sc[h].probes[h]));
+               gs_world_advance(w[h], now - last, NULL); // blend, step, publish
+               gs_udp_poll(u[h], now);                   // receive, send
+           }
+           last = now;
+           struct timespec frame = {0, 10000000};       // 100 frames a second
+           nanosleep(&frame, NULL);
+       }
+       double gap = 0.0;
+       for (int i = 0; i < sc[0].sphere_count; ++i) {
+           gs_vec3 a = gs_rigid_position(sc[0].spheres[i]);
+           gs_vec3 b = gs_rigid_position(sc[1].spheres[i]);
+           gap = fmax(gap, fabs(a.x - b.x) + fabs(a.y - b.y) + fabs(a.z - b.z));
+       }
+       printf("the hosts' spheres are %.1e m apart\n", gap);
+       for (int h = 0; h < 2; ++h) {
+           gs_udp_close(u[h]);                  // before its world
+           gs_world_destroy(w[h]);
+       }
+       return gap < 1e-3 ? 0 : 1;
+
+   THE FRAME LOOP
+       Each host, once a frame, in this order:
+         1. deliver what arrived: gs_net_deliver(net, data, size, now, &why)
+            for each datagram your transport received;
+         2. gs_world_advance(w, seconds, NULL): the agents step; after its
+            agent's next step each ghost blends the snapshots delivered
+            since, then publishes its state;
+         3. gs_net_update(net, now): sends each ghost's latest state, at its
+            send rate and within each peer's bandwidth.
+       Between frames (never from a callback) the application moves its
+       probes (gs_probe_set_target) and pins, and reads what to draw
+       (gs_ghost_render_state smooths the blends' corrections).
+       The transports do parts of it: gs_simnet_run does 2 and 3 for every
+       host it joined, then 1 with what arrived during the frame, for as
+       many frames as asked; gs_udp_poll in poll mode (threads 0) does 1
+       then 3, so it comes right after the advance; with threads 1 the
+       gather thread delivers as datagrams arrive and the scatter thread
+       sends, and gs_udp_poll only wakes the scatter thread.
+       `now` is wall-clock time in seconds from one monotonic clock per
+       host: the same clock for every gs_net_deliver, gs_net_update and
+       gs_udp_poll of that host, in [0, GS_WIRE_MAX_TIME], never going
+       back. With gs_udp it is gs_udp_now() (its receive side reads that
+       clock); a gs_simnet keeps its own. `seconds` is the same clock's
+       time since the last frame, so that simulated time keeps wall-clock
+       pace with the peers.
+
+   RULES
+       - Objects in contact have one authority. The cloth and the spheres
+         on it push each other every step: if one rule gives the cloth to
+         host 1 and the spheres to host 2, each host pulls its copy toward
+         a partner that the other host moves, and the copies stay
+         centimetres apart and drift. Weigh every shared object with the
+         same rule that picks one host for all of them at once:
+         gs_weight_cs, the client/server rule, whose authority is the
+         leader (the most advanced host; hosts in step are a tie that the
+         lowest host id wins). Probes are owned (gs_weight_owner): each is
+         where its host puts it. gs_scene_attach_ghosts does both.
+       - Object ids belong to the session: every host gives an object the
+         same id (gs_ghost_desc.object_id; gs_scene_attach_ghosts numbers
+         the scene's) and builds it the same way. A datagram holding an id
+         this host does not know, or a state of another size or encoding,
+         is refused whole (GS_REJECT_OBJECT, GS_REJECT_RANGE), every other
+         object in it with it. Host ids are > 0 and distinct.
+       - The paper's scene: the same gs_scene_desc on every host, with
+         probe_count equal to the number of hosts (probe i belongs to host
+         i + 1, so the hosts are numbered 1..N); a host with another count
+         sends a probe the others do not know (see above).
+       - The transport exists before its peers: gs_udp_open (or
+         gs_net_create, gs_simnet_join) makes the net, then gs_udp_add_peer
+         (or gs_net_add_peer) names each peer. Nothing goes to a host that
+         is not a peer, and what it sends is refused (GS_REJECT_SENDER).
+       - `now` never goes back. One that does is not refused (only NaN,
+         infinity and values outside [0, GS_WIRE_MAX_TIME] are): until the
+         clock is past where it was, every ghost is due at each update, the
+         bandwidth budget and the receive cap refill nothing, and the peers
+         misjudge the age of this host's snapshots (by more than GS_MAX_AGE:
+         unknown), so their weight rules misjudge who leads.
+         gs_world_advance refuses negative seconds (GS_ERR_INVALID_ARG; the
+         world does not move).
+       - A world and its net belong to one thread (see THREADS), and user
+         callbacks do not change them (GS_ERR_BUSY: see ERRORS).
 
    CONCEPTS
-       world      Owns agents and the scheduler. Belongs to one thread.
-       agent      One simulated object: its own dt, integrator, state and
-                  simulation time t = steps * dt (+ whatever ghost blending
-                  moved it by). Spring-mass meshes and cloths are agents; so
-                  are user agents built from a gs_custom_desc.
-       scheduler  N+1 FIFO priority queues (the paper's Q_0..Q_N). The most
-                  urgent runnable agent steps next; aging keeps low queues
-                  from starving; an agent that leads the slowest agent by
-                  more than the world's tolerance is held back. Each agent's
-                  behaviour rule moves its priority when it is activated.
-       state      A flat array of doubles: [t, then the agent's variables].
-                  This is what ghosts blend between hosts.
-       contact    Penalty forces between agents (gs_material). Two rigid
-                  bodies: the one that steps over a stretch of their time
-                  first computes it and pushes the other with the opposite
-                  force, so momentum is exchanged, never made. Otherwise
-                  each agent computes the force on itself from the other
-                  agent's state brought to its own simulation time.
+       world      Owns agents, the scheduler and the net. One thread's.
+       agent      One simulated object with its own dt, integrator, state
+                  and simulation time: a spring-mass mesh or cloth, a rigid
+                  body, a probe (a kinematic body the user moves), or a
+                  user agent (gs_custom_desc).
+       scheduler  N+1 priority queues (the paper's Q_0..Q_N): the most
+                  urgent runnable agent steps next, aging keeps low queues
+                  from starving, an agent that leads the slowest by more
+                  than the world's tolerance is held back.
+       state      A flat array of doubles: [t, then the agent's variables];
+                  what ghosts blend between hosts.
+       contact    Penalty forces between agents (gs_material), momentum
+                  exchanged, never made.
        ghost      Wraps an agent under an object id shared by all hosts:
-                  publishes its state, blends the snapshots peers send with
-                  the paper's weighted mean (gs_weight_fn rules).
+                  publishes its state and blends the snapshots peers send
+                  with the paper's weighted mean (gs_weight_fn rules).
        snapshot   One agent's state at one simulation time, on the wire in
-                  chunks of at most one datagram (wire format v1).
+                  chunks of at most one datagram (wire format v2).
        transport  What carries datagrams: gs_simnet (simulated, seeded),
                   gs_udp (POSIX), or your send callback + gs_net_deliver.
-       sync       Between the world and the net (gs_sync_desc in the world
-                  desc): the session clock (hosts at one simulation time
-                  at one wall instant), the world history (re-run recent
-                  advances bitwise: gs_world_sync_test), and the replay
-                  blend (GS_SYNC_REPLAY: each snapshot at its own time).
+       sync       The session clock (hosts at one simulation time at one
+                  wall instant), the world history (gs_world_sync_test) and
+                  the replay blend (GS_SYNC_REPLAY): gs_sync_desc.
+
+   INDEX (search for the tag: each part has one in the declarations below
+   and one in the implementation)
+       >>config   version, GS_API, the allocator and clock callbacks
+       >>math     gs_vec3, gs_quat, GS_MAX_COORD
+       >>result   gs_result codes and gs_result_str
+       >>world    create, advance, destroy; sync and sleep settings
+       >>sched    behaviour rules, per-agent scheduling counters
+       >>agent    solver settings, state get/set, stepping, sleep, custom
+       >>cloth    spring-mass meshes and the cloth generator
+       >>rigid    rigid bodies (sphere, box, hull) and probes
+       >>contact  the narrow phase, materials, the ground plane
+       >>scene    the paper's scene: cloth, spheres, a probe per host
+       >>ghost    ghosts, weight rules, encodings, render smoothing
+       >>sync     session clock, world history, replay blend
+       >>wire     the datagram format, encode and decode
+       >>net      peers, sending, delivering, validation, statistics
+       >>simnet   several worlds on one virtual network
+       >>udp      POSIX UDP: gather and scatter threads or poll mode
+       >>crc      (implementation only) the datagram checksum
 
    OPTIONS (macros)
        macro                    where            default
