@@ -556,11 +556,14 @@ GS_API double gs_world_time(const gs_world *w);
    NULL w). The text stays valid until the next call on the world. */
 GS_API const char *gs_world_error(const gs_world *w);
 
+/* This host's id in its session (gs_world_desc.host_id: 1 by default). */
 GS_API uint32_t gs_world_host_id(const gs_world *w);
+/* How many agents the world holds (probes and custom agents included). */
 GS_API int gs_world_agent_count(const gs_world *w);
 /* The i-th agent in creation order, or NULL if i is out of range. */
 GS_API gs_agent *gs_world_agent(const gs_world *w, int i);
 
+/* The world's gravity, in m/s^2. */
 GS_API gs_vec3 gs_world_gravity(const gs_world *w);
 /* Any finite vector, zero included. GS_ERR_BUSY from a callback (as every
    setter of the world, the agents and the ghosts: see ERRORS). */
@@ -660,6 +663,7 @@ typedef struct gs_solver_desc {
                                 default 4 */
 } gs_solver_desc;
 
+/* The solver desc with every default filled in (what zero fields become). */
 GS_API gs_solver_desc gs_solver_desc_default(void);
 
 /* Penalty contact: a spring-damper along the normal, regularized Coulomb
@@ -676,7 +680,9 @@ typedef struct gs_material {
 
 /* Simulation time in seconds: steps * dt plus what set_state moved it by. */
 GS_API double gs_agent_time(const gs_agent *a);
+/* The agent's step, in seconds (its solver's or its desc's dt). */
 GS_API double gs_agent_dt(const gs_agent *a);
+/* The world the agent belongs to. */
 GS_API gs_world *gs_agent_world(const gs_agent *a);
 /* "mesh", "cloth", "rigid", "probe" or "custom". */
 GS_API const char *gs_agent_kind(const gs_agent *a);
@@ -704,6 +710,7 @@ GS_API gs_result gs_agent_step(gs_agent *a);
 /* The result of the agent's last step. */
 GS_API gs_result gs_agent_result(const gs_agent *a);
 
+/* The queue the agent waits in: 0 (lowest) to queue_count - 1. */
 GS_API int gs_agent_priority(const gs_agent *a);
 /* Moves the agent to another queue; clamped to 0..N. Allowed from inside the
    agent's own step or behaviour rule: it takes effect when it is queued
@@ -712,6 +719,7 @@ GS_API void gs_agent_set_priority(gs_agent *a, int priority);
 /* Replaces the behaviour rule; NULL restores gs_behaviour_default. */
 GS_API void gs_agent_set_behaviour(gs_agent *a, gs_behaviour_fn fn,
                                    void *user);
+/* The agent's scheduling counters (by value; never fails). */
 GS_API gs_agent_stats gs_agent_get_stats(const gs_agent *a);
 /* Removes the agent from its world and frees it. GS_ERR_BUSY from a
    callback (see ERRORS). */
@@ -757,8 +765,13 @@ typedef struct gs_custom_desc {
     void *user;
 } gs_custom_desc;
 
-/* GS_ERR_OUT_OF_RANGE for a state_size whose bytes do not fit in size_t;
-   the callbacks run with the world's guard up (see ERRORS). */
+/* Creates a user agent from desc (copied; desc->user must outlive the
+   agent). Returns GS_OK and *out, or GS_ERR_INVALID_ARG (a NULL desc or
+   out, dt below GS_MIN_DT, step NULL, or a state_size without get_state
+   and set_state), GS_ERR_OUT_OF_RANGE for a state_size whose bytes do not
+   fit in size_t, GS_ERR_NO_MEMORY, GS_ERR_BUSY from a callback; *out is
+   NULL on failure, the reason in gs_world_error. The callbacks run with
+   the world's guard up (see ERRORS). */
 GS_API gs_result gs_custom_create(gs_world *w, const gs_custom_desc *desc,
                                   gs_agent **out);
 
@@ -834,7 +847,10 @@ typedef struct gs_cloth_desc {
     gs_solver_desc solver;
 } gs_cloth_desc;
 
+/* The mesh desc with its defaults (what zero fields become); positions
+   and particle_count are still to be given. */
 GS_API gs_mesh_desc gs_mesh_desc_default(void);
+/* The cloth desc with its defaults; nx and ny are still to be given. */
 GS_API gs_cloth_desc gs_cloth_desc_default(void);
 
 /* Creates a spring-mass agent. Errors name the bad field in
@@ -852,8 +868,13 @@ GS_API gs_result gs_cloth_create(gs_world *w, const gs_cloth_desc *desc,
 
 /* For spring-mass agents (NULL / 0 for any other kind). */
 GS_API int gs_mesh_particle_count(const gs_agent *a);
+/* The springs the mesh was made with (0 for another kind). */
 GS_API int gs_mesh_spring_count(const gs_agent *a);
+/* The particles' positions, in metres (NULL for another kind): the
+   agent's own array, valid while it lives; every step and blend rewrites
+   it, so read it between advances. */
 GS_API const gs_vec3 *gs_mesh_positions(const gs_agent *a);
+/* The particles' velocities, in m/s, as gs_mesh_positions. */
 GS_API const gs_vec3 *gs_mesh_velocities(const gs_agent *a);
 /* Kinetic energy and potential energy (springs plus gravity, relative to
    the origin), in joules. Either pointer may be NULL. */
@@ -940,8 +961,11 @@ typedef struct gs_probe_desc {
     uint32_t owner;        /* host that drives it; default this world's */
 } gs_probe_desc;
 
+/* The rigid body desc with its defaults; the shape is still to be given. */
 GS_API gs_rigid_desc gs_rigid_desc_default(void);
+/* The probe desc with its defaults; the shape is still to be given. */
 GS_API gs_probe_desc gs_probe_desc_default(void);
+/* The default material: 1e5 N/m, 100 N s/m, friction 0.5. */
 GS_API gs_material gs_material_default(void);
 
 /* Creates a rigid body. Errors name the field: a degenerate hull (fewer
@@ -951,6 +975,10 @@ GS_API gs_material gs_material_default(void);
    or whose inverse is not finite (GS_ERR_OUT_OF_RANGE). */
 GS_API gs_result gs_rigid_create(gs_world *w, const gs_rigid_desc *desc,
                                  gs_agent **out);
+/* Creates a probe, moved by gs_probe_set_target. Errors as
+   gs_rigid_create's (the shape, position, orientation and material), and
+   GS_ERR_INVALID_ARG for a dt below GS_MIN_DT or a max_speed <= 0; *out
+   is NULL on failure. */
 GS_API gs_result gs_probe_create(gs_world *w, const gs_probe_desc *desc,
                                  gs_agent **out);
 
@@ -963,9 +991,12 @@ GS_API gs_result gs_probe_set_target(gs_agent *probe, gs_vec3 position,
                                      gs_quat orientation);
 
 /* For rigid bodies and probes (zero for other kinds). */
-GS_API gs_vec3 gs_rigid_position(const gs_agent *a);
+GS_API gs_vec3 gs_rigid_position(const gs_agent *a); /* m */
+/* The orientation, a unit quaternion (the identity for other kinds). */
 GS_API gs_quat gs_rigid_orientation(const gs_agent *a);
+/* The velocity of the centre of mass, in m/s. */
 GS_API gs_vec3 gs_rigid_velocity(const gs_agent *a);
+/* The angular velocity, in rad/s, in the world frame. */
 GS_API gs_vec3 gs_rigid_angular_velocity(const gs_agent *a);
 GS_API double gs_rigid_mass(const gs_agent *a); /* kg; 0 for a probe */
 /* Largest stable step under the agent's contact stiffness, in seconds. */
@@ -1034,6 +1065,9 @@ typedef struct gs_scene {
    hours (4096 x 4096 at the default dt; 16 x 16 at dt = 1e-6 s). */
 #define GS_SCENE_SETTLE_WORK 1e8
 
+/* The scene desc with its defaults: a 16 x 16 cloth of 1 m, 3 spheres of
+   0.08 m, seed 1, implicit Euler, dt 0.002 s, and 1 probe: set
+   probe_count to the number of hosts of the session (see RULES). */
 GS_API gs_scene_desc gs_scene_desc_default(void);
 /* Builds the scene in w (ground on at y = -1.5 m): cloth in the plane
    y = 0 centred on the origin, spheres above it, probes above the cloth.
@@ -1191,6 +1225,8 @@ typedef struct gs_ghost_desc {
                               this, so that none starves; default 1 */
 } gs_ghost_desc;
 
+/* The ghost desc with its defaults (what zero fields become); object_id
+   is still to be given. */
 GS_API gs_ghost_desc gs_ghost_desc_default(void);
 /* Wraps an agent in a ghost. GS_ERR_INVALID_ARG for object id 0 or one
    already used in this world, a bad rate, encoding or queue size;
@@ -1199,6 +1235,9 @@ GS_API gs_ghost_desc gs_ghost_desc_default(void);
    GS_ERR_OUT_OF_RANGE for a state too big for the ghost's buffers to fit
    in size_t (a custom agent's). */
 GS_API gs_result gs_ghost_attach(gs_agent *a, const gs_ghost_desc *desc);
+/* Removes the agent's ghost: it no longer publishes or blends, and the
+   snapshots queued for it go. GS_OK for an agent without one,
+   GS_ERR_INVALID_ARG for NULL, GS_ERR_BUSY from a callback. */
 GS_API gs_result gs_ghost_detach(gs_agent *a);
 
 /* Per ghost counters. */
@@ -1209,6 +1248,8 @@ typedef struct gs_ghost_stats {
     uint64_t bad_weights;     /* weights that were negative, NaN or inf */
     double last_correction;   /* m (RMS over the state) the last blend moved */
 } gs_ghost_stats;
+/* The ghost's counters into *out. GS_ERR_INVALID_ARG if the agent has no
+   ghost or out is NULL. */
 GS_API gs_result gs_ghost_get_stats(const gs_agent *a, gs_ghost_stats *out);
 
 /* The state to draw: the physics state plus the corrections of recent blends
@@ -1449,6 +1490,8 @@ typedef enum gs_reject {
     GS_REJECT_COUNT
 } gs_reject;
 
+/* A static description of a reason; "unknown reason" for a value outside
+   the list, never NULL. */
 GS_API const char *gs_reject_str(gs_reject r);
 
 /* Starts a datagram in buf (cap >= GS_WIRE_HEADER + 4). The header's
@@ -1494,7 +1537,13 @@ GS_API void gs_wire_values(const gs_wire_chunk *c, double *out);
    ======================================================================== */
 typedef struct gs_net gs_net;
 
-/* Sends one datagram to a peer host; it may be dropped on the way. */
+/* Sends one datagram of `size` bytes to peer `host`; it may be dropped on
+   the way. `data` lives only during the call: a transport that sends
+   later copies it. It runs inside gs_net_update (under the net's lock,
+   see THREADS): calls that change the world or the net return
+   GS_ERR_BUSY there. Return GS_OK, or an error for a datagram that was
+   not sent (the net does not look at it yet: the datagram counts as
+   sent either way). */
 typedef gs_result (*gs_send_fn)(void *user, uint32_t host, const void *data,
                                 size_t size);
 
@@ -1548,22 +1597,46 @@ typedef struct gs_peer_stats {
                                 (brought to local time when extrapolating) */
 } gs_peer_stats;
 
+/* Gives the world its net on your own transport: desc->send carries the
+   datagrams, and the application hands those it receives to
+   gs_net_deliver (for gs_simnet and gs_udp, gs_simnet_join and gs_udp_open
+   call this). Zero fields take the defaults beside them; desc and
+   desc->send are required. Peers come after (gs_net_add_peer). Returns
+   GS_OK and *out, or GS_ERR_INVALID_ARG (a NULL desc, out or send, a
+   world that has a net already, a bandwidth, max_rate or max_peers out of
+   range, a negative time_window), GS_ERR_NOT_FINITE for a NaN or
+   infinite number, GS_ERR_UNSUPPORTED for a key without
+   GHOSTSIM_SODIUM, GS_ERR_SYSTEM if libsodium fails to start,
+   GS_ERR_NO_MEMORY, GS_ERR_BUSY from a callback; *out is NULL on failure,
+   the reason in gs_world_error. gs_world_destroy destroys the net too. */
 GS_API gs_result gs_net_create(gs_world *w, const gs_net_desc *desc,
                                gs_net **out);
 /* Refused from a callback or while a gs_simnet_run runs it, as
    gs_world_destroy. */
 GS_API void gs_net_destroy(gs_net *net);
-/* GS_ERR_CAPACITY past max_peers, GS_ERR_NO_MEMORY for the ghosts' queues
-   (then no queue is kept), GS_ERR_BUSY from a callback. */
+/* Adds host as a peer: from then on the ghosts' states go to it and its
+   datagrams are taken (a host that is not a peer is refused as
+   GS_REJECT_SENDER). A host that is a peer already: GS_OK, nothing
+   changes. GS_ERR_INVALID_ARG for host 0 or this host's id,
+   GS_ERR_CAPACITY past max_peers, GS_ERR_NO_MEMORY for the ghosts' queues
+   (then no queue is kept), GS_ERR_BUSY from a callback. On a gs_udp's
+   net call gs_udp_add_peer, which gives the address too. */
 GS_API gs_result gs_net_add_peer(gs_net *net, uint32_t host);
+/* Forgets a peer: nothing more goes to it, its datagrams are refused and
+   the snapshots queued from it go. GS_ERR_INVALID_ARG for a host that is
+   not a peer, GS_ERR_BUSY from a callback. */
 GS_API gs_result gs_net_remove_peer(gs_net *net, uint32_t host);
 /* Sends what is due at wall time `now` (s): each ghost's latest state at its
    rate, within each peer's bandwidth. `now` is a clock that only moves
    forward, in [0, GS_WIRE_MAX_TIME] (GS_ERR_INVALID_ARG otherwise,
    GS_ERR_NOT_FINITE for NaN or infinity): the same clock for
-   gs_net_deliver. GS_ERR_BUSY from a weight rule or the send callback. */
+   gs_net_deliver. Call it once a frame, after gs_world_advance (see THE
+   FRAME LOOP at the top). GS_ERR_BUSY from a weight rule or the send
+   callback. */
 GS_API gs_result gs_net_update(gs_net *net, double now);
-/* Hands a received datagram to ghostsim. Returns GS_OK when it was queued,
+/* Hands a received datagram to ghostsim (`data` is read during the call
+   only), before the gs_world_advance that should blend it (see THE FRAME
+   LOOP at the top). Returns GS_OK when it was queued,
    GS_ERR_REJECTED (reason in *why, may be NULL) when refused; refused
    datagrams are counted and never blended, and nothing is ever sent back.
    GS_ERR_INVALID_ARG / GS_ERR_NOT_FINITE for a `now` as gs_net_update
@@ -1593,12 +1666,16 @@ GS_API gs_result gs_net_update(gs_net *net, double now);
    a full queue drops its oldest), whatever arrives. */
 GS_API gs_result gs_net_deliver(gs_net *net, const void *data, size_t size,
                                 double now, gs_reject *why);
+/* A peer's statistics into *out (safe from any thread).
+   GS_ERR_INVALID_ARG for a NULL net or out, or a host that is not a peer. */
 GS_API gs_result gs_net_peer_stats(const gs_net *net, uint32_t host,
                                    gs_peer_stats *out);
 /* Datagrams refused before their sender was known (bad magic, checksum,
    unknown sender...), by reason. */
 GS_API gs_result gs_net_unknown_stats(const gs_net *net,
                                       uint64_t rejected[GS_REJECT_COUNT]);
+/* The world's net (made by gs_net_create, gs_simnet_join or gs_udp_open),
+   or NULL if it has none. */
 GS_API gs_net *gs_world_net(const gs_world *w);
 
 /* Optional lock around the queues, for transports that deliver from another
@@ -1610,6 +1687,9 @@ typedef struct gs_net_lock {
     void (*unlock)(void *user);
     void *user;
 } gs_net_lock;
+/* Sets the net's lock (all zero: none). A gs_udp sets its own: leave its
+   net's alone. Returns nothing; from a callback it is refused and the
+   lock stays as it was (the reason in gs_world_error). */
 GS_API void gs_net_set_lock(gs_net *net, gs_net_lock lock);
 
 /* ========================================================================
@@ -1638,6 +1718,11 @@ typedef struct gs_simnet_desc {
     gs_allocator allocator;
 } gs_simnet_desc;
 
+/* Creates an empty simulated network; desc may be NULL (all defaults).
+   Returns GS_OK and *out, or GS_ERR_INVALID_ARG (a NULL out, max_in_flight
+   outside 1..4194304, an allocator with only one of alloc and free),
+   GS_ERR_OUT_OF_RANGE, GS_ERR_NO_MEMORY; *out is NULL on failure (there
+   is no world to hold a message). */
 GS_API gs_result gs_simnet_create(const gs_simnet_desc *desc, gs_simnet **out);
 /* Destroys the simnet (not the worlds or their nets). Ignored from a
    callback inside its gs_simnet_run. */
@@ -1650,7 +1735,10 @@ GS_API void gs_simnet_destroy(gs_simnet *sim);
    gs_simnet_run). */
 GS_API gs_result gs_simnet_join(gs_simnet *sim, gs_world *w,
                                 const gs_net_desc *desc, gs_net **out);
-/* Sets the link from host a to host b (one direction). */
+/* Sets the link from host a to host b (one direction), both joined.
+   GS_ERR_INVALID_ARG for a host not joined, a negative latency, jitter or
+   bandwidth, a probability outside [0, 1]; GS_ERR_NOT_FINITE for an
+   outage time; GS_ERR_BUSY while the simnet runs. */
 GS_API gs_result gs_simnet_link(gs_simnet *sim, uint32_t a, uint32_t b,
                                 const gs_link_desc *desc);
 /* Runs every world for `seconds` of virtual time in frames of `frame`
@@ -1658,6 +1746,7 @@ GS_API gs_result gs_simnet_link(gs_simnet *sim, uint32_t a, uint32_t b,
    what has arrived. GS_ERR_INVALID_ARG for a frame below GS_MIN_DT (it
    would not move the clock) or a virtual time past GS_WIRE_MAX_TIME. */
 GS_API gs_result gs_simnet_run(gs_simnet *sim, double seconds, double frame);
+/* The simnet's virtual time, in seconds: the frames run so far. */
 GS_API double gs_simnet_time(const gs_simnet *sim);
 /* A host's own clock on the simnet (tests of the session clock): the
    simnet's time t reads as offset + rate * t, plus step_by from step_at on. */
@@ -1701,17 +1790,30 @@ typedef struct gs_udp_desc {
     gs_net_desc net;       /* session, bandwidth...; send is ignored */
 } gs_udp_desc;
 
+/* Opens a UDP socket bound to desc->bind and gives the world its net on
+   it (as gs_net_create, with desc->net; threads 1 starts the gather and
+   scatter threads). Peers come after (gs_udp_add_peer). Returns GS_OK and
+   *out, or GS_ERR_INVALID_ARG (a NULL argument, a bad address or port),
+   GS_ERR_SYSTEM (the socket, its bind, e.g. a port in use, or a thread:
+   the system's reason in gs_world_error), gs_net_create's errors for
+   desc->net, GS_ERR_NO_MEMORY; *out is NULL and nothing is kept on
+   failure. Close it (gs_udp_close) before destroying the world. */
 GS_API gs_result gs_udp_open(gs_world *w, const gs_udp_desc *desc,
                              gs_udp **out);
 /* Joins the threads, closes the socket, frees everything. Refused from a
    callback of its world (the threads may wait on the lock it holds). */
 GS_API void gs_udp_close(gs_udp *u);
+/* The net of this socket (for gs_net_peer_stats); NULL for a NULL u. It
+   goes with gs_udp_close. */
 GS_API gs_net *gs_udp_net(gs_udp *u);
 /* Adds or replaces a peer's address ("HOST:PORT", IPv4 or IPv6; a port
    outside 0..65535 is GS_ERR_INVALID_ARG, as in gs_udp_desc.bind): from
    then on, datagrams that name this host as their sender are taken from
-   this address only. */
+   this address only. GS_ERR_INVALID_ARG for an address that does not
+   parse (the reason in gs_world_error), GS_ERR_CAPACITY past 16 peers,
+   gs_net_add_peer's errors otherwise (then the address is not kept). */
 GS_API gs_result gs_udp_add_peer(gs_udp *u, uint32_t host, const char *addr);
+/* Forgets a peer and its address, as gs_net_remove_peer (its result). */
 GS_API gs_result gs_udp_remove_peer(gs_udp *u, uint32_t host);
 /* Poll mode: receives every waiting datagram and sends what is due at wall
    time now (refused as gs_net_update refuses it; GS_ERR_BUSY from a
