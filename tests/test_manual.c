@@ -30,9 +30,21 @@
 
 #include "build/manual_quickstart.h" /* made by the Makefile from ghostsim.h */
 
+static double wall_now(void) {
+    struct timespec ts;
+    clock_gettime(CLOCK_MONOTONIC, &ts);
+    return (double)ts.tv_sec + 1e-9 * (double)ts.tv_nsec;
+}
+
+/* Wall seconds the simnet quick start took: 6 s of the scene on two hosts
+   (and their set-up), the same work as the UDP quick start's. */
+static double simnet_seconds;
+
 static void test_quick_start_simnet(void **state) {
+    double t0 = wall_now();
     (void)state;
     assert_int_equal(manual_quick_start_1(), 0);
+    simnet_seconds = wall_now() - t0;
 }
 
 /* The UDP quick start binds fixed ports (47301, 47302), as a reader's
@@ -57,9 +69,25 @@ static int lock_ports(void) {
     return -1;
 }
 
+/* The UDP quick start keeps wall-clock pace, as an application must (see
+   RULES): on a machine that cannot step two hosts of the scene in real
+   time its frames grow, its snapshots age, and its hosts do not meet; that
+   is the machine's limit, not the manual's. So it runs only where the
+   simnet quick start, the same 6 s of simulated work, took under 4 s of
+   wall time (two thirds of real time, the margin a loaded machine's
+   pauses need): under ASan, valgrind or a crowded machine it is skipped,
+   and says so. This decides whether the check applies; it asserts nothing
+   about speed. */
 static void test_quick_start_udp(void **state) {
-    int fd = lock_ports(), r;
+    int fd, r;
     (void)state;
+    if (simnet_seconds > 4.0) {
+        print_message("the simnet quick start took %.1f s for 6 s of simulated time: this "
+                      "machine cannot keep the UDP quick start at wall-clock pace; skipped\n",
+                      simnet_seconds);
+        skip();
+    }
+    fd = lock_ports();
     r = manual_quick_start_2();
     if (fd >= 0) close(fd); /* releases the lock */
     assert_int_equal(r, 0);
