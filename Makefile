@@ -101,9 +101,14 @@ $(BUILD)/manual_quickstart.h: ghostsim.h tests/manual_extract.py | $(BUILD)
 	python3 tests/manual_extract.py ghostsim.h $@
 $(BUILD)/test_manual $(BUILD)/asan/test_manual: $(BUILD)/manual_quickstart.h
 
-# Every public declaration of ghostsim.h has its comment (tests/doc_check.py).
-doc-check:
+# Every public declaration of ghostsim.h has its comment (tests/doc_check.py),
+# and the manual's quick starts compile as C++11 too (test_manual runs them
+# as C99).
+doc-check: $(BUILD)/manual_quickstart.h
 	@python3 tests/doc_check.py ghostsim.h
+	@for cxx in g++ clang++; do \
+	  $$cxx -std=c++11 $(WARN) $(SODIUM_CFLAGS) -I. -fsyntax-only -x c++ tests/test_manual.c || exit 1; \
+	done; echo "doc-check: the quick starts compile as C++11 (g++, clang++)"
 
 # The viewer needs SDL2 (Debian libsdl2-dev); its headless mode draws PNGs.
 $(BUILD)/viewer: examples/viewer.c ghostsim.h | $(BUILD)

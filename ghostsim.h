@@ -58,9 +58,9 @@
        return gap < 1e-3 ? 0 : 1;               // within 1 mm: they agree
 
    QUICK START OVER UDP: the same two hosts on loopback sockets
-       // The body of main(), with <math.h>, <stdio.h> and <time.h>. Both
-       // hosts live in one process here; in an application each is its own
-       // process (or machine) that runs one h of these loops.
+       // The body of main(), with <math.h>, <stdio.h>, <string.h> and
+       // <time.h>. Both hosts live in one process here; in an application
+       // each is its own process (or machine) that runs one h of the loops.
        const char *addr[2] = {"127.0.0.1:47301", "127.0.0.1:47302"};
        gs_world *w[2];
        gs_udp *u[2];
@@ -71,7 +71,8 @@
        gd.weight = gs_weight_cs;
        for (int h = 0; h < 2; ++h) {
            gs_world_desc wd = gs_world_desc_default();
-           gs_udp_desc ud = {0};                // threads 0: poll mode
+           gs_udp_desc ud;
+           memset(&ud, 0, sizeof ud);           // threads 0: poll mode
            wd.host_id = (uint32_t)h + 1;
            ud.bind = addr[h];
            if (gs_world_create(&wd, &w[h]) != GS_OK) return 1;
