@@ -162,12 +162,13 @@ test-build: examples $(addprefix $(BUILD)/,$(TESTS) $(TESTS_NOSODIUM)) \
 # (tsan and valgrind on the UDP threads, the peers, the fault suite) run
 # alone, as a loaded machine would fail them for the wrong reason.
 test: deps
-	@$(MAKE) --no-print-directory -j2 test-build
-	@$(MAKE) --no-print-directory -j2 --output-sync=target compile-checks doc-check examples \
-	  cmake-check install-check fuzz-ci
-	@$(MAKE) --no-print-directory -j2 --output-sync=target test-plain test-asan
-	@$(MAKE) --no-print-directory tsan valgrind-udp
-	@$(MAKE) --no-print-directory test-peers faults-short
+	@sh tests/phase.sh "build" $(MAKE) --no-print-directory -j2 test-build
+	@sh tests/phase.sh "checks and fuzzers" $(MAKE) --no-print-directory -j2 --output-sync=target \
+	  compile-checks doc-check examples cmake-check install-check fuzz-ci
+	@sh tests/phase.sh "cmocka suites" $(MAKE) --no-print-directory -j2 --output-sync=target \
+	  test-plain test-asan
+	@sh tests/phase.sh "tsan and valgrind" $(MAKE) --no-print-directory tsan valgrind-udp
+	@sh tests/phase.sh "peers and faults" $(MAKE) --no-print-directory test-peers faults-short
 
 # The UDP tests (gather and scatter threads) under ThreadSanitizer, and under
 # valgrind for leaks: sockets, threads and buffers all released at shutdown.
@@ -201,22 +202,26 @@ FUZZ_CLOCK_SECONDS ?= $(FUZZ_SECONDS)
 FUZZ_CC      ?= clang
 FUZZ_FLAGS   := -O1 -g -fsanitize=fuzzer,address,undefined -fno-sanitize-recover=all \
                 -fno-omit-frame-pointer -fsanitize-coverage-ignorelist=tests/fuzz_ignore.txt
-$(BUILD)/fuzz_wire: tests/fuzz_wire.c tests/fuzz_world.h tests/gs_impl.c tests/fuzz_ignore.txt \
-                    ghostsim.h | $(BUILD)
-	$(FUZZ_CC) $(CSTD) $(WARN) $(FUZZ_FLAGS) $(CCD_CFLAGS) -I. tests/fuzz_wire.c tests/gs_impl.c \
-	  -o $@ $(LIBS)
-$(BUILD)/fuzz_wire2: tests/fuzz_wire2.c tests/fuzz_world.h tests/gs_impl.c tests/fuzz_ignore.txt \
-                     ghostsim.h | $(BUILD)
-	$(FUZZ_CC) $(CSTD) $(WARN) $(FUZZ_FLAGS) $(CCD_CFLAGS) -I. tests/fuzz_wire2.c tests/gs_impl.c \
-	  -o $@ $(LIBS)
-$(BUILD)/fuzz_sealed: tests/fuzz_sealed.c tests/fuzz_wire.c tests/fuzz_world.h tests/gs_impl.c \
-                      tests/fuzz_ignore.txt ghostsim.h | $(BUILD)
+# The library is built once for the four harnesses (with GHOSTSIM_SODIUM,
+# which the sealed harness needs and the others do not see): four builds of
+# the implementation under these flags were a minute of make test's build.
+$(BUILD)/fuzz:
+	mkdir -p $@
+$(BUILD)/fuzz/gs_impl.o: tests/gs_impl.c tests/fuzz_ignore.txt ghostsim.h | $(BUILD)/fuzz
+	$(FUZZ_CC) $(CSTD) $(WARN) $(FUZZ_FLAGS) $(SODIUM_CFLAGS) $(CCD_CFLAGS) -I. -c $< -o $@
+$(BUILD)/fuzz_wire: tests/fuzz_wire.c tests/fuzz_world.h $(BUILD)/fuzz/gs_impl.o ghostsim.h
+	$(FUZZ_CC) $(CSTD) $(WARN) $(FUZZ_FLAGS) $(CCD_CFLAGS) -I. tests/fuzz_wire.c $(BUILD)/fuzz/gs_impl.o \
+	  -o $@ $(LIBS) $(SODIUM_LIBS)
+$(BUILD)/fuzz_wire2: tests/fuzz_wire2.c tests/fuzz_world.h $(BUILD)/fuzz/gs_impl.o ghostsim.h
+	$(FUZZ_CC) $(CSTD) $(WARN) $(FUZZ_FLAGS) $(CCD_CFLAGS) -I. tests/fuzz_wire2.c $(BUILD)/fuzz/gs_impl.o \
+	  -o $@ $(LIBS) $(SODIUM_LIBS)
+$(BUILD)/fuzz_sealed: tests/fuzz_sealed.c tests/fuzz_wire.c tests/fuzz_world.h $(BUILD)/fuzz/gs_impl.o \
+                      ghostsim.h
 	$(FUZZ_CC) $(CSTD) $(WARN) $(FUZZ_FLAGS) $(SODIUM_CFLAGS) $(CCD_CFLAGS) -I. \
-	  tests/fuzz_sealed.c tests/gs_impl.c -o $@ $(LIBS) $(SODIUM_LIBS)
-$(BUILD)/fuzz_clock: tests/fuzz_clock.c tests/fuzz_world.h tests/gs_impl.c tests/fuzz_ignore.txt \
-                     ghostsim.h | $(BUILD)
-	$(FUZZ_CC) $(CSTD) $(WARN) $(FUZZ_FLAGS) $(CCD_CFLAGS) -I. tests/fuzz_clock.c tests/gs_impl.c \
-	  -o $@ $(LIBS)
+	  tests/fuzz_sealed.c $(BUILD)/fuzz/gs_impl.o -o $@ $(LIBS) $(SODIUM_LIBS)
+$(BUILD)/fuzz_clock: tests/fuzz_clock.c tests/fuzz_world.h $(BUILD)/fuzz/gs_impl.o ghostsim.h
+	$(FUZZ_CC) $(CSTD) $(WARN) $(FUZZ_FLAGS) $(CCD_CFLAGS) -I. tests/fuzz_clock.c $(BUILD)/fuzz/gs_impl.o \
+	  -o $@ $(LIBS) $(SODIUM_LIBS)
 $(BUILD)/fuzz_seeds: tests/fuzz_seeds.c tests/fuzz_world.h $(BUILD)/gs_impl.o ghostsim.h
 	$(CC) $(CSTD) $(WARN) $(CFLAGS) -I. $< $(BUILD)/gs_impl.o -o $@ $(LIBS) $(SODIUM_LIBS)
 $(BUILD)/fuzz-seeds.stamp: $(BUILD)/fuzz_seeds
