@@ -138,11 +138,11 @@
 
    RULES
        - Objects in contact have one authority. The cloth and the spheres
-         on it push each other every step: if one rule gives the cloth to
-         host 1 and the spheres to host 2, each host pulls its copy toward
-         a partner that the other host moves, and the copies stay
-         centimetres apart and drift. Weigh every shared object with the
-         same rule that picks one host for all of them at once:
+         on it push each other every step: if the cloth follows host 1 and
+         the spheres host 2, each host's copy of one is pulled toward a
+         state that the other's copy of the other produced, and the copies
+         stay centimetres apart and drift. Weigh every shared object with
+         the same rule that picks one host for all of them at once:
          gs_weight_cs, the client/server rule, whose authority is the
          leader (the most advanced host; hosts in step are a tie that the
          lowest host id wins). Probes are owned (gs_weight_owner): each is
@@ -169,10 +169,12 @@
          unknown), so their weight rules misjudge who leads.
          gs_world_advance refuses negative seconds (GS_ERR_INVALID_ARG; the
          world does not move).
-       - Every host keeps wall-clock pace: a machine that cannot step its
-         scene as fast as wall time passes falls behind the others
-         (gs_world_sync_stats: lag, behind), the snapshots it gets are
-         older each frame, and its copies do not meet theirs.
+       - Every host keeps wall-clock pace, in short frames (60 a second or
+         so). A machine that cannot step its scene as fast as wall time
+         passes makes each frame longer than the last: its snapshots go
+         out, and its blends come, once a long frame, and its copies do not
+         meet the others' (with a wall-clock budget, gs_world_desc.budget,
+         it falls behind instead: gs_world_sync_stats.lag).
        - A world and its net belong to one thread (see THREADS), and user
          callbacks do not change them (GS_ERR_BUSY: see ERRORS).
 
@@ -201,8 +203,8 @@
                   wall instant), the world history (gs_world_sync_test) and
                   the replay blend (GS_SYNC_REPLAY): gs_sync_desc.
 
-   INDEX (search for the tag: each part has one in the declarations below
-   and one in the implementation)
+   INDEX (search for a tag: it marks its part in the declarations and again
+   in the implementation)
        >>config   version, GS_API, the allocator and clock callbacks
        >>math     gs_vec3, gs_quat, GS_MAX_COORD
        >>result   gs_result codes and gs_result_str
