@@ -1,6 +1,7 @@
 # ghostsim - build, test, install.
 #   make test      install missing Debian packages, build and run every test
-#                  (plain, then under ASan+UBSan), compile checks, examples
+#                  (plain, then under ASan+UBSan), compile checks, examples,
+#                  all but the slow ones (make test-slow; .ci/run runs both)
 #   make demo      three ghostpeer processes on loopback, live statistics,
 #                  plots and a picture in demo-results/
 #   make examples  build examples/ and the reference peer into build/
@@ -46,7 +47,7 @@ TESTS    := $(basename $(notdir $(wildcard tests/test_*.c)))
 TESTS_NOSODIUM := test_security_nosodium
 EXAMPLES := $(basename $(notdir $(wildcard examples/*.c)))
 
-.PHONY: all deps deps-bench bench bench-quick bench-build test test-build test-plain test-asan tsan valgrind-udp \
+.PHONY: all deps deps-bench bench bench-quick bench-build test test-slow test-build test-plain test-asan tsan valgrind-udp \
         test-peers demo compile-checks examples peer valgrind install uninstall install-check \
         cmake-check clean fuzz fuzz-ci doc-check
 
@@ -169,6 +170,12 @@ test: deps
 	  test-plain test-asan
 	@sh tests/phase.sh "tsan and valgrind" $(MAKE) --no-print-directory tsan valgrind-udp
 	@sh tests/phase.sh "peers and faults" $(MAKE) --no-print-directory test-peers faults-short
+
+# Suites too slow for make test's 10 minutes, which .ci/run runs after it:
+# the paper scene's convergence on a perfect and a bad link (85 s of
+# simulation; README "Convergence").
+test-slow: $(BUILD)/test_net
+	@GHOSTSIM_SLOW_TESTS=1 sh tests/run.sh "slow" "$(BUILD)/test_net test_scene_perfect_and_bad"
 
 # The UDP tests (gather and scatter threads) under ThreadSanitizer, and under
 # valgrind for leaks: sockets, threads and buffers all released at shutdown.
