@@ -114,9 +114,9 @@
        Each host, once a frame, in this order:
          1. deliver what arrived: gs_net_deliver(net, data, size, now, &why)
             for each datagram your transport received;
-         2. gs_world_advance(w, seconds, NULL): the agents step; after its
-            agent's next step each ghost blends the snapshots delivered
-            since, then publishes its state;
+         2. gs_world_advance(w, seconds, NULL): the agents step; after
+            each step its agent's ghost publishes the new state, and the
+            snapshots delivered since blend into every ghost at once;
          3. gs_net_update(net, now): sends each ghost's latest state, at its
             send rate and within each peer's bandwidth.
        Between frames (never from a callback) the application moves its
@@ -8172,8 +8172,8 @@ GS__PRIVATE void gs__ghost_after_step(gs_agent *a) {
 }
 
 /* A peer's divergence is the largest over the world's objects: taken once
-   per peer after every ghost has blended (per snapshot, it made a world
-   blend O(agents^2)). */
+   per peer after every ghost has blended (per snapshot, a world blend
+   would be O(agents^2)). */
 GS__PRIVATE void gs__world_blend(gs_world *w) {
     uint32_t seen = 0;
     int i, pending;
