@@ -2526,7 +2526,7 @@ GS__PRIVATE int gs__agent_done(const gs_agent *a) {
 }
 
 /* ---- the span heaps: the slowest and fastest live agent in O(log n) per
-   change of a time, where a scan at every dispatch made a frame O(n^2).
+   change of a time, where a scan at every dispatch makes a frame O(n^2).
    They hold exactly the agents not failed, each one's time as
    gs__agent_time computed it at its last change. ---- */
 GS__PRIVATE int *gs__span_pos(gs_agent *a, int hi) {
@@ -11312,8 +11312,8 @@ GS__PRIVATE int gs__udp_resolve(const char *text, struct sockaddr_storage *out,
 /* The transport's send: called by gs_net_update under the net lock. With
    the threads, the datagram is copied out with its address and sent when
    the lock is released (gs__udp_unlock): a sendto on loopback takes
-   microseconds, and a gather thread that found the lock held would sleep
-   on it and cost a wake-up per datagram. A full batch (a big update) goes
+   microseconds, and a gather thread that finds the lock held sleeps on it
+   and costs a wake-up per datagram. A full batch (a big update) goes
    out at once. In poll mode nobody else receives: it goes out now. */
 GS__PRIVATE gs_result gs__udp_send(void *user, uint32_t host, const void *data,
                                    size_t size) {
