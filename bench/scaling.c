@@ -149,6 +149,7 @@ static gs_world *cloth_world(int n, int same_particle, counter *c, int ghost, gs
     if (ghost) {
         gs_ghost_desc gd = gs_ghost_desc_default();
         gd.object_id = 1;
+        gd.weight = gs_weight_exp; /* the rule of the figures recorded so far */
         if ((r = gs_ghost_attach(*out, &gd)) != GS_OK) die("gs_ghost_attach", w, r);
     }
     return w;
@@ -315,6 +316,7 @@ static void host_set_make(host_set *s, int H)
         cd.pin_corners = GS_CORNER_ALL;
         if ((r = gs_cloth_create(s->w[i], &cd, &a)) != GS_OK) die("gs_cloth_create", s->w[i], r);
         gd.object_id = 1;
+        gd.weight = gs_weight_exp; /* the rule of the figures recorded so far */
         if ((r = gs_ghost_attach(a, &gd)) != GS_OK) die("gs_ghost_attach", s->w[i], r);
         memset(&nd, 0, sizeof nd);
         nd.bandwidth = 1e9;

@@ -114,6 +114,7 @@ static void host_make(host *h, uint32_t id, int n, gs_encoding enc)
         gs_ghost_desc gd = gs_ghost_desc_default();
         gd.object_id = 1;
         gd.encoding = enc;
+        gd.weight = gs_weight_exp; /* the rule of the figures recorded so far */
         if ((r = gs_ghost_attach(h->cloth, &gd)) != GS_OK) die("gs_ghost_attach", h->w, r);
     }
 }
