@@ -1392,6 +1392,11 @@ typedef struct gs_net_desc {
    - GS_PEER_SILENT: nothing taken from the peer for GS_PEER_QUIET s (it
      does not run, poll or update, has not added this host, or the link
      is down).
+   - GS_PEER_PARTLY_REFUSED: datagrams are taken, but in the last full
+     GS_PEER_QUIET s some were refused as GS_REJECT_OBJECT or
+     GS_REJECT_RANGE: the hosts disagree on some objects (an id, a cloth
+     size), which then never meet, while the rest do. A refusal the
+     network causes (a duplicate, a corrupted datagram) is no sign.
    - GS_PEER_WAITING: added less than GS_PEER_QUIET s ago, nothing taken
      from it yet.
    - GS_PEER_OK: datagrams taken from it and sent to it within
@@ -1404,7 +1409,8 @@ typedef struct gs_net_desc {
     X(GS_PEER_CLOCK_BACK, "clock_back")                                        \
     X(GS_PEER_NOT_SENDING, "not_sending")                                      \
     X(GS_PEER_REFUSED, "refused")                                              \
-    X(GS_PEER_SILENT, "silent")
+    X(GS_PEER_SILENT, "silent")                                                \
+    X(GS_PEER_PARTLY_REFUSED, "partly_refused")
 
 typedef enum gs_peer_health {
 #define GS__PEER_HEALTH_ENUM(name, text) name,
@@ -1421,7 +1427,7 @@ GS_API const char *gs_peer_health_str(gs_peer_health h);
 #define GS_CLOCK_SLACK 0.1  /* s: a clock this little behind is no step back
                                (gs_udp delivers from its own thread at its
                                own reading of the clock) */
-#define GS_PEER_REASON_CHARS 224
+#define GS_PEER_REASON_CHARS 320
 
 /* Per peer statistics. */
 typedef struct gs_peer_stats {
@@ -1454,7 +1460,8 @@ typedef struct gs_peer_stats {
                                 the figures: "nothing received from this
                                 peer for 1.2 s ...", "" for GS_PEER_OK */
     gs_reject refused_reason; /* GS_PEER_REFUSED: the first refusal's
-                                reason; GS_REJECT_COUNT otherwise */
+                                reason (GS_PEER_PARTLY_REFUSED: the
+                                mismatch's); GS_REJECT_COUNT otherwise */
     uint64_t clock_backwards; /* times the net's `now` went back more than
                                 GS_CLOCK_SLACK (the net's count: the same
                                 on each of its peers) */
@@ -1520,8 +1527,8 @@ GS_API gs_result gs_net_unknown_stats(const gs_net *net,
 GS_API gs_net *gs_world_net(const gs_world *w);
 /* What is wrong with this world's networking that no call returned as an
    error, for a user to read: "" when nothing is found, else one line per
-   finding, e.g. "3 ghosts and no net: nothing is sent (gs_net_create,
-   gs_simnet_join or gs_udp_open)", "a net and no peers: nothing is sent
+   finding, e.g. "3 ghosts and no net: nothing is sent or received
+   (gs_net_create, gs_simnet_join or gs_udp_open)", "a net and no peers: nothing is sent
    (gs_net_add_peer or gs_udp_add_peer)", then each peer whose health is
    not GS_PEER_OK or GS_PEER_WAITING with its reason ("peer 2: nothing
    received from this peer for 1.2 s ..."). The text lives in the world
@@ -7145,6 +7152,9 @@ typedef struct gs__detail {
 /* One window of GS_PEER_QUIET s of datagrams naming a peer as sender. */
 typedef struct gs__diag_win {
     uint32_t taken, refused;
+    uint32_t mismatched;  /* refused as GS_REJECT_OBJECT or _RANGE: the
+                             hosts disagree on the objects (a setup
+                             mistake, where the rest is the network's) */
     int reasons;          /* distinct reasons seen: 0, 1 or 2 (more) */
     gs_reject reason;     /* the first refusal's */
     gs__detail detail;    /* and what it did not match */
@@ -9851,8 +9861,9 @@ GS__PRIVATE void gs__diag_clock(gs_net *net, double now) {
         if (!net->clock_behind) {
             net->clock_backwards++;
             net->clock_back_from = net->clock_max;
+            net->clock_back_to = now;
         }
-        net->clock_back_to = now;
+        if (now < net->clock_back_to) net->clock_back_to = now;
         net->clock_behind = 1;
         if (back > net->clock_back_max) net->clock_back_max = back;
     }
@@ -9931,6 +9942,11 @@ GS__PRIVATE void gs__diag_refused(gs_net *net, int p, gs_reject r, const unsigne
     } else if (r != win->reason) {
         win->reasons = 2;
     }
+    if ((r == GS_REJECT_OBJECT || r == GS_REJECT_RANGE) && win->mismatched++ == 0 &&
+        win->reason != r) { /* the one to tell, whatever came first */
+        win->reason = r;
+        win->detail = net->detail;
+    }
 }
 
 GS__PRIVATE const char *gs__encoding_name(long e) {
@@ -10000,11 +10016,12 @@ GS__PRIVATE gs_peer_health gs__peer_judge(const gs_net *net, int p, char *buf, s
     }
     if (net->clock_backwards && (net->clock_behind ||
                                  net->clock_max - net->clock_back_from < GS_PEER_QUIET)) {
-        snprintf(buf, cap, "the clock went back %.3f s (from %.3f s to %.3f s; %lu times so "
+        snprintf(buf, cap, "the clock went back %.3f s (from %.3f s to %.3f s; %lu time%s so "
                  "far): gs_net_update, gs_net_deliver and gs_udp_poll need one clock that only "
                  "moves forward (gs_udp receives at gs_udp_now())",
                  net->clock_back_from - net->clock_back_to, net->clock_back_from,
-                 net->clock_back_to, (unsigned long)net->clock_backwards);
+                 net->clock_back_to, (unsigned long)net->clock_backwards,
+                 net->clock_backwards == 1 ? "" : "s");
         return GS_PEER_CLOCK_BACK;
     }
     if (t - net->update_now >= GS_PEER_QUIET) {
@@ -10043,6 +10060,14 @@ GS__PRIVATE gs_peer_health gs__peer_judge(const gs_net *net, int p, char *buf, s
             snprintf(buf, cap, "nothing received from this peer for %.1f s: it stopped, or "
                      "stopped updating, or the link is down", unheard);
         return GS_PEER_SILENT;
+    }
+    if (win && win->mismatched > 0) {
+        gs__detail_text(&win->detail, more, sizeof more);
+        snprintf(buf, cap, "%lu of the %lu datagrams from this peer in the last %g s refused "
+                 "as %s%s", (unsigned long)win->mismatched,
+                 (unsigned long)(win->taken + win->refused), GS_PEER_QUIET,
+                 gs__reject_name(win->reason), more);
+        return GS_PEER_PARTLY_REFUSED;
     }
     if (d->taken_at < 0.0) {
         snprintf(buf, cap, "added %.1f s ago; nothing received from it yet", added);
@@ -10248,7 +10273,8 @@ GS_API gs_result gs_net_peer_stats(const gs_net *net, uint32_t host,
     out->health = gs__peer_judge(net, p, out->reason, sizeof out->reason);
     {
         const gs__diag_win *win = gs__diag_last(&net->peers[p].diag, net->clock_max);
-        out->refused_reason = out->health == GS_PEER_REFUSED && win ? win->reason : GS_REJECT_COUNT;
+        int told = out->health == GS_PEER_REFUSED || out->health == GS_PEER_PARTLY_REFUSED;
+        out->refused_reason = told && win ? win->reason : GS_REJECT_COUNT;
     }
     out->clock_backwards = net->clock_backwards;
     out->clock_back_max = net->clock_back_max;
@@ -10285,8 +10311,9 @@ GS_API const char *gs_world_diagnose(gs_world *w) {
     ghosts = gs__world_ghosts(w);
     if (!net) {
         if (ghosts)
-            gs__diag_line(w, "%d ghosts and no net: nothing is sent or received (gs_net_create, "
-                          "gs_simnet_join or gs_udp_open)", ghosts);
+            gs__diag_line(w, "%d ghost%s and no net: nothing is sent or received "
+                          "(gs_net_create, gs_simnet_join or gs_udp_open)", ghosts,
+                          ghosts == 1 ? "" : "s");
         return w->diag;
     }
     gs__lock(net);
