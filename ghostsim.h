@@ -405,9 +405,9 @@ GS_API double gs_world_time(const gs_world *w);
 
 /* The detail of the last failed call on this world ("" if none, or for a
    NULL w). gs_world_advance starts it afresh: after an advance it tells
-   that advance's failure (an agent whose step failed is named, with what
-   its step returned), or is "" when it returned GS_OK. The text stays
-   valid until the next call on the world. */
+   what failed in it (an agent whose step failed, named, with what its
+   step returned; a call refused from one of its callbacks), or is "" when
+   nothing did. The text stays valid until the next call on the world. */
 GS_API const char *gs_world_error(const gs_world *w);
 
 GS_API uint32_t gs_world_host_id(const gs_world *w);
@@ -2789,7 +2789,6 @@ GS_API gs_result gs_world_advance(gs_world *w, double seconds,
     first_error = gs__sync_run(w, w->budget, &rep);
     gs__sync_end(w, seconds, &rep);
     w->busy = 0;
-    if (first_error == GS_OK) w->error[0] = '\0';
     if (report) *report = rep;
     return first_error;
 }
