@@ -14,7 +14,10 @@
    since its last snapshot as a heartbeat only, at --heartbeat-rate Hz
    (default 4). Each JSON line gives per peer "bytes_sent" and "bytes_rx"
    (datagram bytes so far), "heartbeats_rx", "resting" (objects the peer
-   says are at rest) and "heard" (s since its last datagram, -1 never).
+   says are at rest), "heard" (s since its last datagram, -1 never), and
+   the peer's diagnosis: "health" (gs_peer_health_str), "reason" (a
+   sentence for a user, "" when all is well) and "clock_back" (times the
+   clock went back, gs_peer_stats.clock_backwards).
 
    Every host builds the same scene (gs_scene_create: a cloth pinned by its
    corners, K spheres above it, one probe per host of the session) and runs
