@@ -1990,6 +1990,10 @@ struct gs_world {
     double sleep_time;   /* s; < 0: nothing sleeps */
     double sleep_speed;  /* m/s */
     double target;       /* s */
+    double advanced;     /* s; the seconds of every gs_world_advance so far
+                            (what the net's diagnosis measures a missing
+                            gs_net_update in: the target also follows the
+                            agents) */
     int busy;            /* inside gs_world_advance */
     int inside;          /* depth of the other calls that run user code on
                             this world: gs_agent_step, a custom agent's
@@ -2785,6 +2789,7 @@ GS_API gs_result gs_world_advance(gs_world *w, double seconds,
     gs__world_follow(w, gs__world_follow_target(w));
     before = w->target;
     w->target += seconds;
+    w->advanced += seconds;
     gs__sync_target(w, seconds, before);
     first_error = gs__sync_run(w, w->budget, &rep);
     gs__sync_end(w, seconds, &rep);
@@ -7218,8 +7223,8 @@ struct gs_net {
                                  waits for the next */
     double update_now;        /* s; its `now` (the first `now` seen before
                                  the first; -1: none yet) */
-    double update_world_t;    /* s; the world's time at it (at create
-                                 before the first) */
+    double update_world_t;    /* s; the world's seconds advanced then (at
+                                 create before the first) */
     gs__detail detail;        /* what the refusal being made did not match */
     struct gs__ghost **order; /* the due ghosts of an update, by priority */
     int order_cap;            /* its room: at least the world's ghosts */
@@ -10005,7 +10010,7 @@ GS__PRIVATE int gs__world_ghosts(const gs_world *w) {
 GS__PRIVATE gs_peer_health gs__peer_judge(const gs_net *net, int p, char *buf, size_t cap) {
     const gs__peer_diag *d = &net->peers[p].diag;
     const gs_world *w = net->world;
-    double t = net->clock_max, since_world = w->target - net->update_world_t;
+    double t = net->clock_max, since_world = w->advanced - net->update_world_t;
     double added = d->added_at >= 0.0 ? fmax(0.0, t - d->added_at) : 0.0;
     double unsent = d->sent_at >= 0.0 ? fmax(0.0, t - d->sent_at) : added;
     double unheard = d->taken_at >= 0.0 ? fmax(0.0, t - d->taken_at) : added;
@@ -10120,7 +10125,7 @@ GS_API gs_result gs_net_create(gs_world *w, const gs_net_desc *desc,
     net->d.key = NULL; /* the copy below is the net's; the caller's may go */
     net->clock_max = -1.0;
     net->update_now = -1.0;
-    net->update_world_t = w->target;
+    net->update_world_t = w->advanced;
     net->run = gs__net_run(net);
     if (d.key) gs__net_keep_key(net, d.key);
     if (gs__net_order_room(net) != GS_OK) {
@@ -10631,7 +10636,7 @@ GS_API gs_result gs_net_update(gs_net *net, double now) {
     gs__diag_clock(net, now);
     net->updated = 1;
     net->update_now = now;
-    net->update_world_t = w->target;
+    net->update_world_t = w->advanced;
     for (p = 0; p < GS__MAX_PEERS; ++p) peers += net->peers[p].used;
     if (peers) gs__datagram_begin(net, now, &size);
     for (i = 0; i < w->agent_count && n < net->order_cap; ++i) {
