@@ -146,12 +146,13 @@ test-build: examples $(addprefix $(BUILD)/,$(TESTS) $(TESTS_NOSODIUM)) \
 # (tsan and valgrind on the UDP threads, the peers, the fault suite) run
 # alone, as a loaded machine would fail them for the wrong reason.
 test: deps
-	@$(MAKE) --no-print-directory -j2 test-build
-	@$(MAKE) --no-print-directory -j2 --output-sync=target compile-checks examples \
-	  cmake-check install-check fuzz-ci
-	@$(MAKE) --no-print-directory -j2 --output-sync=target test-plain test-asan
-	@$(MAKE) --no-print-directory tsan valgrind-udp
-	@$(MAKE) --no-print-directory test-peers faults-short
+	@sh tests/phase.sh "build" $(MAKE) --no-print-directory -j2 test-build
+	@sh tests/phase.sh "checks and fuzzers" $(MAKE) --no-print-directory -j2 --output-sync=target \
+	  compile-checks examples cmake-check install-check fuzz-ci
+	@sh tests/phase.sh "cmocka suites" $(MAKE) --no-print-directory -j2 --output-sync=target \
+	  test-plain test-asan
+	@sh tests/phase.sh "tsan and valgrind" $(MAKE) --no-print-directory tsan valgrind-udp
+	@sh tests/phase.sh "peers and faults" $(MAKE) --no-print-directory test-peers faults-short
 
 # The UDP tests (gather and scatter threads) under ThreadSanitizer, and under
 # valgrind for leaks: sockets, threads and buffers all released at shutdown.
