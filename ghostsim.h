@@ -1388,7 +1388,10 @@ typedef struct gs_net_desc {
      GS_PEER_QUIET s (a world with no ghosts has nothing to send).
    - GS_PEER_REFUSED: datagrams naming the peer as sender came in the last
      full GS_PEER_QUIET s and every one was refused (the reason and what
-     did not match: gs_peer_stats.refused_reason and .reason).
+     did not match: gs_peer_stats.refused_reason and .reason). A refusal
+     made before the sender is known (another session, a checksum) is
+     read from the header's sender field here, unauthenticated: a forger
+     can make a silent peer look refused, never a heard one.
    - GS_PEER_SILENT: nothing taken from the peer for GS_PEER_QUIET s (it
      does not run, poll or update, has not added this host, or the link
      is down).
@@ -1528,12 +1531,13 @@ GS_API gs_net *gs_world_net(const gs_world *w);
 /* What is wrong with this world's networking that no call returned as an
    error, for a user to read: "" when nothing is found, else one line per
    finding, e.g. "3 ghosts and no net: nothing is sent or received
-   (gs_net_create, gs_simnet_join or gs_udp_open)", "a net and no peers: nothing is sent
-   (gs_net_add_peer or gs_udp_add_peer)", then each peer whose health is
-   not GS_PEER_OK or GS_PEER_WAITING with its reason ("peer 2: nothing
-   received from this peer for 1.2 s ..."). The text lives in the world
-   and stays valid until the next call on it; "" for a NULL w. Read-only,
-   cheap (a look at each peer): call it when hosts do not meet. */
+   (gs_net_create, gs_simnet_join or gs_udp_open)", "a net and no peers:
+   nothing is sent (...)", "a net and no ghosts: ...", then each peer
+   whose health is not GS_PEER_OK or GS_PEER_WAITING, with its name and
+   reason ("peer 2: silent: nothing received from this peer for 1.2 s
+   ..."). The text lives in the world and stays valid until the next call
+   on it; "" for a NULL w. Changes nothing else; cheap (a look at each
+   peer): call it when hosts do not meet. */
 GS_API const char *gs_world_diagnose(gs_world *w);
 
 /* Optional lock around the queues, for transports that deliver from another
@@ -1990,10 +1994,6 @@ struct gs_world {
     double sleep_time;   /* s; < 0: nothing sleeps */
     double sleep_speed;  /* m/s */
     double target;       /* s */
-    double advanced;     /* s; the seconds of every gs_world_advance so far
-                            (what the net's diagnosis measures a missing
-                            gs_net_update in: the target also follows the
-                            agents) */
     int busy;            /* inside gs_world_advance */
     int inside;          /* depth of the other calls that run user code on
                             this world: gs_agent_step, a custom agent's
@@ -2728,6 +2728,7 @@ GS__PRIVATE void gs__world_follow(gs_world *w, double target) {
 }
 
 GS__PRIVATE void gs__sync_begin(gs_world *w, double seconds);
+GS__PRIVATE void gs__net_advanced(gs_world *w, double seconds);
 GS__PRIVATE void gs__sync_target(gs_world *w, double seconds, double before);
 GS__PRIVATE void gs__sync_end(gs_world *w, double seconds, const gs_advance_report *rep);
 GS__PRIVATE gs_result gs__sync_run(gs_world *w, double budget, gs_advance_report *rep);
@@ -2789,7 +2790,7 @@ GS_API gs_result gs_world_advance(gs_world *w, double seconds,
     gs__world_follow(w, gs__world_follow_target(w));
     before = w->target;
     w->target += seconds;
-    w->advanced += seconds;
+    gs__net_advanced(w, seconds);
     gs__sync_target(w, seconds, before);
     first_error = gs__sync_run(w, w->budget, &rep);
     gs__sync_end(w, seconds, &rep);
@@ -7223,8 +7224,11 @@ struct gs_net {
                                  waits for the next */
     double update_now;        /* s; its `now` (the first `now` seen before
                                  the first; -1: none yet) */
-    double update_world_t;    /* s; the world's seconds advanced then (at
-                                 create before the first) */
+    double unsent_world;      /* s; the seconds given to gs_world_advance
+                                 since (or since the create): a missing
+                                 update is measured in them, not in the
+                                 world's time, which also jumps to follow
+                                 the agents of a late joiner */
     gs__detail detail;        /* what the refusal being made did not match */
     struct gs__ghost **order; /* the due ghosts of an update, by priority */
     int order_cap;            /* its room: at least the world's ghosts */
@@ -9897,6 +9901,17 @@ GS__PRIVATE void gs__diag_roll(gs__peer_diag *d, double now) {
     d->win_at += k * GS_PEER_QUIET;
 }
 
+/* An advance of the world by `seconds` (its hook, as the sync layer's):
+   the net counts them until its next update. Under the net lock: gs_udp's
+   scatter thread updates. */
+GS__PRIVATE void gs__net_advanced(gs_world *w, double seconds) {
+    gs_net *net = w->net;
+    if (!net) return;
+    gs__lock(net);
+    net->unsent_world += seconds;
+    gs__unlock(net);
+}
+
 GS__PRIVATE void gs__diag_taken(gs__peer_diag *d, double now) {
     gs__diag_roll(d, now);
     d->win[0].taken++;
@@ -10010,7 +10025,7 @@ GS__PRIVATE int gs__world_ghosts(const gs_world *w) {
 GS__PRIVATE gs_peer_health gs__peer_judge(const gs_net *net, int p, char *buf, size_t cap) {
     const gs__peer_diag *d = &net->peers[p].diag;
     const gs_world *w = net->world;
-    double t = net->clock_max, since_world = w->advanced - net->update_world_t;
+    double t = net->clock_max, since_world = net->unsent_world;
     double added = d->added_at >= 0.0 ? fmax(0.0, t - d->added_at) : 0.0;
     double unsent = d->sent_at >= 0.0 ? fmax(0.0, t - d->sent_at) : added;
     double unheard = d->taken_at >= 0.0 ? fmax(0.0, t - d->taken_at) : added;
@@ -10125,7 +10140,6 @@ GS_API gs_result gs_net_create(gs_world *w, const gs_net_desc *desc,
     net->d.key = NULL; /* the copy below is the net's; the caller's may go */
     net->clock_max = -1.0;
     net->update_now = -1.0;
-    net->update_world_t = w->advanced;
     net->run = gs__net_run(net);
     if (d.key) gs__net_keep_key(net, d.key);
     if (gs__net_order_room(net) != GS_OK) {
@@ -10636,7 +10650,7 @@ GS_API gs_result gs_net_update(gs_net *net, double now) {
     gs__diag_clock(net, now);
     net->updated = 1;
     net->update_now = now;
-    net->update_world_t = w->advanced;
+    net->unsent_world = 0.0;
     for (p = 0; p < GS__MAX_PEERS; ++p) peers += net->peers[p].used;
     if (peers) gs__datagram_begin(net, now, &size);
     for (i = 0; i < w->agent_count && n < net->order_cap; ++i) {
