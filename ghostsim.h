@@ -1662,8 +1662,10 @@ GS_API gs_result gs_udp_add_peer(gs_udp *u, uint32_t host, const char *addr);
 GS_API gs_result gs_udp_remove_peer(gs_udp *u, uint32_t host);
 /* Poll mode: receives every waiting datagram and sends what is due at wall
    time now (refused as gs_net_update refuses it; GS_ERR_BUSY from a
-   callback of the world). In thread mode it only wakes the scatter
-   thread. */
+   callback of the world). Pass gs_udp_now(): what it receives is
+   delivered at that clock's reading, and one net needs one clock
+   (another shows as GS_PEER_CLOCK_BACK). In thread mode it only wakes the
+   scatter thread. */
 GS_API gs_result gs_udp_poll(gs_udp *u, double now);
 /* The wall clock gs_udp uses (CLOCK_MONOTONIC seconds). */
 GS_API double gs_udp_now(void);
