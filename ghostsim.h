@@ -1587,8 +1587,8 @@ typedef struct gs_net_desc {
 
 /* How a peer looks from here, in gs_peer_stats.health (a name a program
    can test, and gs_peer_stats.reason for a user to read, with the
-   figures). Judged by gs_net_peer_stats at the net's latest `now`, in
-   this order (the first that holds):
+   figures). Judged by gs_net_peer_stats at the latest (largest) `now`
+   the net was given, in this order (the first that holds):
    - GS_PEER_NO_UPDATE: the world advanced GS_PEER_QUIET s since the last
      gs_net_update (or since the net was made, with none): nothing is sent.
    - GS_PEER_CLOCK_BACK: the latest `now` given to gs_net_update,
