@@ -252,7 +252,11 @@
        a message then); a count whose bytes would not fit in size_t is
        GS_ERR_OUT_OF_RANGE; out of memory is GS_ERR_NO_MEMORY, never
        abort(); a fixed limit (max_peers, the simnet's hosts) is
-       GS_ERR_CAPACITY.
+       GS_ERR_CAPACITY. The simnet's own failures are in gs_simnet_error.
+       Mistakes no call can return (nothing sent or heard for a second,
+       every datagram of a peer refused, a clock that went back) show in
+       gs_peer_stats.health and .reason, and gs_world_diagnose(w) lists
+       them (README: Troubleshooting).
        Callbacks: user code runs inside the library's calls: a custom
        agent's step, get_state and set_state, behaviour rules and weight
        rules run inside gs_world_advance, gs_agent_step, gs_world_hash,
@@ -563,7 +567,10 @@ GS_API gs_result gs_world_advance(gs_world *w, double seconds,
 GS_API double gs_world_time(const gs_world *w);
 
 /* The detail of the last failed call on this world ("" if none, or for a
-   NULL w). The text stays valid until the next call on the world. */
+   NULL w). gs_world_advance starts it afresh: after an advance it tells
+   what failed in it (an agent whose step failed, named, with what its
+   step returned; a call refused from one of its callbacks), or is "" when
+   nothing did. The text stays valid until the next call on the world. */
 GS_API const char *gs_world_error(const gs_world *w);
 
 /* This host's id in its session (gs_world_desc.host_id: 1 by default). */
@@ -1656,6 +1663,63 @@ typedef struct gs_net_desc {
    send NULL (required: set it); max_rate 0, which follows bandwidth. */
 GS_API gs_net_desc gs_net_desc_default(void);
 
+/* How a peer looks from here, in gs_peer_stats.health (a name a program
+   can test, and gs_peer_stats.reason for a user to read, with the
+   figures). Judged by gs_net_peer_stats at the latest (largest) `now`
+   the net was given, in this order (the first that holds):
+   - GS_PEER_NO_UPDATE: the world advanced GS_PEER_QUIET s since the last
+     gs_net_update (or since the net was made, with none): nothing is sent.
+   - GS_PEER_CLOCK_BACK: the latest `now` given to gs_net_update,
+     gs_net_deliver or gs_udp_poll is more than GS_CLOCK_SLACK before one
+     given earlier, and the clock has not caught up with it yet.
+   - GS_PEER_NOT_SENDING: updates run, but nothing went to this peer for
+     GS_PEER_QUIET s (a world with no ghosts has nothing to send).
+   - GS_PEER_REFUSED: datagrams naming the peer as sender came in the last
+     full GS_PEER_QUIET s and every one was refused (the reason and what
+     did not match: gs_peer_stats.refused_reason and .reason). A refusal
+     made before the sender is known (another session, a checksum) is
+     read from the header's sender field here, unauthenticated: a forger
+     can make a silent peer look refused, never a heard one.
+   - GS_PEER_SILENT: nothing taken from the peer for GS_PEER_QUIET s (it
+     does not run, poll or update, has not added this host, or the link
+     is down).
+   - GS_PEER_PARTLY_REFUSED: datagrams are taken, but in the last full
+     GS_PEER_QUIET s some were refused as GS_REJECT_OBJECT or
+     GS_REJECT_RANGE: the hosts disagree on some objects (an id, a cloth
+     size), which then never meet, while the rest do. A refusal the
+     network causes (a duplicate, a corrupted datagram) is no sign.
+   - GS_PEER_WAITING: added less than GS_PEER_QUIET s ago, nothing taken
+     from it yet.
+   - GS_PEER_OK: datagrams taken from it and sent to it within
+     GS_PEER_QUIET s.
+   The list makes the enum and the names (gs_peer_health_str). */
+#define GS__PEER_HEALTH_LIST(X)                                                \
+    X(GS_PEER_OK, "ok")                                                        \
+    X(GS_PEER_WAITING, "waiting")                                              \
+    X(GS_PEER_NO_UPDATE, "no_update")                                          \
+    X(GS_PEER_CLOCK_BACK, "clock_back")                                        \
+    X(GS_PEER_NOT_SENDING, "not_sending")                                      \
+    X(GS_PEER_REFUSED, "refused")                                              \
+    X(GS_PEER_SILENT, "silent")                                                \
+    X(GS_PEER_PARTLY_REFUSED, "partly_refused")
+
+typedef enum gs_peer_health {
+#define GS__PEER_HEALTH_ENUM(name, text) name,
+    GS__PEER_HEALTH_LIST(GS__PEER_HEALTH_ENUM)
+#undef GS__PEER_HEALTH_ENUM
+    GS_PEER_HEALTH_COUNT
+} gs_peer_health;
+
+/* The health's short name ("silent", "refused"...; "unknown" out of
+   range): what ghostpeer's JSON says. Static, never NULL. */
+GS_API const char *gs_peer_health_str(gs_peer_health h);
+
+#define GS_PEER_QUIET 1.0   /* s: silence, or refusal, this long is a sign */
+#define GS_CLOCK_SLACK 0.1  /* s: a clock this little behind is no step back
+                               (gs_udp delivers from its own thread at its
+                               own reading of the clock) */
+#define GS_PEER_REASON_CHARS 320
+
 /* Per peer statistics. */
 typedef struct gs_peer_stats {
     uint64_t datagrams_sent, datagrams_received;
@@ -1681,6 +1745,18 @@ typedef struct gs_peer_stats {
                                 distance between an object's local position
                                 values and the peer's latest snapshot of it
                                 (brought to local time when extrapolating) */
+    /* Diagnostics (filled by gs_net_peer_stats; see gs_peer_health). */
+    gs_peer_health health;
+    char reason[GS_PEER_REASON_CHARS]; /* what health means here, with
+                                the figures: "nothing received from this
+                                peer for 1.2 s ...", "" for GS_PEER_OK */
+    gs_reject refused_reason; /* GS_PEER_REFUSED: the first refusal's
+                                reason (GS_PEER_PARTLY_REFUSED: the
+                                mismatch's); GS_REJECT_COUNT otherwise */
+    uint64_t clock_backwards; /* times the net's `now` went back more than
+                                GS_CLOCK_SLACK (the net's count: the same
+                                on each of its peers) */
+    double clock_back_max;    /* s; the largest of those steps back */
     uint64_t send_failures;  /* datagrams to the peer whose send callback
                                 returned an error: taken as not sent (not
                                 in datagrams_sent or bytes_sent, and their
@@ -1722,9 +1798,12 @@ GS_API gs_result gs_net_remove_peer(gs_net *net, uint32_t host);
    counted on its peer (gs_peer_stats.send_failures), the other datagrams
    still go, and the first failure's result is returned (with the host in
    gs_world_error). `now` is a clock that only moves
-   forward, in [0, GS_WIRE_MAX_TIME] (GS_ERR_INVALID_ARG otherwise,
+   forward, in [0, GS_WIRE_MAX_TIME] (GS_ERR_INVALID_ARG outside it,
    GS_ERR_NOT_FINITE for NaN or infinity): the same clock for
-   gs_net_deliver. Call it once a frame, after gs_world_advance (see THE
+   gs_net_deliver. A `now` that goes back is taken (a host whose clock
+   stepped back goes on sending) and counted: gs_peer_stats.clock_backwards,
+   and the health GS_PEER_CLOCK_BACK until the clock is past its old
+   reading again. Call it once a frame, after gs_world_advance (see THE
    FRAME LOOP at the top). GS_ERR_BUSY from a weight rule or the send
    callback. */
 GS_API gs_result gs_net_update(gs_net *net, double now);
@@ -1750,7 +1829,7 @@ GS_API gs_result gs_net_update(gs_net *net, double now);
    sequence (duplicates) and the peer's rate cap (max_rate: only datagrams
    that passed everything count against it, so forgeries cannot starve a
    peer).
-   Memory: nothing is allocated here. A net is one fixed struct (25 KB, half of it the
+   Memory: nothing is allocated here. A net is one fixed struct (33 KB, 12 KB of it the
    decode view: 64 chunks with their quantized segments; a
    gs_udp adds 25 KB, 16 datagrams of them waiting to go out, and its
    socket's rcvbuf in the kernel), and each ghost
@@ -1760,8 +1839,9 @@ GS_API gs_result gs_net_update(gs_net *net, double now);
    a full queue drops its oldest), whatever arrives. */
 GS_API gs_result gs_net_deliver(gs_net *net, const void *data, size_t size,
                                 double now, gs_reject *why);
-/* A peer's statistics into *out (safe from any thread).
-   GS_ERR_INVALID_ARG for a NULL net or out, or a host that is not a peer. */
+/* A peer's statistics into *out (safe from any thread), and its health
+   judged now (see gs_peer_health). GS_ERR_INVALID_ARG for a NULL net or
+   out, or a host that is not a peer. */
 GS_API gs_result gs_net_peer_stats(const gs_net *net, uint32_t host,
                                    gs_peer_stats *out);
 /* Datagrams refused before their sender was known (bad magic, checksum,
@@ -1776,6 +1856,17 @@ GS_API gs_result gs_net_unknown_stats(const gs_net *net, gs_unknown_stats *out);
 /* The world's net (made by gs_net_create, gs_simnet_join or gs_udp_open),
    or NULL if it has none. */
 GS_API gs_net *gs_world_net(const gs_world *w);
+/* What is wrong with this world's networking that no call returned as an
+   error, for a user to read: "" when nothing is found, else one line per
+   finding, e.g. "3 ghosts and no net: nothing is sent or received
+   (gs_net_create, gs_simnet_join or gs_udp_open)", "a net and no peers:
+   nothing is sent (...)", "a net and no ghosts: ...", then each peer
+   whose health is not GS_PEER_OK or GS_PEER_WAITING, with its name and
+   reason ("peer 2: silent: nothing received from this peer for 1.2 s
+   ..."). The text lives in the world and stays valid until the next call
+   on it; "" for a NULL w. Changes nothing else; cheap (a look at each
+   peer): call it when hosts do not meet. */
+GS_API const char *gs_world_diagnose(gs_world *w);
 
 /* Optional lock around the queues, for transports that deliver from another
    thread (the UDP gather thread sets it). Weight rules and the send
@@ -1845,7 +1936,8 @@ GS_API gs_result gs_simnet_join(gs_simnet *sim, gs_world *w,
 /* Sets the link from host a to host b (one direction), both joined.
    GS_ERR_INVALID_ARG for a host not joined, a negative latency, jitter or
    bandwidth, a probability outside [0, 1]; GS_ERR_NOT_FINITE for an
-   outage time; GS_ERR_BUSY while the simnet runs. */
+   outage time; GS_ERR_BUSY while the simnet runs. gs_simnet_error says
+   which. */
 GS_API gs_result gs_simnet_link(gs_simnet *sim, uint32_t a, uint32_t b,
                                 const gs_link_desc *desc);
 /* Runs every world for `seconds` of virtual time in frames of `frame`
@@ -1855,6 +1947,11 @@ GS_API gs_result gs_simnet_link(gs_simnet *sim, uint32_t a, uint32_t b,
 GS_API gs_result gs_simnet_run(gs_simnet *sim, double seconds, double frame);
 /* The simnet's virtual time, in seconds: the frames run so far. */
 GS_API double gs_simnet_time(const gs_simnet *sim);
+/* The detail of the last failed call on this simnet ("" if none, or for a
+   NULL sim): the simnet may have no world to hold it. gs_simnet_join's
+   failures are also in the joining world's gs_world_error. Valid until the
+   next call on the simnet. */
+GS_API const char *gs_simnet_error(const gs_simnet *sim);
 /* A host's own clock on the simnet (tests of the session clock): the
    simnet's time t reads as offset + rate * t, plus step_by from step_at on. */
 typedef struct gs_sim_clock {
@@ -1937,8 +2034,10 @@ GS_API gs_result gs_udp_add_peer(gs_udp *u, uint32_t host, const char *addr);
 GS_API gs_result gs_udp_remove_peer(gs_udp *u, uint32_t host);
 /* Poll mode: receives every waiting datagram and sends what is due at wall
    time now (refused as gs_net_update refuses it; GS_ERR_BUSY from a
-   callback of the world). In thread mode it only wakes the scatter
-   thread. */
+   callback of the world). Pass gs_udp_now(): what it receives is
+   delivered at that clock's reading, and one net needs one clock
+   (another shows as GS_PEER_CLOCK_BACK). In thread mode it only wakes the
+   scatter thread. */
 GS_API gs_result gs_udp_poll(gs_udp *u, double now);
 /* The wall clock gs_udp uses (CLOCK_MONOTONIC seconds). */
 GS_API double gs_udp_now(void);
@@ -2318,6 +2417,7 @@ struct gs_world {
     gs__queue queues[GS_MAX_QUEUES];
     struct gs__sync *sync; /* session clock and history (>>sync) */
     char error[256];
+    char diag[2048];     /* gs_world_diagnose's text */
 };
 
 GS__PRIVATE void *gs__alloc(gs_world *w, size_t size) {
@@ -3009,6 +3109,7 @@ GS__PRIVATE void gs__world_follow(gs_world *w, double target) {
 }
 
 GS__PRIVATE void gs__sync_begin(gs_world *w, double seconds);
+GS__PRIVATE void gs__net_advanced(gs_world *w, double seconds);
 GS__PRIVATE void gs__sync_target(gs_world *w, double seconds, double before);
 GS__PRIVATE void gs__sync_end(gs_world *w, double seconds, const gs_advance_report *rep);
 GS__PRIVATE gs_result gs__sync_run(gs_world *w, double budget, gs_advance_report *rep);
@@ -3062,6 +3163,7 @@ GS_API gs_result gs_world_advance(gs_world *w, double seconds,
         return gs__fail(w, GS_ERR_INVALID_ARG,
                         "gs_world_advance: %g s on from %.17g s would pass "
                         "GS_WIRE_MAX_TIME (%g s)", seconds, from, GS_WIRE_MAX_TIME);
+    w->error[0] = '\0'; /* from here on the text is this advance's */
     w->busy = 1;
     w->epoch++;
     gs__sync_begin(w, seconds);
@@ -3069,6 +3171,7 @@ GS_API gs_result gs_world_advance(gs_world *w, double seconds,
     gs__world_follow(w, gs__world_follow_target(w));
     before = w->target;
     w->target += seconds;
+    gs__net_advanced(w, seconds);
     gs__sync_target(w, seconds, before);
     first_error = gs__sync_run(w, w->budget, &rep);
     gs__sync_end(w, seconds, &rep);
@@ -3300,6 +3403,8 @@ typedef struct gs__custom {
     double *before;  /* state_size doubles: the state before a step */
 } gs__custom;
 
+GS__PRIVATE uint32_t gs__agent_object(const gs_agent *a);
+
 /* The user's step, held to the NUMBERS promise like a built-in one: a
    state with a NaN or infinity after it is replaced by the one before. */
 GS__PRIVATE gs_result gs__custom_step(gs_agent *a, double dt) {
@@ -3311,7 +3416,16 @@ GS__PRIVATE gs_result gs__custom_step(gs_agent *a, double dt) {
     r = c->d.step(c->d.user, gs__agent_time(a), dt);
     if (r == GS_OK && n) c->d.get_state(c->d.user, c->scratch);
     a->world->inside--;
-    if (r != GS_OK || n == 0) return r;
+    if (r != GS_OK) { /* the user's code said no: say who and when */
+        char label[40] = "";
+        if (gs__agent_object(a))
+            snprintf(label, sizeof label, " (object %lu)", (unsigned long)gs__agent_object(a));
+        return gs__fail(a->world, r, "custom agent %d%s: its step from t = %.9g s by %g s "
+                        "returned %d (%s); the agent stays at t = %.9g s and is tried "
+                        "again at the next advance", a->index, label, gs__agent_time(a), dt,
+                        (int)r, gs_result_str(r), gs__agent_time(a));
+    }
+    if (n == 0) return r;
     for (i = 0; i < n; ++i)
         if (!gs__finite(c->scratch[i])) break;
     if (i == n) return GS_OK;
@@ -7437,10 +7551,52 @@ typedef struct gs__src {
     int peer;
 } gs__src;
 
+/* What a refusal did not match, kept as numbers (the text is made only
+   when gs_net_peer_stats is asked). */
+typedef enum gs__mismatch {
+    GS__MISMATCH_NONE,
+    GS__MISMATCH_OBJECT,   /* object: no ghost of that id here */
+    GS__MISMATCH_VALUES,   /* object: state values here, in the datagram
+                              (there_min: at least that many) */
+    GS__MISMATCH_ENCODING, /* object: encodings here, there */
+    GS__MISMATCH_SESSION,  /* sessions here, there */
+    GS__MISMATCH_SEALED    /* sealed datagrams to a net with no key */
+} gs__mismatch;
+
+typedef struct gs__detail {
+    gs__mismatch what;
+    uint32_t object;
+    long here, there;
+    int there_min;
+} gs__detail;
+
+/* One window of GS_PEER_QUIET s of datagrams naming a peer as sender. */
+typedef struct gs__diag_win {
+    uint32_t taken, refused;
+    uint32_t mismatched;  /* refused as GS_REJECT_OBJECT or _RANGE: the
+                             hosts disagree on the objects (a setup
+                             mistake, where the rest is the network's) */
+    int reasons;          /* distinct reasons seen: 0, 1 or 2 (more) */
+    gs_reject reason;     /* the first refusal's */
+    gs__detail detail;    /* and what it did not match */
+} gs__diag_win;
+
+/* A peer's diagnostics (gs_peer_health). Times are the net's `now`; -1:
+   not yet. */
+typedef struct gs__peer_diag {
+    double added_at;      /* the first `now` after the peer was added */
+    double sent_at;       /* the last datagram sent to it */
+    double taken_at;      /* the last datagram taken from it */
+    double win_at;        /* the start of win[0] */
+    gs__diag_win win[2];  /* [0] the current window, [1] the one before it
+                             (empty unless it ended when [0] began) */
+} gs__peer_diag;
+
 typedef struct gs__peer {
     int used;
     uint32_t host;
     gs_peer_stats st;
+    gs__peer_diag diag;
     uint32_t send_seq;        /* our next datagram sequence to them */
     uint32_t recv_top;        /* highest datagram sequence received */
     uint64_t recv_window;     /* bit i: recv_top - i received */
@@ -7474,6 +7630,24 @@ struct gs_net {
     double now;               /* s, wall time of the last update/deliver */
     gs_result send_error;     /* the first failed send of this update, */
     uint32_t send_error_host; /* and to whom */
+    /* the clock's diagnostics (gs_peer_health): the latest `now` seen
+       (-1: none yet), whether the clock is behind it now, the steps back
+       counted, the largest, and the last one (from, to) */
+    double clock_max;
+    int clock_behind;
+    uint64_t clock_backwards;
+    double clock_back_max, clock_back_from, clock_back_to;
+    int updated;              /* a gs_net_update has run */
+    int peer_added;           /* since the last `now`: a peer's added_at
+                                 waits for the next */
+    double update_now;        /* s; its `now` (the first `now` seen before
+                                 the first; -1: none yet) */
+    double unsent_world;      /* s; the seconds given to gs_world_advance
+                                 since (or since the create): a missing
+                                 update is measured in them, not in the
+                                 world's time, which also jumps to follow
+                                 the agents of a late joiner */
+    gs__detail detail;        /* what the refusal being made did not match */
     struct gs__ghost **order; /* the due ghosts of an update, by priority */
     int order_cap;            /* its room: at least the world's ghosts */
     unsigned char buf[GS_WIRE_MAX_DATAGRAM];
@@ -7560,6 +7734,11 @@ GS__PRIVATE void gs__ghost_free(gs__ghost *g) {
 
 GS__PRIVATE gs__ghost *gs__ghost_of(const gs_agent *a) {
     return (gs__ghost *)a->ghost;
+}
+
+/* The object id of an agent's ghost, 0 for an agent without one. */
+GS__PRIVATE uint32_t gs__agent_object(const gs_agent *a) {
+    return a->ghost ? gs__ghost_of(a)->d.object_id : 0;
 }
 
 GS__PRIVATE gs__ghost *gs__ghost_find(const gs_world *w, uint32_t object_id) {
@@ -10106,6 +10285,276 @@ GS__PRIVATE uint32_t gs__net_run(const gs_net *net) {
     return (uint32_t)x ? (uint32_t)x : 1u;
 }
 
+/* ---- diagnostics: what a user reads when hosts do not meet (see
+   gs_peer_health). Counted as datagrams come and go; judged, and the
+   text made, only when gs_net_peer_stats is asked. ---- */
+
+GS_API const char *gs_peer_health_str(gs_peer_health h) {
+    switch (h) {
+#define GS__PEER_HEALTH_CASE(name, text) case name: return text;
+        GS__PEER_HEALTH_LIST(GS__PEER_HEALTH_CASE)
+#undef GS__PEER_HEALTH_CASE
+    default: return "unknown";
+    }
+}
+
+/* The enum's name of a reason ("GS_REJECT_RANGE"), for the reason text. */
+GS__PRIVATE const char *gs__reject_name(gs_reject r) {
+    switch (r) {
+#define GS__REJECT_NAME(name, text) case name: return #name;
+        GS__REJECT_LIST(GS__REJECT_NAME)
+#undef GS__REJECT_NAME
+    default: return "GS_REJECT_?";
+    }
+}
+
+GS__PRIVATE void gs__diag_added(gs__peer_diag *d) {
+    memset(d, 0, sizeof *d);
+    d->added_at = d->sent_at = d->taken_at = d->win_at = -1.0;
+}
+
+/* Every `now` the net is given: the steps back, and the time a peer added
+   since the last one was added at. A clock that keeps going back counts
+   once, until it is past its old reading again. */
+GS__PRIVATE void gs__diag_clock(gs_net *net, double now) {
+    int p;
+    if (net->clock_max < 0.0 || now >= net->clock_max) {
+        net->clock_max = now;
+        net->clock_behind = 0;
+    } else if (now < net->clock_max - GS_CLOCK_SLACK) {
+        double back = net->clock_max - now;
+        if (!net->clock_behind) {
+            net->clock_backwards++;
+            net->clock_back_from = net->clock_max;
+            net->clock_back_to = now;
+        }
+        if (now < net->clock_back_to) net->clock_back_to = now;
+        net->clock_behind = 1;
+        if (back > net->clock_back_max) net->clock_back_max = back;
+    }
+    if (net->update_now < 0.0) net->update_now = now;
+    if (!net->peer_added) return;
+    net->peer_added = 0;
+    for (p = 0; p < GS__MAX_PEERS; ++p)
+        if (net->peers[p].used && net->peers[p].diag.added_at < 0.0)
+            net->peers[p].diag.added_at = now;
+}
+
+/* Moves a peer's windows on to the one that holds `now` (whole windows of
+   GS_PEER_QUIET: the one before is kept only if it ended as this began). */
+GS__PRIVATE void gs__diag_roll(gs__peer_diag *d, double now) {
+    double k;
+    if (d->win_at < 0.0 || now < d->win_at) { /* the first, or a clock back */
+        if (d->win_at < 0.0) d->win_at = now;
+        return;
+    }
+    k = floor((now - d->win_at) / GS_PEER_QUIET);
+    if (k < 1.0) return;
+    if (k < 2.0) d->win[1] = d->win[0];
+    else memset(&d->win[1], 0, sizeof d->win[1]);
+    memset(&d->win[0], 0, sizeof d->win[0]);
+    d->win_at += k * GS_PEER_QUIET;
+}
+
+/* An advance of the world by `seconds` (its hook, as the sync layer's):
+   the net counts them until its next update. Under the net lock: gs_udp's
+   scatter thread updates. */
+GS__PRIVATE void gs__net_advanced(gs_world *w, double seconds) {
+    gs_net *net = w->net;
+    if (!net) return;
+    gs__lock(net);
+    net->unsent_world += seconds;
+    gs__unlock(net);
+}
+
+GS__PRIVATE void gs__diag_taken(gs__peer_diag *d, double now) {
+    gs__diag_roll(d, now);
+    d->win[0].taken++;
+    d->taken_at = now;
+}
+
+GS__PRIVATE void gs__mismatch_note(gs_net *net, gs__mismatch what, uint32_t object, long here,
+                                   long there, int there_min) {
+    net->detail.what = what;
+    net->detail.object = object;
+    net->detail.here = here;
+    net->detail.there = there;
+    net->detail.there_min = there_min;
+}
+
+/* A chunk that does not fit its object's state: the state sizes (the
+   sender's is known exactly from its last chunk, at least from another),
+   or the encodings. */
+GS__PRIVATE void gs__range_note(gs_net *net, const gs__ghost *g, const gs_wire_chunk *c) {
+    if (c->encoding != g->d.encoding) {
+        gs__mismatch_note(net, GS__MISMATCH_ENCODING, g->d.object_id, (long)g->d.encoding,
+                          (long)c->encoding, 0);
+        return;
+    }
+    gs__mismatch_note(net, GS__MISMATCH_VALUES, g->d.object_id, (long)(g->n - 1),
+                      (long)(c->first + c->elements), c->index + 1 < c->count);
+}
+
+GS__PRIVATE int gs__peer_slot(const gs_net *net, uint32_t host);
+
+/* A refused datagram, on the window of the peer it names: p, or while the
+   sender was not known yet (the session, a checksum: counted among the
+   unknown ones) the peer the header names, if it is one. */
+GS__PRIVATE void gs__diag_refused(gs_net *net, int p, gs_reject r, const unsigned char *buf,
+                                  size_t size, double now) {
+    gs__diag_win *win;
+    if (p < 0 && buf && size >= GS_WIRE_HEADER && memcmp(buf, "GSIM", 4) == 0 &&
+        gs__hdr_version(buf) == GS_WIRE_VERSION) {
+        p = gs__peer_slot(net, gs__hdr_sender(buf));
+        if (p >= 0 && r == GS_REJECT_CHECKSUM && (gs__hdr_flags(buf) & GS_WIRE_FLAG_SEALED) &&
+            !net->guard.keyed)
+            net->detail.what = GS__MISMATCH_SEALED;
+    }
+    if (p < 0) return;
+    gs__diag_roll(&net->peers[p].diag, now);
+    win = &net->peers[p].diag.win[0];
+    if (win->refused++ == 0) {
+        win->reasons = 1;
+        win->reason = r;
+        win->detail = net->detail;
+    } else if (r != win->reason) {
+        win->reasons = 2;
+    }
+    if ((r == GS_REJECT_OBJECT || r == GS_REJECT_RANGE) && win->mismatched++ == 0 &&
+        win->reason != r) { /* the one to tell, whatever came first */
+        win->reason = r;
+        win->detail = net->detail;
+    }
+}
+
+GS__PRIVATE const char *gs__encoding_name(long e) {
+    return e == GS_ENCODING_F32 ? "f32" : e == GS_ENCODING_QUANT ? "quant" : "f64";
+}
+
+/* What a refusal did not match, as a clause after ": " ("" if nothing). */
+GS__PRIVATE void gs__detail_text(const gs__detail *d, char *buf, size_t cap) {
+    unsigned long o = (unsigned long)d->object;
+    switch (d->what) {
+    case GS__MISMATCH_OBJECT:
+        snprintf(buf, cap, ": object %lu has no ghost here (every host ghosts the same "
+                 "objects under the same ids)", o);
+        break;
+    case GS__MISMATCH_VALUES:
+        snprintf(buf, cap, ": object %lu's state has %ld values here, %s%ld in the datagram "
+                 "(another cloth size or kind of object under this id?)", o, d->here,
+                 d->there_min ? "at least " : "", d->there);
+        break;
+    case GS__MISMATCH_ENCODING:
+        snprintf(buf, cap, ": object %lu is sent in %s here, in %s in the datagram (its "
+                 "ghosts need one encoding)", o, gs__encoding_name(d->here),
+                 gs__encoding_name(d->there));
+        break;
+    case GS__MISMATCH_SESSION:
+        snprintf(buf, cap, ": session %ld in the datagram, %ld here (gs_net_desc.session)",
+                 d->there, d->here);
+        break;
+    case GS__MISMATCH_SEALED:
+        snprintf(buf, cap, ": sealed under a key, and this net has none (gs_net_desc.key)");
+        break;
+    default:
+        buf[0] = '\0';
+    }
+}
+
+/* The window that says how the last full GS_PEER_QUIET s went at time t,
+   NULL when none does (nothing came in it). */
+GS__PRIVATE const gs__diag_win *gs__diag_last(const gs__peer_diag *d, double t) {
+    double since = t - d->win_at;
+    if (d->win_at < 0.0) return NULL;
+    if (since >= 2.0 * GS_PEER_QUIET) return NULL;
+    return since >= GS_PEER_QUIET ? &d->win[0] : &d->win[1];
+}
+
+GS__PRIVATE int gs__world_ghosts(const gs_world *w) {
+    int i, n = 0;
+    for (i = 0; i < w->agent_count; ++i) n += w->agents[i]->ghost != NULL;
+    return n;
+}
+
+/* The first health that holds (see gs_peer_health) and its text. */
+GS__PRIVATE gs_peer_health gs__peer_judge(const gs_net *net, int p, char *buf, size_t cap) {
+    const gs__peer_diag *d = &net->peers[p].diag;
+    const gs_world *w = net->world;
+    double t = net->clock_max, since_world = net->unsent_world;
+    double added = d->added_at >= 0.0 ? fmax(0.0, t - d->added_at) : 0.0;
+    double unsent = d->sent_at >= 0.0 ? fmax(0.0, t - d->sent_at) : added;
+    double unheard = d->taken_at >= 0.0 ? fmax(0.0, t - d->taken_at) : added;
+    const gs__diag_win *win = gs__diag_last(d, t);
+    char more[160];
+    if (since_world >= GS_PEER_QUIET) {
+        snprintf(buf, cap, "nothing sent: gs_net_update has not run for %.1f s of world time "
+                 "(%s; call it each frame after gs_world_advance, or gs_udp_poll in poll mode)",
+                 since_world, net->updated ? "since its last call" : "never called");
+        return GS_PEER_NO_UPDATE;
+    }
+    if (net->clock_backwards && (net->clock_behind ||
+                                 net->clock_max - net->clock_back_from < GS_PEER_QUIET)) {
+        snprintf(buf, cap, "the clock went back %.3f s (from %.3f s to %.3f s; %lu time%s so "
+                 "far): gs_net_update, gs_net_deliver and gs_udp_poll need one clock that only "
+                 "moves forward (gs_udp receives at gs_udp_now())",
+                 net->clock_back_from - net->clock_back_to, net->clock_back_from,
+                 net->clock_back_to, (unsigned long)net->clock_backwards,
+                 net->clock_backwards == 1 ? "" : "s");
+        return GS_PEER_CLOCK_BACK;
+    }
+    if (t - net->update_now >= GS_PEER_QUIET) {
+        snprintf(buf, cap, "nothing sent: gs_net_update has not run for %.1f s (%s; "
+                 "gs_net_deliver has; call it each frame, or gs_udp_poll in poll mode)",
+                 t - net->update_now, net->updated ? "since its last call" : "never called");
+        return GS_PEER_NO_UPDATE;
+    }
+    if (net->updated && unsent >= GS_PEER_QUIET) {
+        int ghosts = gs__world_ghosts(w);
+        if (ghosts == 0)
+            snprintf(buf, cap, "nothing sent to this peer for %.1f s: this world has no ghosts "
+                     "(gs_ghost_attach or gs_scene_attach_ghosts), so it has nothing to send",
+                     unsent);
+        else
+            snprintf(buf, cap, "nothing sent to this peer for %.1f s, though gs_net_update runs "
+                     "and %d ghosts are attached (a bandwidth below one datagram?)", unsent,
+                     ghosts);
+        return GS_PEER_NOT_SENDING;
+    }
+    if (win && win->refused > 0 && win->taken == 0) {
+        gs__detail_text(&win->detail, more, sizeof more);
+        snprintf(buf, cap, "all %lu datagrams from this peer in the last %g s refused%s: %s "
+                 "(%s)%s", (unsigned long)win->refused, GS_PEER_QUIET,
+                 win->reasons > 1 ? ", for more than one reason, the first" : "",
+                 gs__reject_name(win->reason), gs_reject_str(win->reason), more);
+        return GS_PEER_REFUSED;
+    }
+    if (unheard >= GS_PEER_QUIET) {
+        if (d->taken_at < 0.0)
+            snprintf(buf, cap, "nothing received from this peer in the %.1f s since it was "
+                     "added: does it run and call gs_net_update (or gs_udp_poll), has it added "
+                     "this host (%lu) as a peer, and does the link reach it?", unheard,
+                     (unsigned long)w->host_id);
+        else
+            snprintf(buf, cap, "nothing received from this peer for %.1f s: it stopped, or "
+                     "stopped updating, or the link is down", unheard);
+        return GS_PEER_SILENT;
+    }
+    if (win && win->mismatched > 0) {
+        gs__detail_text(&win->detail, more, sizeof more);
+        snprintf(buf, cap, "%lu of the %lu datagrams from this peer in the last %g s refused "
+                 "as %s%s", (unsigned long)win->mismatched,
+                 (unsigned long)(win->taken + win->refused), GS_PEER_QUIET,
+                 gs__reject_name(win->reason), more);
+        return GS_PEER_PARTLY_REFUSED;
+    }
+    if (d->taken_at < 0.0) {
+        snprintf(buf, cap, "added %.1f s ago; nothing received from it yet", added);
+        return GS_PEER_WAITING;
+    }
+    buf[0] = '\0';
+    return GS_PEER_OK;
+}
+
 GS_API gs_net_desc gs_net_desc_default(void) {
     gs_net_desc d;
     memset(&d, 0, sizeof d);
@@ -10153,6 +10602,8 @@ GS_API gs_result gs_net_create(gs_world *w, const gs_net_desc *desc,
     net->world = w;
     net->d = d;
     net->d.key = NULL; /* the copy below is the net's; the caller's may go */
+    net->clock_max = -1.0;
+    net->update_now = -1.0;
     net->run = gs__net_run(net);
     if (d.key) gs__net_keep_key(net, d.key);
     if (gs__net_order_room(net) != GS_OK) {
@@ -10273,6 +10724,8 @@ GS_API gs_result gs_net_add_peer(gs_net *net, uint32_t host) {
     net->peers[p].used = 1;
     net->peers[p].host = host;
     net->peers[p].tokens = -1.0; /* filled on first use */
+    gs__diag_added(&net->peers[p].diag);
+    net->peer_added = 1;
     gs__unlock(net);
     return GS_OK;
 }
@@ -10304,6 +10757,14 @@ GS_API gs_result gs_net_peer_stats(const gs_net *net, uint32_t host,
         const gs__ghost *g = gs__ghost_of(net->world->agents[i]);
         out->objects_resting += g && g->gp[p].resting;
     }
+    out->health = gs__peer_judge(net, p, out->reason, sizeof out->reason);
+    {
+        const gs__diag_win *win = gs__diag_last(&net->peers[p].diag, net->clock_max);
+        int told = out->health == GS_PEER_REFUSED || out->health == GS_PEER_PARTLY_REFUSED;
+        out->refused_reason = told && win ? win->reason : GS_REJECT_COUNT;
+    }
+    out->clock_backwards = net->clock_backwards;
+    out->clock_back_max = net->clock_back_max;
     gs__unlock((gs_net *)net);
     return GS_OK;
 }
@@ -10317,6 +10778,54 @@ GS_API gs_result gs_net_unknown_stats(const gs_net *net, gs_unknown_stats *out) 
     out->rejected_total = 0;
     for (i = 0; i < GS_REJECT_COUNT; ++i) out->rejected_total += out->rejected[i];
     return GS_OK;
+}
+
+/* Appends a line to the world's diagnosis (cut where it is full). */
+GS__PRIVATE GS__PRINTF(2, 3) void gs__diag_line(gs_world *w, const char *fmt, ...) {
+    size_t used = strlen(w->diag);
+    va_list ap;
+    if (used + 2 >= sizeof w->diag) return;
+    if (used) w->diag[used++] = '\n';
+    va_start(ap, fmt);
+    vsnprintf(w->diag + used, sizeof w->diag - used, fmt, ap);
+    va_end(ap);
+}
+
+GS_API const char *gs_world_diagnose(gs_world *w) {
+    gs_net *net;
+    int ghosts, peers = 0, p;
+    if (!w) return "";
+    w->diag[0] = '\0';
+    net = w->net;
+    ghosts = gs__world_ghosts(w);
+    if (!net) {
+        if (ghosts)
+            gs__diag_line(w, "%d ghost%s and no net: nothing is sent or received "
+                          "(gs_net_create, gs_simnet_join or gs_udp_open)", ghosts,
+                          ghosts == 1 ? "" : "s");
+        return w->diag;
+    }
+    gs__lock(net);
+    for (p = 0; p < GS__MAX_PEERS; ++p) peers += net->peers[p].used;
+    gs__unlock(net);
+    if (!peers)
+        gs__diag_line(w, "a net and no peers: nothing is sent (gs_net_add_peer, gs_udp_add_peer, "
+                      "or gs_simnet_join the other worlds)");
+    if (!ghosts)
+        gs__diag_line(w, "a net and no ghosts: nothing is sent, and every snapshot is refused "
+                      "(GS_REJECT_OBJECT) (gs_ghost_attach or gs_scene_attach_ghosts)");
+    for (p = 0; p < GS__MAX_PEERS; ++p) {
+        gs_peer_stats st;
+        uint32_t host;
+        gs__lock(net);
+        host = net->peers[p].used ? net->peers[p].host : 0;
+        gs__unlock(net);
+        if (!host || gs_net_peer_stats(net, host, &st) != GS_OK) continue;
+        if (st.health != GS_PEER_OK && st.health != GS_PEER_WAITING)
+            gs__diag_line(w, "peer %lu: %s: %s", (unsigned long)host, gs_peer_health_str(st.health),
+                          st.reason);
+    }
+    return w->diag;
 }
 
 /* ---- sending ---- */
@@ -10405,6 +10914,7 @@ GS__PRIVATE void gs__datagram_flush(gs_net *net, double now, size_t *size) {
         }
         pe->send_seq++;
         pe->st.datagrams_sent++;
+        pe->diag.sent_at = now;
         pe->st.bytes_sent += n;
     }
     gs__datagram_begin(net, now, size);
@@ -10613,6 +11123,10 @@ GS_API gs_result gs_net_update(gs_net *net, double now) {
     net->inside++;
     net->now = now;
     net->send_error = GS_OK;
+    gs__diag_clock(net, now);
+    net->updated = 1;
+    net->update_now = now;
+    net->unsent_world = 0.0;
     for (p = 0; p < GS__MAX_PEERS; ++p) peers += net->peers[p].used;
     if (peers) gs__datagram_begin(net, now, &size);
     for (i = 0; i < w->agent_count && n < net->order_cap; ++i) {
@@ -10738,7 +11252,11 @@ GS__PRIVATE int gs__chunks_fit(gs_net *net, const gs_wire_view *v, double now,
         ghosts[i] = i > 0 && c->object_id == v->chunks[i - 1].object_id
                         ? ghosts[i - 1] : gs__ghost_find(net->world, c->object_id);
         g = ghosts[i];
-        if (!g) { *why = GS_REJECT_OBJECT; return 0; }
+        if (!g) {
+            gs__mismatch_note(net, GS__MISMATCH_OBJECT, c->object_id, 0, 0, 0);
+            *why = GS_REJECT_OBJECT;
+            return 0;
+        }
         if (c->flags & GS_WIRE_CHUNK_REST) { /* a heartbeat: no values */
             if (c->count != g->nchunks || c->encoding != g->d.encoding) {
                 *why = GS_REJECT_RANGE;
@@ -10753,6 +11271,7 @@ GS__PRIVATE int gs__chunks_fit(gs_net *net, const gs_wire_view *v, double now,
            would leave part of its range unfilled but marked received */
         if (c->count != g->nchunks || c->encoding != g->d.encoding ||
             c->first != first || c->elements != want) {
+            gs__range_note(net, g, c);
             *why = GS_REJECT_RANGE;
             return 0;
         }
@@ -10955,7 +11474,13 @@ GS__PRIVATE void gs__replay_mark(gs__replay *rp, uint64_t epoch, uint64_t salt, 
 /* The session, then the sender: from here on a refusal is the peer's. */
 GS__PRIVATE int gs__receive_sender(gs_net *net, uint32_t session, uint32_t sender, int *p,
                                    gs_reject *why) {
-    if (session != net->d.session) { *why = GS_REJECT_SESSION; return 0; }
+    if (session != net->d.session) {
+        net->detail.what = GS__MISMATCH_SESSION;
+        net->detail.here = (long)net->d.session;
+        net->detail.there = (long)session;
+        *why = GS_REJECT_SESSION;
+        return 0;
+    }
     if ((*p = gs__peer_slot(net, sender)) < 0) { *why = GS_REJECT_SENDER; return 0; }
     return 1;
 }
@@ -11016,6 +11541,8 @@ GS__PRIVATE gs_result gs__deliver_locked(gs_net *net, const void *data, size_t s
     gs_reject r = GS_REJECT_SHORT;
     gs_result res = GS_OK;
     int p = -1, i, order;
+    net->detail.what = GS__MISMATCH_NONE;
+    gs__diag_clock(net, now);
     if (!gs__receive(net, (const unsigned char *)data, size, &p, &r)) {
         res = gs__reject(net, p, r, why);
     } else if (!gs__chunks_fit(net, v, now, ghosts, &r)) {
@@ -11037,7 +11564,9 @@ GS__PRIVATE gs_result gs__deliver_locked(gs_net *net, const void *data, size_t s
         pe->st.last_heard = now;
         for (i = 0; i < v->chunk_count; ++i) gs__queue_chunk(net, ghosts[i], p, &v->chunks[i], age);
         gs__sync_heard(net, p, v, now);
+        gs__diag_taken(&pe->diag, now);
     }
+    if (res == GS_ERR_REJECTED) gs__diag_refused(net, p, r, (const unsigned char *)data, size, now);
     return res;
 }
 
@@ -11057,8 +11586,11 @@ GS_API gs_result gs_net_deliver(gs_net *net, const void *data, size_t size,
 
 /* A refusal decided by the transport (the UDP allow-list): counted on the
    peer named `host`, or among the unknown ones. Call under the net lock. */
-GS__PRIVATE void gs__net_refuse(gs_net *net, uint32_t host, gs_reject r) {
-    gs__reject(net, gs__peer_slot(net, host), r, NULL);
+GS__PRIVATE void gs__net_refuse(gs_net *net, uint32_t host, gs_reject r, double now) {
+    int p = gs__peer_slot(net, host);
+    gs__reject(net, p, r, NULL);
+    net->detail.what = GS__MISMATCH_NONE;
+    if (p >= 0) gs__diag_refused(net, p, r, NULL, 0, now);
 }
 
 /* ========================================================================
@@ -11096,7 +11628,20 @@ struct gs_simnet {
     int count, cap;
     uint64_t order, dropped, duplicated, delivered;
     int running;        /* inside gs_simnet_run: its hosts are in use */
+    char error[256];    /* gs_simnet_error */
 };
+
+/* Records a failure on the simnet and returns its code. */
+GS__PRIVATE GS__PRINTF(3, 4) gs_result gs__sim_fail(gs_simnet *s, gs_result r,
+                                                    const char *fmt, ...) {
+    va_list ap;
+    va_start(ap, fmt);
+    vsnprintf(s->error, sizeof s->error, fmt, ap);
+    va_end(ap);
+    return r;
+}
+
+GS_API const char *gs_simnet_error(const gs_simnet *s) { return s ? s->error : ""; }
 
 /* xorshift64*: one stream for the whole simnet, so a seed fixes the run. */
 GS__PRIVATE double gs__sim_rand(gs_simnet *s) {
@@ -11255,15 +11800,27 @@ GS__PRIVATE gs_result gs__sim_send(void *user, uint32_t host, const void *data, 
 
 GS__PRIVATE double gs__sim_clock_fn(void *user);
 
+GS__PRIVATE gs_result gs__sim_join(gs_simnet *s, gs_world *w, const gs_net_desc *desc,
+                                   gs_net **out);
 GS_API gs_result gs_simnet_join(gs_simnet *s, gs_world *w, const gs_net_desc *desc,
                                 gs_net **out) {
+    gs_result r;
+    if (!s) return GS_ERR_INVALID_ARG;
+    if (!w || !out) return gs__sim_fail(s, GS_ERR_INVALID_ARG, "gs_simnet_join: w and out "
+                                        "are required");
+    *out = NULL;
+    r = gs__sim_join(s, w, desc, out);
+    if (r != GS_OK) gs__sim_fail(s, r, "%s", gs_world_error(w));
+    return r;
+}
+
+GS__PRIVATE gs_result gs__sim_join(gs_simnet *s, gs_world *w, const gs_net_desc *desc,
+                                   gs_net **out) {
     gs_net_desc d;
     gs__sim_host *h;
     gs_result r;
     uint32_t had = 0;
     int i, k;
-    if (!s || !w || !out) return GS_ERR_INVALID_ARG;
-    *out = NULL;
     if (s->running)
         return gs__fail(w, GS_ERR_BUSY, "gs_simnet_join: the simnet is running");
     if (s->hosts == GS__SIM_MAX_HOSTS || gs__sim_slot(s, w->host_id) >= 0)
@@ -11315,19 +11872,30 @@ GS_API gs_result gs_simnet_join(gs_simnet *s, gs_world *w, const gs_net_desc *de
 GS_API gs_result gs_simnet_link(gs_simnet *s, uint32_t a, uint32_t b,
                                 const gs_link_desc *desc) {
     int i, j, k;
-    if (!s || !desc) return GS_ERR_INVALID_ARG;
-    if (s->running) return GS_ERR_BUSY;
+    if (!s) return GS_ERR_INVALID_ARG;
+    if (!desc) return gs__sim_fail(s, GS_ERR_INVALID_ARG, "gs_simnet_link: desc is NULL");
+    if (s->running)
+        return gs__sim_fail(s, GS_ERR_BUSY, "gs_simnet_link: the simnet is running");
     i = gs__sim_slot(s, a);
     j = gs__sim_slot(s, b);
-    if (i < 0 || j < 0) return GS_ERR_INVALID_ARG;
+    if (i < 0 || j < 0)
+        return gs__sim_fail(s, GS_ERR_INVALID_ARG, "gs_simnet_link: host %lu has not joined "
+                            "this simnet (gs_simnet_join its world first; a link names two "
+                            "joined hosts)", (unsigned long)(i < 0 ? a : b));
     if (!(desc->latency >= 0.0) || !(desc->jitter >= 0.0) || !(desc->loss >= 0.0) ||
         !(desc->loss <= 1.0) || !(desc->duplicate >= 0.0) || !(desc->duplicate <= 1.0) ||
         !(desc->reorder >= 0.0) || !(desc->reorder <= 1.0) || !(desc->bandwidth >= 0.0) ||
         !gs__finite(desc->latency + desc->jitter + desc->bandwidth))
-        return GS_ERR_INVALID_ARG;
+        return gs__sim_fail(s, GS_ERR_INVALID_ARG, "gs_simnet_link %lu -> %lu: latency %g, "
+                            "jitter %g and bandwidth %g must be finite and >= 0; loss %g, "
+                            "duplicate %g and reorder %g in [0, 1]", (unsigned long)a,
+                            (unsigned long)b, desc->latency, desc->jitter, desc->bandwidth,
+                            desc->loss, desc->duplicate, desc->reorder);
     for (k = 0; k < GS_MAX_OUTAGES; ++k)
         if (!gs__finite(desc->outage_start[k]) || !gs__finite(desc->outage_end[k]))
-            return GS_ERR_NOT_FINITE;
+            return gs__sim_fail(s, GS_ERR_NOT_FINITE, "gs_simnet_link %lu -> %lu: outage %d "
+                                "is [%g, %g), must be finite", (unsigned long)a,
+                                (unsigned long)b, k, desc->outage_start[k], desc->outage_end[k]);
     s->link[i][j] = *desc;
     return GS_OK;
 }
@@ -11346,15 +11914,21 @@ GS__PRIVATE double gs__sim_clock_fn(void *user) {
 GS_API gs_result gs_simnet_set_clock(gs_simnet *s, uint32_t host, const gs_sim_clock *clock) {
     gs_sim_clock c;
     int i;
-    if (!s || !clock) return GS_ERR_INVALID_ARG;
+    if (!s) return GS_ERR_INVALID_ARG;
+    if (!clock) return gs__sim_fail(s, GS_ERR_INVALID_ARG, "gs_simnet_set_clock: clock is NULL");
     i = gs__sim_slot(s, host);
-    if (i < 0) return GS_ERR_INVALID_ARG;
+    if (i < 0)
+        return gs__sim_fail(s, GS_ERR_INVALID_ARG, "gs_simnet_set_clock: host %lu has not "
+                            "joined this simnet", (unsigned long)host);
     c = *clock;
     if (c.rate == 0.0) c.rate = 1.0;
     if (!gs__finite(c.offset) || !gs__finite(c.rate) || !gs__finite(c.step_at) ||
         !gs__finite(c.step_by))
-        return GS_ERR_NOT_FINITE;
-    if (c.rate < 0.0) return GS_ERR_INVALID_ARG;
+        return gs__sim_fail(s, GS_ERR_NOT_FINITE, "gs_simnet_set_clock: a field is NaN or "
+                            "infinite");
+    if (c.rate < 0.0)
+        return gs__sim_fail(s, GS_ERR_INVALID_ARG, "gs_simnet_set_clock: rate %g, must be > 0",
+                            c.rate);
     s->host[i].clock = c;
     return GS_OK;
 }
@@ -11374,10 +11948,14 @@ GS_API gs_result gs_simnet_run(gs_simnet *s, double seconds, double frame) {
     gs_result first = GS_OK;
     int i;
     /* a frame under GS_MIN_DT could leave now + frame == now (no progress) */
-    if (!s || !gs__finite(seconds) || seconds < 0.0 || !gs__finite(frame) ||
+    if (!s) return GS_ERR_INVALID_ARG;
+    if (!gs__finite(seconds) || seconds < 0.0 || !gs__finite(frame) ||
         !(frame >= GS_MIN_DT) || seconds > GS_WIRE_MAX_TIME - s->now)
-        return GS_ERR_INVALID_ARG;
-    if (s->running) return GS_ERR_BUSY; /* from a callback of one of its worlds */
+        return gs__sim_fail(s, GS_ERR_INVALID_ARG, "gs_simnet_run: seconds %g must be finite, "
+                            ">= 0 and end by GS_WIRE_MAX_TIME, frame %g finite and >= "
+                            "GS_MIN_DT", seconds, frame);
+    if (s->running) /* from a callback of one of its worlds */
+        return gs__sim_fail(s, GS_ERR_BUSY, "gs_simnet_run: called from inside its own run");
     s->running = 1;
     for (i = 0; i < s->hosts; ++i) s->host[i].net->held = 1;
     end = s->now + seconds;
@@ -11385,7 +11963,12 @@ GS_API gs_result gs_simnet_run(gs_simnet *s, double seconds, double frame) {
         s->now += frame;
         for (i = 0; i < s->hosts; ++i) {
             gs_result r = gs_world_advance(s->host[i].world, frame, NULL);
-            if (r != GS_OK && first == GS_OK) first = r;
+            if (r != GS_OK && first == GS_OK) {
+                first = r;
+                gs__sim_fail(s, r, "gs_simnet_run: host %lu at %.6g s: %s",
+                             (unsigned long)s->host[i].host, s->now,
+                             gs_world_error(s->host[i].world));
+            }
             gs_net_update(s->host[i].net, gs__sim_host_now(&s->host[i]));
         }
         gs__sim_deliver_due(s);
@@ -11638,7 +12221,7 @@ GS__PRIVATE int gs__udp_from_ok(gs_udp *u, size_t n, const struct sockaddr_stora
             ok = gs__udp_same_addr(&u->peers[p].addr, from);
         }
     if (!found) ok = gs__peer_slot(u->net, host) < 0;
-    if (!ok) gs__net_refuse(u->net, host, GS_REJECT_ADDRESS);
+    if (!ok) gs__net_refuse(u->net, host, GS_REJECT_ADDRESS, gs_udp_now());
     return ok;
 }
 
