@@ -24,9 +24,8 @@
        gs_net *net[2];
        gs_scene sc[2];
        gs_scene_desc sd = gs_scene_desc_default(); // a cloth, 3 spheres
-       gs_ghost_desc gd = gs_ghost_desc_default();
+       gs_ghost_desc gd = gs_ghost_desc_default(); // client/server rule
        sd.probe_count = 2;                      // one probe per host
-       gd.weight = gs_weight_cs;                // one authority: the leader
        if (gs_simnet_create(NULL, &sim) != GS_OK) return 1;
        for (int h = 0; h < 2; ++h) {            // every host builds the same
            gs_world_desc wd = gs_world_desc_default();
@@ -68,7 +67,6 @@
        gs_scene_desc sd = gs_scene_desc_default();
        gs_ghost_desc gd = gs_ghost_desc_default();
        sd.probe_count = 2;
-       gd.weight = gs_weight_cs;
        for (int h = 0; h < 2; ++h) {
            gs_world_desc wd = gs_world_desc_default();
            gs_udp_desc ud = gs_udp_desc_default(); // poll mode
