@@ -3065,6 +3065,13 @@ typedef struct gs__run {
     int s0, a0, off, len; /* springs s0.., particles a0.. and a0 + off.. */
 } gs__run;
 
+/* One block of the XPBD pass: four springs, or one (GS__XB_ONE), whose
+   ends lie in the transposed copy as `kind` says (gs__xblk_lane). */
+enum { GS__XB_SPAN, GS__XB_PAIRS, GS__XB_DUOS, GS__XB_ONE };
+struct gs__xblk {
+    int kind, a, b, s; /* first end a, first end b, first k/c/rest in xsp */
+};
+
 typedef struct gs__mesh {
     gs_agent base;
     int n, ns, npins;
@@ -3088,6 +3095,13 @@ typedef struct gs__mesh {
     int checked;      /* the integrator ran gs__mesh_sane's checks itself */
     int check_ok;     /* and their outcome (lo, hi already set if 1) */
     double *soa, *sp_soa;
+    /* XPBD on a mesh with runs: the pass goes block by block over a
+       transposed copy (soa: x y z, then the substep's start x y z), each
+       block four springs that share no particle, their k, c, rest in xsp
+       in block order (see gs__xpbd_schedule). */
+    struct gs__xblk *xblk;
+    int nxblk;
+    double *xsp;
     int nbatch;
     int batch[GS__MESH_BATCHES + 1]; /* first spring of each batch, then ns */
     uint64_t *colours; /* per particle, the colours of its springs (build) */
@@ -3155,6 +3169,12 @@ GS__PRIVATE void gs__mesh_layout(gs__mesh *m, gs__carver *cv) {
     m->acc = (gs_vec3 *)gs__carve(cv, v3);
     m->sf = (double *)gs__carve(cv, (size_t)m->ns * 3 * sizeof(double));
     m->colours = (uint64_t *)gs__carve(cv, n * sizeof(uint64_t));
+    if (it == GS_INTEGRATOR_XPBD) {
+        m->runs = (gs__run *)gs__carve(cv, (size_t)m->ns * sizeof(gs__run));
+        m->soa = (double *)gs__carve(cv, 6 * gs__soa_stride(n) * sizeof(double));
+        m->xblk = (struct gs__xblk *)gs__carve(cv, gs__mul_sat((size_t)m->ns, sizeof(struct gs__xblk)));
+        m->xsp = (double *)gs__carve(cv, gs__mul_sat(gs__soa_stride((size_t)m->ns), 3 * sizeof(double)));
+    }
     if (it == GS_INTEGRATOR_SYMPLECTIC_EULER) {
         m->runs = (gs__run *)gs__carve(cv, (size_t)m->ns * sizeof(gs__run));
         m->soa = (double *)gs__carve(cv, 9 * gs__soa_stride(n) * sizeof(double));
@@ -3517,6 +3537,7 @@ GS__PRIVATE void gs__mesh_find_runs(gs__mesh *m) {
 #ifdef GS__MESH_AVX
     m->avx = __builtin_cpu_supports("avx") ? 1 : 0;
 #endif
+    if (!m->sp_soa) return;
     for (i = 0; i < m->ns; ++i) {
         m->sp_soa[i] = m->springs[i].k;
         m->sp_soa[ns + (size_t)i] = m->springs[i].c;
@@ -3810,6 +3831,224 @@ GS__PRIVATE void gs__xpbd_pass(gs__mesh *m, double h) {
     }
 }
 
+/* ---- XPBD over runs (see gs__mesh.xblk) ----
+   The pass takes the springs in creation order, run by run, which is as
+   good a Gauss-Seidel order as the colours' and keeps both ends of a block
+   contiguous in memory. A run of offset `off` (spring j joins a0 + j and
+   a0 + j + off) shares no particle among any `off` springs in a row, so it
+   goes in segments of `off` springs, four at a time (GS__XB_SPAN). Runs of
+   offset 1 and 2 (a row's neighbours and bend springs) would be serial:
+   they go even springs then odd ones (GS__XB_PAIRS: ends a + 2q and a +
+   2q + 1 for q = 0..3), and pairs of pairs (GS__XB_DUOS: ends a, a + 1, a
+   + 4, a + 5 and two further), so a block still shares nothing. Every lane
+   does gs__xpbd_spring's operations in its order, so the AVX and scalar
+   kernels give the same bits. */
+
+/* Where lane q of a block has its ends, from the block's first ones. */
+GS__PRIVATE void gs__xblk_lane(const struct gs__xblk *k, int q, int *a, int *b) {
+    static const int pairs[4] = {0, 4, 2, 6}, duos[4] = {0, 1, 4, 5};
+    switch (k->kind) {
+    case GS__XB_PAIRS: *a = k->a + pairs[q]; *b = *a + 1; break;
+    case GS__XB_DUOS: *a = k->a + duos[q]; *b = *a + 2; break;
+    default: *a = k->a + q; *b = k->b + q; break;
+    }
+}
+
+/* Appends a block whose lanes are springs s[0..3] (one for GS__XB_ONE). */
+GS__PRIVATE void gs__xpbd_block(gs__mesh *m, int kind, int a, int b, const int *s) {
+    size_t ns = gs__soa_stride((size_t)m->ns);
+    struct gs__xblk *k = &m->xblk[m->nxblk++];
+    int q, lanes = kind == GS__XB_ONE ? 1 : 4, at = k == m->xblk ? 0 : k[-1].s +
+                                              (k[-1].kind == GS__XB_ONE ? 1 : 4);
+    k->kind = kind; k->a = a; k->b = b; k->s = at;
+    for (q = 0; q < lanes; ++q) {
+        const gs__spring *sp = &m->springs[s[q]];
+        m->xsp[at + q] = sp->k;
+        m->xsp[ns + (size_t)(at + q)] = sp->c;
+        m->xsp[2 * ns + (size_t)(at + q)] = sp->rest;
+    }
+}
+
+/* Springs s0 + j, j = j0, j0 + step.., of run u: in fours with ends
+   contiguous (SPAN, step 1), then the rest one by one. */
+GS__PRIVATE void gs__xpbd_span(gs__mesh *m, const gs__run *u, int j0, int j1) {
+    int j = j0, s[4], q;
+    for (; j + 3 < j1; j += 4) {
+        for (q = 0; q < 4; ++q) s[q] = u->s0 + j + q;
+        gs__xpbd_block(m, GS__XB_SPAN, u->a0 + j, u->a0 + u->off + j, s);
+    }
+    for (; j < j1; ++j) {
+        s[0] = u->s0 + j;
+        gs__xpbd_block(m, GS__XB_ONE, u->a0 + j, u->a0 + u->off + j, s);
+    }
+}
+
+/* Offset 1 or 2: the springs of one parity class (cls = 0, 1) of run u. */
+GS__PRIVATE void gs__xpbd_parity(gs__mesh *m, const gs__run *u, int cls) {
+    int off = u->off, per = 2 * off, last = off == 1 ? 6 : 5, j, q, s[4], a, b;
+    for (j = cls * off; j + last < u->len; j += 8) { /* eight particles a block */
+        struct gs__xblk probe;
+        probe.kind = off == 1 ? GS__XB_PAIRS : GS__XB_DUOS;
+        probe.a = u->a0 + j;
+        for (q = 0; q < 4; ++q) {
+            gs__xblk_lane(&probe, q, &a, &b);
+            s[q] = u->s0 + (a - u->a0);
+        }
+        gs__xpbd_block(m, probe.kind, probe.a, 0, s);
+    }
+    for (; j < u->len; j += per)
+        for (q = 0; q < off && j + q < u->len; ++q) {
+            s[0] = u->s0 + j + q;
+            gs__xpbd_block(m, GS__XB_ONE, u->a0 + j + q, u->a0 + j + q + off, s);
+        }
+}
+
+/* The blocks, from the runs (gs__mesh_find_runs). */
+GS__PRIVATE void gs__xpbd_schedule(gs__mesh *m) {
+    int r, j;
+    m->nxblk = 0;
+    for (r = 0; r < m->nruns; ++r) {
+        const gs__run *u = &m->runs[r];
+        if (u->off == 1 || u->off == 2) {
+            gs__xpbd_parity(m, u, 0);
+            gs__xpbd_parity(m, u, 1);
+        } else if (u->off >= 4) {
+            for (j = 0; j < u->len; j += u->off)
+                gs__xpbd_span(m, u, j, j + u->off < u->len ? j + u->off : u->len);
+        } else {
+            for (j = 0; j < u->len; ++j) gs__xpbd_span(m, u, j, j + 1);
+        }
+    }
+}
+
+/* One spring of the transposed copy (X = the substep's positions so far,
+   P = its start, stride st), as gs__xpbd_spring does it. */
+GS__PRIVATE void gs__xpbd_one(double *X, const double *P, size_t st, const double *im,
+                              const double *sp, size_t ns, int a, int b, double h) {
+    double *Y = X + st, *Z = Y + st;
+    const double *PY = P + st, *PZ = PY + st;
+    double dx = X[b] - X[a], dy = Y[b] - Y[a], dz = Z[b] - Z[a];
+    double l2 = dx * dx + dy * dy + dz * dz, l = sqrt(l2);
+    double kh = sp[0] * h * h, ch = sp[ns] * h, wa = im[a], wb = im[b];
+    double mx = (X[b] - P[b]) - (X[a] - P[a]), my = (Y[b] - PY[b]) - (Y[a] - PY[a]),
+           mz = (Z[b] - PZ[b]) - (Z[a] - PZ[a]);
+    double num = kh * (l2 - sp[2 * ns] * l) + ch * (dx * mx + dy * my + dz * mz);
+    double den = l2 * ((kh + ch) * (wa + wb) + 1.0);
+    double s = den > 0.0 ? (0.0 - num) / den : 0.0, sa = wa * s, sb = wb * s;
+    X[a] -= sa * dx; Y[a] -= sa * dy; Z[a] -= sa * dz;
+    X[b] += sb * dx; Y[b] += sb * dy; Z[b] += sb * dz;
+}
+
+#ifdef GS__MESH_AVX
+/* A block's lanes of array p, and back (gs__xblk_lane's layouts). */
+__attribute__((target("avx"))) GS__PRIVATE void gs__xld4(const double *p, int kind, int a,
+                                                         int b, __m256d *va, __m256d *vb) {
+    __m256d v0, v1;
+    if (kind == GS__XB_SPAN) {
+        *va = _mm256_loadu_pd(p + a);
+        *vb = _mm256_loadu_pd(p + b);
+        return;
+    }
+    v0 = _mm256_loadu_pd(p + a);
+    v1 = _mm256_loadu_pd(p + a + 4);
+    if (kind == GS__XB_PAIRS) {
+        *va = _mm256_unpacklo_pd(v0, v1);
+        *vb = _mm256_unpackhi_pd(v0, v1);
+    } else {
+        *va = _mm256_permute2f128_pd(v0, v1, 0x20);
+        *vb = _mm256_permute2f128_pd(v0, v1, 0x31);
+    }
+}
+
+__attribute__((target("avx"))) GS__PRIVATE void gs__xst4(double *p, int kind, int a, int b,
+                                                         __m256d va, __m256d vb) {
+    if (kind == GS__XB_SPAN) {
+        _mm256_storeu_pd(p + a, va);
+        _mm256_storeu_pd(p + b, vb);
+    } else if (kind == GS__XB_PAIRS) {
+        _mm256_storeu_pd(p + a, _mm256_unpacklo_pd(va, vb));
+        _mm256_storeu_pd(p + a + 4, _mm256_unpackhi_pd(va, vb));
+    } else {
+        _mm256_storeu_pd(p + a, _mm256_permute2f128_pd(va, vb, 0x20));
+        _mm256_storeu_pd(p + a + 4, _mm256_permute2f128_pd(va, vb, 0x31));
+    }
+}
+
+/* gs__xpbd_one for the four lanes of block k. */
+__attribute__((target("avx"))) GS__PRIVATE void gs__xpbd_four(double *X, const double *P,
+                                                              size_t st, const double *im,
+                                                              const double *sp, size_t ns,
+                                                              const struct gs__xblk *k,
+                                                              double h) {
+    __m256d ax, ay, az, bx, by, bz, pax, pay, paz, pbx, pby, pbz, wa, wb;
+    __m256d dx, dy, dz, l2, l, kh, ch, num, den, s, sa, sb, hv = _mm256_set1_pd(h);
+    int kind = k->kind, a = k->a, b = k->b;
+    gs__xld4(X, kind, a, b, &ax, &bx);
+    gs__xld4(X + st, kind, a, b, &ay, &by);
+    gs__xld4(X + 2 * st, kind, a, b, &az, &bz);
+    gs__xld4(P, kind, a, b, &pax, &pbx);
+    gs__xld4(P + st, kind, a, b, &pay, &pby);
+    gs__xld4(P + 2 * st, kind, a, b, &paz, &pbz);
+    gs__xld4(im, kind, a, b, &wa, &wb);
+    dx = _mm256_sub_pd(bx, ax); dy = _mm256_sub_pd(by, ay); dz = _mm256_sub_pd(bz, az);
+    l2 = _mm256_add_pd(_mm256_add_pd(_mm256_mul_pd(dx, dx), _mm256_mul_pd(dy, dy)),
+                       _mm256_mul_pd(dz, dz));
+    l = _mm256_sqrt_pd(l2);
+    kh = _mm256_mul_pd(_mm256_mul_pd(_mm256_loadu_pd(sp + k->s), hv), hv);
+    ch = _mm256_mul_pd(_mm256_loadu_pd(sp + ns + k->s), hv);
+    num = _mm256_add_pd(
+        _mm256_mul_pd(kh, _mm256_sub_pd(l2, _mm256_mul_pd(_mm256_loadu_pd(sp + 2 * ns + k->s), l))),
+        _mm256_mul_pd(ch, _mm256_add_pd(
+            _mm256_add_pd(_mm256_mul_pd(dx, _mm256_sub_pd(_mm256_sub_pd(bx, pbx), _mm256_sub_pd(ax, pax))),
+                          _mm256_mul_pd(dy, _mm256_sub_pd(_mm256_sub_pd(by, pby), _mm256_sub_pd(ay, pay)))),
+            _mm256_mul_pd(dz, _mm256_sub_pd(_mm256_sub_pd(bz, pbz), _mm256_sub_pd(az, paz))))));
+    den = _mm256_mul_pd(l2, _mm256_add_pd(_mm256_mul_pd(_mm256_add_pd(kh, ch), _mm256_add_pd(wa, wb)),
+                                          _mm256_set1_pd(1.0)));
+    s = _mm256_and_pd(_mm256_cmp_pd(den, _mm256_setzero_pd(), _CMP_GT_OQ),
+                      _mm256_div_pd(_mm256_sub_pd(_mm256_setzero_pd(), num), den));
+    sa = _mm256_mul_pd(wa, s);
+    sb = _mm256_mul_pd(wb, s);
+    gs__xst4(X, kind, a, b, _mm256_sub_pd(ax, _mm256_mul_pd(sa, dx)), _mm256_add_pd(bx, _mm256_mul_pd(sb, dx)));
+    gs__xst4(X + st, kind, a, b, _mm256_sub_pd(ay, _mm256_mul_pd(sa, dy)), _mm256_add_pd(by, _mm256_mul_pd(sb, dy)));
+    gs__xst4(X + 2 * st, kind, a, b, _mm256_sub_pd(az, _mm256_mul_pd(sa, dz)), _mm256_add_pd(bz, _mm256_mul_pd(sb, dz)));
+}
+
+__attribute__((target("avx"))) GS__PRIVATE void gs__xpbd_blocks_avx(gs__mesh *m, double h) {
+    size_t st = gs__soa_stride((size_t)m->n), ns = gs__soa_stride((size_t)m->ns);
+    double *X = m->soa;
+    const double *P = X + 3 * st;
+    int i;
+    for (i = 0; i < m->nxblk; ++i) {
+        const struct gs__xblk *k = &m->xblk[i];
+        if (k->kind == GS__XB_ONE)
+            gs__xpbd_one(X, P, st, m->inv_mass, m->xsp + k->s, ns, k->a, k->b, h);
+        else
+            gs__xpbd_four(X, P, st, m->inv_mass, m->xsp, ns, k, h);
+    }
+}
+#endif
+
+/* The pass over the blocks, lane by lane where the CPU has no AVX. */
+GS__PRIVATE void gs__xpbd_blocks(gs__mesh *m, double h) {
+    size_t st = gs__soa_stride((size_t)m->n), ns = gs__soa_stride((size_t)m->ns);
+    double *X = m->soa;
+    const double *P = X + 3 * st;
+    int i, q, a, b;
+#ifdef GS__MESH_AVX
+    if (m->avx) {
+        gs__xpbd_blocks_avx(m, h);
+        return;
+    }
+#endif
+    for (i = 0; i < m->nxblk; ++i) {
+        const struct gs__xblk *k = &m->xblk[i];
+        for (q = 0; q < (k->kind == GS__XB_ONE ? 1 : 4); ++q) {
+            gs__xblk_lane(k, q, &a, &b);
+            gs__xpbd_one(X, P, st, m->inv_mass, m->xsp + k->s + q, ns, a, b, h);
+        }
+    }
+}
+
 /* Contacts as XPBD constraints: the deepest contact of each particle is a
    penalty spring of its stiffness and damping along the normal (C = -depth,
    compliance 1 / k), so contact is as stable at any substep as the springs
@@ -3831,11 +4070,55 @@ GS__PRIVATE void gs__xpbd_contacts(gs__mesh *m, double h) {
     }
 }
 
+/* gs__int_xpbd over the blocks: the prediction goes into the transposed
+   copy, the pass runs there, and the velocities come out with
+   gs__mesh_sane's checks and bounds in the same loop (pinned particles
+   neither move nor gain speed, as the substep's pin pass leaves them). */
+GS__PRIVATE void gs__int_xpbd_blocks(gs__mesh *m, double h) {
+    size_t n = (size_t)m->n, st = gs__soa_stride(n), i;
+    double *X = m->soa, *Y = X + st, *Z = Y + st, *PX = Z + st, *PY = PX + st, *PZ = PY + st;
+    const double *im = m->inv_mass;
+    gs_vec3 g = m->base.world->gravity;
+    double ih = 1.0 / h, vmax2 = m->solver.max_speed * m->solver.max_speed, sum = 0.0, w2 = 0.0;
+    double lx = HUGE_VAL, ly = HUGE_VAL, lz = HUGE_VAL, hx = -HUGE_VAL, hy = -HUGE_VAL, hz = -HUGE_VAL;
+    for (i = 0; i < n; ++i) {
+        gs_vec3 a = gs__madd(g, m->v[i], -m->air), v = im[i] > 0.0 ? gs__madd(m->v[i], a, h) : m->v[i];
+        if (m->ext_active) v = gs__madd(v, m->ext[i], im[i] * h);
+        v = gs__madd(m->x[i], v, h);
+        X[i] = v.x; Y[i] = v.y; Z[i] = v.z;
+        PX[i] = m->x[i].x; PY[i] = m->x[i].y; PZ[i] = m->x[i].z;
+    }
+    gs__xpbd_blocks(m, h);
+    for (i = 0; i < n; ++i) m->xn[i] = gs__v3(X[i], Y[i], Z[i]);
+    if (m->ext_active) gs__xpbd_contacts(m, h);
+    for (i = 0; i < n; ++i) {
+        gs_vec3 p = m->xn[i], v = gs__scale(gs__sub(p, m->x[i]), ih);
+        double s2 = v.x * v.x + v.y * v.y + v.z * v.z;
+        m->vn[i] = v;
+        w2 = s2 > w2 ? s2 : w2;
+        w2 = s2 == s2 ? w2 : s2; /* a NaN speed stays NaN */
+        sum += p.x + p.y + p.z;
+        lx = p.x < lx ? p.x : lx; ly = p.y < ly ? p.y : ly; lz = p.z < lz ? p.z : lz;
+        hx = p.x > hx ? p.x : hx; hy = p.y > hy ? p.y : hy; hz = p.z > hz ? p.z : hz;
+    }
+    m->checked = 1;
+    m->check_ok = w2 <= vmax2 && gs__finite(sum) && gs__in_range3(gs__v3(lx, ly, lz)) &&
+                  gs__in_range3(gs__v3(hx, hy, hz));
+    if (m->check_ok) {
+        m->lo = gs__v3(lx - m->radius, ly - m->radius, lz - m->radius);
+        m->hi = gs__v3(hx + m->radius, hy + m->radius, hz + m->radius);
+    }
+}
+
 GS__PRIVATE void gs__int_xpbd(gs__mesh *m, double h) {
     gs_vec3 g = m->base.world->gravity;
     const double *im = m->inv_mass;
     double ih = 1.0 / h;
     int i;
+    if (m->nxblk > 0) {
+        gs__int_xpbd_blocks(m, h);
+        return;
+    }
     for (i = 0; i < m->n; ++i) {
         gs_vec3 a = gs__madd(g, m->v[i], -m->air);
         m->vn[i] = im[i] > 0.0 ? gs__madd(m->v[i], a, h) : m->v[i];
@@ -4291,6 +4574,7 @@ GS__PRIVATE void gs__mesh_finish(gs__mesh *m, const int *pins, int npins) {
     }
     m->npins = k;
     gs__mesh_find_runs(m);
+    if (m->xblk && m->nruns > 0) gs__xpbd_schedule(m);
     if (m->nruns == 0) gs__mesh_batch(m);
     for (i = 0; i < m->n; ++i) {
         m->inv_mass[i] = m->pinned[i] ? 0.0 : 1.0 / m->mass[i];
