@@ -3040,6 +3040,9 @@ typedef struct gs__spring {
     double rest, k, c; /* m, N/m, N s/m */
 } gs__spring;
 
+/* Particles per box of the particle-vs-body broad phase: a sixteenth of
+   a 128 x 128 cloth's row, about the size of the scene's spheres. */
+#define GS__CHUNK 16
 #define GS__MESH_BATCHES 65 /* 64 conflict-free colours, then the rest */
 #if defined(__SSE2__) && !defined(GHOSTSIM_NO_SIMD)
 #define GS__MESH_SSE2 1
@@ -3124,6 +3127,8 @@ typedef struct gs__mesh {
     double *ck, *cc;  /* its stiffness (N/m) and damping (N s/m), 0 = none */
     double *cdepth;   /* XPBD: the deepest contact's depth (m) at x, */
     gs_vec3 *cvel;    /* and the velocity of what it touches (m/s) */
+    gs_vec3 *clo, *chi; /* m; boxes of GS__CHUNK particles each, of x
+                           where a body's box meets the mesh's (contacts) */
     int ext_active;   /* ext holds a non-zero force */
     int probe_touch;  /* in this step a probe that moves touched it: it
                          does not rest (gs__mesh_rest) */
@@ -3182,6 +3187,8 @@ GS__PRIVATE void gs__mesh_layout(gs__mesh *m, gs__carver *cv) {
     }
     m->perm = (int *)gs__carve(cv, (size_t)m->ns * sizeof(int));
     m->ext = (gs_vec3 *)gs__carve(cv, v3);
+    m->clo = (gs_vec3 *)gs__carve(cv, (n / GS__CHUNK + 1) * sizeof(gs_vec3));
+    m->chi = (gs_vec3 *)gs__carve(cv, (n / GS__CHUNK + 1) * sizeof(gs_vec3));
     m->mass = (double *)gs__carve(cv, n * sizeof(double));
     m->inv_mass = (double *)gs__carve(cv, n * sizeof(double));
     m->springs = (gs__spring *)gs__carve(cv, gs__mul_sat((size_t)m->ns, sizeof(gs__spring)));
@@ -4909,7 +4916,7 @@ GS__PRIVATE gs_result gs__cloth_in_range(gs_world *w, gs__mesh *m) {
 GS_API gs_result gs_cloth_create(gs_world *w, const gs_cloth_desc *desc,
                                  gs_agent **out) {
     gs_cloth_desc d;
-    gs__mesh *m;
+    gs__mesh *m = NULL; /* set by gs__mesh_new; gcc cannot tell when it inlines */
     int pins[4], npins = 0, corner;
     gs_result r = gs__create_begin(w, desc, out, "gs_cloth_create");
     if (r != GS_OK) return r;
@@ -6570,12 +6577,15 @@ GS__PRIVATE gs_vec3 gs__point_velocity(const gs__rigid *r, gs_vec3 p) {
    a fixed normal for coincident centres pushes them apart. */
 GS__PRIVATE int gs__particle_contact(gs_vec3 x, double rp, const gs__rigid *r,
                                      gs_vec3 centre, gs_contact *c) {
-    gs__body b = gs__body_of(r), pb;
+    gs__body b, pb;
     gs__shape ps;
-    b.p = centre;
+    /* the bounding test first: it rejects nearly every particle of a
+       cloth, and the body's description is not free to make */
     if (gs__dot(gs__sub(x, centre), gs__sub(x, centre)) >=
         (rp + r->shape.bound) * (rp + r->shape.bound))
         return 0;
+    b = gs__body_of(r);
+    b.p = centre;
     if (r->shape.type == GS_SHAPE_SPHERE)
         return gs__sphere_sphere(x, rp, centre, r->shape.radius, gs__v3(0.0, 1.0, 0.0), c);
     if (r->shape.type == GS_SHAPE_BOX) return gs__sphere_box(x, rp, &b, c);
@@ -6995,16 +7005,56 @@ GS__PRIVATE void gs__mesh_touch(gs__mesh *m, int i, const gs_contact *c,
    most 0.1 s ahead or behind): held still, a body that steps less often
    than the mesh would jump into particles that have already relaxed against
    it, and each jump would store penalty energy the particles then release. */
-GS__PRIVATE void gs__mesh_vs_rigid(gs__mesh *m, gs__rigid *r, double t) {
+/* The boxes of m's particles at x, GS__CHUNK at a time. */
+GS__PRIVATE void gs__mesh_chunks(gs__mesh *m) {
+    int i, k;
+    for (k = 0, i = 0; i < m->n; ++k) {
+        gs_vec3 lo = m->x[i], hi = m->x[i];
+        int end = i + GS__CHUNK < m->n ? i + GS__CHUNK : m->n;
+        for (++i; i < end; ++i) {
+            gs_vec3 p = m->x[i];
+            lo.x = p.x < lo.x ? p.x : lo.x; lo.y = p.y < lo.y ? p.y : lo.y;
+            lo.z = p.z < lo.z ? p.z : lo.z; hi.x = p.x > hi.x ? p.x : hi.x;
+            hi.y = p.y > hi.y ? p.y : hi.y; hi.z = p.z > hi.z ? p.z : hi.z;
+        }
+        m->clo[k] = lo;
+        m->chi[k] = hi;
+    }
+}
+
+/* How far from a body's centre a particle may be and still touch it:
+   gs__particle_contact's bound, rp + reach, and a margin over the
+   rounding of its squared distance, so that a box skipped by
+   gs__chunk_apart holds no particle that test would have let through
+   (the culled and the full loop give the same bits). */
+GS__PRIVATE double gs__chunk_reach(double rp, double reach) {
+    return (rp + reach) * (1.0 + 1e-9) + 1e-300;
+}
+
+/* Every point of box [lo, hi] is farther than `far` from c along an axis
+   (a NaN box is never apart: its particles go to the full test). */
+GS__PRIVATE int gs__chunk_apart(gs_vec3 lo, gs_vec3 hi, gs_vec3 c, double far) {
+    return lo.x - c.x > far || c.x - hi.x > far || lo.y - c.y > far || c.y - hi.y > far ||
+           lo.z - c.z > far || c.z - hi.z > far;
+}
+
+GS__PRIVATE void gs__mesh_vs_rigid(gs__mesh *m, gs__rigid *r, double t, int *boxed) {
     double reach = r->shape.bound;
     double lag = fmax(-0.1, fmin(0.1, t - gs__agent_time(&r->base)));
     gs_vec3 centre = r->probe ? r->x : gs__madd(r->x, r->v, lag);
     int i;
+    double far = gs__chunk_reach(m->radius, reach);
+    int k, end;
     if (centre.x + reach < m->lo.x || centre.x - reach > m->hi.x ||
         centre.y + reach < m->lo.y || centre.y - reach > m->hi.y ||
         centre.z + reach < m->lo.z || centre.z - reach > m->hi.z)
         return;
-    for (i = 0; i < m->n; ++i) {
+    if (!*boxed) gs__mesh_chunks(m);
+    *boxed = 1;
+    for (k = 0, i = 0; i < m->n; ++k, i = end) {
+        end = i + GS__CHUNK < m->n ? i + GS__CHUNK : m->n;
+        if (gs__chunk_apart(m->clo[k], m->chi[k], centre, far)) continue;
+        for (; i < end; ++i) {
         gs_contact c;
         if (m->pinned[i] || !gs__particle_contact(m->x[i], m->radius, r, centre, &c)) continue;
         /* particles that move wake a sleeper (it is fixed to them until then) */
@@ -7013,6 +7063,7 @@ GS__PRIVATE void gs__mesh_vs_rigid(gs__mesh *m, gs__rigid *r, double t) {
         if (r->probe && r->base.rest < m->base.world->sleep_time) m->probe_touch = 1;
         gs__mesh_touch(m, i, &c, gs__point_velocity(r, c.point), &r->mat,
                        r->probe || r->base.sleeping ? 0.0 : r->reach2);
+        }
     }
 }
 
@@ -7021,7 +7072,7 @@ GS__PRIVATE void gs__mesh_vs_rigid(gs__mesh *m, gs__rigid *r, double t) {
    them. */
 GS__PRIVATE void gs__mesh_contacts(gs__mesh *m, double t) {
     gs_world *w = m->base.world;
-    int i, n;
+    int i, n, boxed = 0;
     if (m->ext_active) {
         memset(m->ext, 0, (size_t)m->n * sizeof *m->ext);
         if (m->ck) memset(m->ck, 0, (size_t)m->n * sizeof *m->ck);
@@ -7038,7 +7089,7 @@ GS__PRIVATE void gs__mesh_contacts(gs__mesh *m, double t) {
         }
     }
     n = gs__sap_query(w, m->lo.x, m->hi.x, gs__lag_bound(w, t, 0.1));
-    for (i = 0; i < n; ++i) gs__mesh_vs_rigid(m, w->cand[i], t);
+    for (i = 0; i < n; ++i) gs__mesh_vs_rigid(m, w->cand[i], t, &boxed);
 }
 
 /* ========================================================================
