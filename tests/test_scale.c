@@ -87,14 +87,15 @@ static void culled_matches(gs_integrator integrator, const char *name) {
     gs_scene_desc sd = gs_scene_desc_default();
     gs_world *w;
     gs_scene sc;
+    memset(&sc, 0, sizeof sc);
     gs__mesh *m;
     size_t n;
     gs_vec3 *ext, *cn, *cvel;
     double *ck, *cc, *cdepth;
     int moment, touched = 0, i;
     assert_int_equal(gs_world_create(&wd, &w), GS_OK);
-    sd.cloth_n = 40;
-    sd.sphere_count = 12;
+    sd.cloth_n = 28;
+    sd.sphere_count = 6;
     sd.cloth_integrator = integrator;
     assert_int_equal(gs_scene_create(w, &sd, &sc), GS_OK);
     m = gs__as_mesh(sc.cloth);
