@@ -4069,20 +4069,22 @@ GS__PRIVATE void gs__xpbd_blocks(gs__mesh *m, double h) {
    compliance 1 / k), so contact is as stable at any substep as the springs
    are; it only pushes. The depth follows the particle's motion this
    substep relative to what it touches. */
+GS__PRIVATE gs_vec3 gs__xpbd_contact(const gs__mesh *m, int i, gs_vec3 p, double h) {
+    double w = m->inv_mass[i], kh, ch, vn, d, dl;
+    gs_vec3 n = m->cn[i];
+    if (m->ck[i] == 0.0 || w == 0.0) return p;
+    vn = gs__dot(n, gs__madd(gs__sub(p, m->x[i]), m->cvel[i], -h));
+    d = m->cdepth[i] - vn;
+    if (!(d > 0.0)) return p;
+    kh = m->ck[i] * h * h;
+    ch = m->cc[i] * h;
+    dl = (kh * d - ch * vn) / ((kh + ch) * w + 1.0);
+    return dl > 0.0 ? gs__madd(p, n, w * dl) : p;
+}
+
 GS__PRIVATE void gs__xpbd_contacts(gs__mesh *m, double h) {
     int i;
-    for (i = 0; i < m->n; ++i) {
-        double w = m->inv_mass[i], kh, ch, vn, d, dl;
-        gs_vec3 n = m->cn[i];
-        if (m->ck[i] == 0.0 || w == 0.0) continue;
-        vn = gs__dot(n, gs__madd(gs__sub(m->xn[i], m->x[i]), m->cvel[i], -h));
-        d = m->cdepth[i] - vn;
-        if (!(d > 0.0)) continue;
-        kh = m->ck[i] * h * h;
-        ch = m->cc[i] * h;
-        dl = (kh * d - ch * vn) / ((kh + ch) * w + 1.0);
-        if (dl > 0.0) m->xn[i] = gs__madd(m->xn[i], n, w * dl);
-    }
+    for (i = 0; i < m->n; ++i) m->xn[i] = gs__xpbd_contact(m, i, m->xn[i], h);
 }
 
 /* gs__int_xpbd over the blocks: the prediction goes into the transposed
@@ -4104,11 +4106,13 @@ GS__PRIVATE void gs__int_xpbd_blocks(gs__mesh *m, double h) {
         PX[i] = m->x[i].x; PY[i] = m->x[i].y; PZ[i] = m->x[i].z;
     }
     gs__xpbd_blocks(m, h);
-    for (i = 0; i < n; ++i) m->xn[i] = gs__v3(X[i], Y[i], Z[i]);
-    if (m->ext_active) gs__xpbd_contacts(m, h);
     for (i = 0; i < n; ++i) {
-        gs_vec3 p = m->xn[i], v = gs__scale(gs__sub(p, m->x[i]), ih);
-        double s2 = v.x * v.x + v.y * v.y + v.z * v.z;
+        gs_vec3 p = gs__v3(X[i], Y[i], Z[i]), v;
+        double s2;
+        if (m->ext_active) p = gs__xpbd_contact(m, (int)i, p, h);
+        v = gs__scale(gs__sub(p, m->x[i]), ih);
+        s2 = v.x * v.x + v.y * v.y + v.z * v.z;
+        m->xn[i] = p;
         m->vn[i] = v;
         w2 = s2 > w2 ? s2 : w2;
         w2 = s2 == s2 ? w2 : s2; /* a NaN speed stays NaN */
