@@ -3073,6 +3073,7 @@ typedef struct gs__run {
 enum { GS__XB_SPAN, GS__XB_PAIRS, GS__XB_DUOS, GS__XB_ONE };
 struct gs__xblk {
     int kind, a, b, s; /* first end a, first end b, first k/c/rest in xsp */
+    int count;         /* blocks of four in a row, each next to the last */
 };
 
 typedef struct gs__mesh {
@@ -3854,13 +3855,14 @@ GS__PRIVATE void gs__xpbd_pass(gs__mesh *m, double h) {
    does gs__xpbd_spring's operations in its order, so the AVX and scalar
    kernels give the same bits. */
 
-/* Where lane q of a block has its ends, from the block's first ones. */
-GS__PRIVATE void gs__xblk_lane(const struct gs__xblk *k, int q, int *a, int *b) {
+/* Where lane q of block t of entry k has its ends: blocks of a SPAN
+   follow each other by four particles, of PAIRS and DUOS by eight. */
+GS__PRIVATE void gs__xblk_lane(const struct gs__xblk *k, int t, int q, int *a, int *b) {
     static const int pairs[4] = {0, 4, 2, 6}, duos[4] = {0, 1, 4, 5};
     switch (k->kind) {
-    case GS__XB_PAIRS: *a = k->a + pairs[q]; *b = *a + 1; break;
-    case GS__XB_DUOS: *a = k->a + duos[q]; *b = *a + 2; break;
-    default: *a = k->a + q; *b = k->b + q; break;
+    case GS__XB_PAIRS: *a = k->a + 8 * t + pairs[q]; *b = *a + 1; break;
+    case GS__XB_DUOS: *a = k->a + 8 * t + duos[q]; *b = *a + 2; break;
+    default: *a = k->a + 4 * t + q; *b = k->b + 4 * t + q; break;
     }
 }
 
@@ -3870,7 +3872,7 @@ GS__PRIVATE void gs__xpbd_block(gs__mesh *m, int kind, int a, int b, const int *
     struct gs__xblk *k = &m->xblk[m->nxblk++];
     int q, lanes = kind == GS__XB_ONE ? 1 : 4, at = k == m->xblk ? 0 : k[-1].s +
                                               (k[-1].kind == GS__XB_ONE ? 1 : 4);
-    k->kind = kind; k->a = a; k->b = b; k->s = at;
+    k->kind = kind; k->a = a; k->b = b; k->s = at; k->count = 1;
     for (q = 0; q < lanes; ++q) {
         const gs__spring *sp = &m->springs[s[q]];
         m->xsp[at + q] = sp->k;
@@ -3900,8 +3902,9 @@ GS__PRIVATE void gs__xpbd_parity(gs__mesh *m, const gs__run *u, int cls) {
         struct gs__xblk probe;
         probe.kind = off == 1 ? GS__XB_PAIRS : GS__XB_DUOS;
         probe.a = u->a0 + j;
+        probe.b = 0;
         for (q = 0; q < 4; ++q) {
-            gs__xblk_lane(&probe, q, &a, &b);
+            gs__xblk_lane(&probe, 0, q, &a, &b);
             s[q] = u->s0 + (a - u->a0);
         }
         gs__xpbd_block(m, probe.kind, probe.a, 0, s);
@@ -3911,6 +3914,24 @@ GS__PRIVATE void gs__xpbd_parity(gs__mesh *m, const gs__run *u, int cls) {
             s[0] = u->s0 + j + q;
             gs__xpbd_block(m, GS__XB_ONE, u->a0 + j + q, u->a0 + j + q + off, s);
         }
+}
+
+/* Blocks that follow one another in memory become one entry: the pass
+   then runs them in a loop of one kind, in the same order. */
+GS__PRIVATE void gs__xpbd_merge(gs__mesh *m) {
+    int i, o = 0;
+    for (i = 1; i < m->nxblk; ++i) {
+        struct gs__xblk *p = &m->xblk[o];
+        const struct gs__xblk *k = &m->xblk[i];
+        int step = k->kind == GS__XB_SPAN ? 4 : 8;
+        if (k->kind != GS__XB_ONE && k->kind == p->kind && k->a == p->a + step * p->count &&
+            (k->kind != GS__XB_SPAN || k->b == p->b + 4 * p->count) &&
+            k->s == p->s + 4 * p->count)
+            p->count++;
+        else
+            m->xblk[++o] = *k;
+    }
+    if (m->nxblk > 0) m->nxblk = o + 1;
 }
 
 /* The blocks, from the runs (gs__mesh_find_runs). */
@@ -3931,6 +3952,7 @@ GS__PRIVATE void gs__xpbd_schedule(gs__mesh *m) {
             for (j = 0; j < u->len; ++j) gs__xpbd_span(m, u, j, j + 1);
         }
     }
+    gs__xpbd_merge(m);
 }
 
 /* One spring of the transposed copy (X = the substep's positions so far,
@@ -3993,11 +4015,10 @@ GS__XINLINE void gs__xst4(double *p, int kind, int a, int b,
 GS__XINLINE void gs__xpbd_four(double *X, const double *P,
                                                               size_t st, const double *im,
                                                               const double *sp, size_t ns,
-                                                              const struct gs__xblk *k,
+                                                              int kind, int a, int b, int at,
                                                               double h) {
     __m256d ax, ay, az, bx, by, bz, pax, pay, paz, pbx, pby, pbz, wa, wb;
     __m256d dx, dy, dz, l2, l, kh, ch, num, den, s, sa, sb, hv = _mm256_set1_pd(h);
-    int kind = k->kind, a = k->a, b = k->b;
     gs__xld4(X, kind, a, b, &ax, &bx);
     gs__xld4(X + st, kind, a, b, &ay, &by);
     gs__xld4(X + 2 * st, kind, a, b, &az, &bz);
@@ -4009,10 +4030,10 @@ GS__XINLINE void gs__xpbd_four(double *X, const double *P,
     l2 = _mm256_add_pd(_mm256_add_pd(_mm256_mul_pd(dx, dx), _mm256_mul_pd(dy, dy)),
                        _mm256_mul_pd(dz, dz));
     l = _mm256_sqrt_pd(l2);
-    kh = _mm256_mul_pd(_mm256_mul_pd(_mm256_loadu_pd(sp + k->s), hv), hv);
-    ch = _mm256_mul_pd(_mm256_loadu_pd(sp + ns + k->s), hv);
+    kh = _mm256_mul_pd(_mm256_mul_pd(_mm256_loadu_pd(sp + at), hv), hv);
+    ch = _mm256_mul_pd(_mm256_loadu_pd(sp + ns + at), hv);
     num = _mm256_add_pd(
-        _mm256_mul_pd(kh, _mm256_sub_pd(l2, _mm256_mul_pd(_mm256_loadu_pd(sp + 2 * ns + k->s), l))),
+        _mm256_mul_pd(kh, _mm256_sub_pd(l2, _mm256_mul_pd(_mm256_loadu_pd(sp + 2 * ns + at), l))),
         _mm256_mul_pd(ch, _mm256_add_pd(
             _mm256_add_pd(_mm256_mul_pd(dx, _mm256_sub_pd(_mm256_sub_pd(bx, pbx), _mm256_sub_pd(ax, pax))),
                           _mm256_mul_pd(dy, _mm256_sub_pd(_mm256_sub_pd(by, pby), _mm256_sub_pd(ay, pay)))),
@@ -4032,13 +4053,26 @@ __attribute__((target("avx"))) GS__PRIVATE void gs__xpbd_blocks_avx(gs__mesh *m,
     size_t st = gs__soa_stride((size_t)m->n), ns = gs__soa_stride((size_t)m->ns);
     double *X = m->soa;
     const double *P = X + 3 * st;
-    int i;
+    const double *im = m->inv_mass, *sp = m->xsp;
+    int i, t;
     for (i = 0; i < m->nxblk; ++i) {
         const struct gs__xblk *k = &m->xblk[i];
-        if (k->kind == GS__XB_ONE)
-            gs__xpbd_one(X, P, st, m->inv_mass, m->xsp + k->s, ns, k->a, k->b, h);
-        else
-            gs__xpbd_four(X, P, st, m->inv_mass, m->xsp, ns, k, h);
+        int a = k->a, b = k->b, s = k->s, c = k->count;
+        switch (k->kind) { /* one loop per kind, the kind a constant in it */
+        case GS__XB_SPAN:
+            for (t = 0; t < c; ++t)
+                gs__xpbd_four(X, P, st, im, sp, ns, GS__XB_SPAN, a + 4 * t, b + 4 * t, s + 4 * t, h);
+            break;
+        case GS__XB_PAIRS:
+            for (t = 0; t < c; ++t)
+                gs__xpbd_four(X, P, st, im, sp, ns, GS__XB_PAIRS, a + 8 * t, 0, s + 4 * t, h);
+            break;
+        case GS__XB_DUOS:
+            for (t = 0; t < c; ++t)
+                gs__xpbd_four(X, P, st, im, sp, ns, GS__XB_DUOS, a + 8 * t, 0, s + 4 * t, h);
+            break;
+        default: gs__xpbd_one(X, P, st, im, sp + s, ns, a, b, h); break;
+        }
     }
 }
 #endif
@@ -4048,7 +4082,7 @@ GS__PRIVATE void gs__xpbd_blocks(gs__mesh *m, double h) {
     size_t st = gs__soa_stride((size_t)m->n), ns = gs__soa_stride((size_t)m->ns);
     double *X = m->soa;
     const double *P = X + 3 * st;
-    int i, q, a, b;
+    int i, t, q, a, b;
 #ifdef GS__MESH_AVX
     if (m->avx) {
         gs__xpbd_blocks_avx(m, h);
@@ -4057,10 +4091,11 @@ GS__PRIVATE void gs__xpbd_blocks(gs__mesh *m, double h) {
 #endif
     for (i = 0; i < m->nxblk; ++i) {
         const struct gs__xblk *k = &m->xblk[i];
-        for (q = 0; q < (k->kind == GS__XB_ONE ? 1 : 4); ++q) {
-            gs__xblk_lane(k, q, &a, &b);
-            gs__xpbd_one(X, P, st, m->inv_mass, m->xsp + k->s + q, ns, a, b, h);
-        }
+        for (t = 0; t < k->count; ++t)
+            for (q = 0; q < (k->kind == GS__XB_ONE ? 1 : 4); ++q) {
+                gs__xblk_lane(k, t, q, &a, &b);
+                gs__xpbd_one(X, P, st, m->inv_mass, m->xsp + k->s + 4 * t + q, ns, a, b, h);
+            }
     }
 }
 

@@ -194,23 +194,26 @@ static void test_xpbd_schedule_covers(void **state) {
         }
         for (i = 0; i < m->nxblk; ++i) {
             const struct gs__xblk *k = &m->xblk[i];
-            int nl = k->kind == GS__XB_ONE ? 1 : 4, ends[8], e, f, a, b, j;
-            for (q = 0; q < nl; ++q) {
-                gs__xblk_lane(k, q, &a, &b);
-                ends[2 * q] = a;
-                ends[2 * q + 1] = b;
-                /* the lane's k, c, rest are its spring's */
-                for (j = 0; j < m->ns; ++j)
-                    if (m->springs[j].a == a && m->springs[j].b == b) break;
-                assert_true(j < m->ns);
-                seen[j]++;
-                assert_true(m->xsp[k->s + q] == m->springs[j].k);
-                assert_true(m->xsp[gs__soa_stride((size_t)m->ns) * 2 + (size_t)(k->s + q)] ==
-                            m->springs[j].rest);
-                lanes++;
+            int nl = k->kind == GS__XB_ONE ? 1 : 4, ends[8], e, f, a, b, j, blk;
+            assert_true(k->count >= 1);
+            for (blk = 0; blk < k->count; ++blk) {
+                for (q = 0; q < nl; ++q) {
+                    gs__xblk_lane(k, blk, q, &a, &b);
+                    ends[2 * q] = a;
+                    ends[2 * q + 1] = b;
+                    /* the lane's k, c, rest are its spring's */
+                    for (j = 0; j < m->ns; ++j)
+                        if (m->springs[j].a == a && m->springs[j].b == b) break;
+                    assert_true(j < m->ns);
+                    seen[j]++;
+                    assert_true(m->xsp[k->s + 4 * blk + q] == m->springs[j].k);
+                    assert_true(m->xsp[gs__soa_stride((size_t)m->ns) * 2 +
+                                       (size_t)(k->s + 4 * blk + q)] == m->springs[j].rest);
+                    lanes++;
+                }
+                for (e = 0; e < 2 * nl; ++e)
+                    for (f = e + 1; f < 2 * nl; ++f) assert_int_not_equal(ends[e], ends[f]);
             }
-            for (e = 0; e < 2 * nl; ++e)
-                for (f = e + 1; f < 2 * nl; ++f) assert_int_not_equal(ends[e], ends[f]);
         }
         assert_int_equal(lanes, m->ns);
         for (i = 0; i < m->ns; ++i) assert_int_equal(seen[i], 1);
