@@ -14,7 +14,10 @@
    since its last snapshot as a heartbeat only, at --heartbeat-rate Hz
    (default 4). Each JSON line gives per peer "bytes_sent" and "bytes_rx"
    (datagram bytes so far), "heartbeats_rx", "resting" (objects the peer
-   says are at rest) and "heard" (s since its last datagram, -1 never).
+   says are at rest), "heard" (s since its last datagram, -1 never), and
+   the peer's diagnosis: "health" (gs_peer_health_str), "reason" (a
+   sentence for a user, "" when all is well) and "clock_back" (times the
+   clock went back, gs_peer_stats.clock_backwards).
 
    Every host builds the same scene (gs_scene_create: a cloth pinned by its
    corners, K spheres above it, one probe per host of the session) and runs
@@ -465,6 +468,19 @@ static int digest(const peer_host *h, double *d) {
 
 static double sim_time(const peer_host *h) { return gs_agent_time(h->sc.cloth); }
 
+/* A string as a JSON string: quotes, backslashes and control characters
+   escaped. */
+static void print_json_string(const char *s) {
+    putchar('"');
+    for (; *s; ++s) {
+        unsigned char c = (unsigned char)*s;
+        if (c == '"' || c == '\\') printf("\\%c", c);
+        else if (c < 0x20) printf("\\u%04x", c);
+        else putchar(c);
+    }
+    putchar('"');
+}
+
 static void print_line(peer_host *h, int final) {
     gs_net *net = gs_udp_net(h->udp);
     double d[6 + 3 * GS_SCENE_MAX_SPHERES];
@@ -480,7 +496,7 @@ static void print_line(peer_host *h, int final) {
         gs_net_peer_stats(net, h->o.peers[i].id, &ps);
         printf("%s\"%u\": {\"gap\": %.6f, \"div\": %.9g, \"rtt\": %.6f, \"rx\": %llu, "
                "\"lost\": %llu, \"rejected\": %llu, \"bytes_sent\": %llu, \"bytes_rx\": %llu, "
-               "\"heartbeats_rx\": %llu, \"resting\": %d, \"heard\": %.3f}",
+               "\"heartbeats_rx\": %llu, \"resting\": %d, \"heard\": %.3f",
                i ? ", " : "", (unsigned)h->o.peers[i].id,
                ps.snapshots_received ? ps.gap : 0.0, ps.divergence, ps.rtt,
                (unsigned long long)ps.snapshots_received, (unsigned long long)ps.lost,
@@ -488,6 +504,10 @@ static void print_line(peer_host *h, int final) {
                (unsigned long long)ps.bytes_received, (unsigned long long)ps.heartbeats_received,
                ps.objects_resting,
                ps.datagrams_received ? gs_udp_now() - ps.last_heard : -1.0);
+        /* keys added after "heard" (the JSON changes only by adding) */
+        printf(", \"health\": \"%s\", \"reason\": ", gs_peer_health_str(ps.health));
+        print_json_string(ps.reason);
+        printf(", \"clock_back\": %llu}", (unsigned long long)ps.clock_backwards);
         rejected += ps.rejected_total;
         rx += ps.snapshots_received;
         sent += ps.snapshots_sent;
