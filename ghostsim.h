@@ -4504,32 +4504,33 @@ GS__PRIVATE void gs__int_xpbd_blocks(gs__mesh *m, double h) {
     double *X = m->soa, *Y = X + st, *Z = Y + st, *PX = Z + st, *PY = PX + st, *PZ = PY + st;
     const double *im = m->inv_mass;
     gs_vec3 g = m->base.world->gravity;
-    double ih = 1.0 / h, vmax2 = m->solver.max_speed * m->solver.max_speed, sum = 0.0, w2 = 0.0;
+    double ih = 1.0 / h, vmax2 = m->solver.max_speed * m->solver.max_speed, w2 = 0.0;
+    double sx = 0.0, sy = 0.0, sz = 0.0; /* three sums: three chains, not one */
     double lx = HUGE_VAL, ly = HUGE_VAL, lz = HUGE_VAL, hx = -HUGE_VAL, hy = -HUGE_VAL, hz = -HUGE_VAL;
+    const gs_vec3 *x = m->x, *v0 = m->v, *ext = m->ext_active ? m->ext : NULL;
     for (i = 0; i < n; ++i) {
-        gs_vec3 a = gs__madd(g, m->v[i], -m->air), v = im[i] > 0.0 ? gs__madd(m->v[i], a, h) : m->v[i];
-        if (m->ext_active) v = gs__madd(v, m->ext[i], im[i] * h);
-        v = gs__madd(m->x[i], v, h);
-        X[i] = v.x; Y[i] = v.y; Z[i] = v.z;
-        PX[i] = m->x[i].x; PY[i] = m->x[i].y; PZ[i] = m->x[i].z;
+        gs_vec3 a = gs__madd(g, v0[i], -m->air), v = im[i] > 0.0 ? gs__madd(v0[i], a, h) : v0[i];
+        if (ext) v = gs__madd(v, ext[i], im[i] * h);
+        X[i] = x[i].x + v.x * h; Y[i] = x[i].y + v.y * h; Z[i] = x[i].z + v.z * h;
+        PX[i] = x[i].x; PY[i] = x[i].y; PZ[i] = x[i].z;
     }
     gs__xpbd_blocks(m, h);
     for (i = 0; i < n; ++i) {
         gs_vec3 p = gs__v3(X[i], Y[i], Z[i]), v;
         double s2;
-        if (m->ext_active) p = gs__xpbd_contact(m, (int)i, p, h);
-        v = gs__scale(gs__sub(p, m->x[i]), ih);
+        if (ext) p = gs__xpbd_contact(m, (int)i, p, h);
+        v = gs__scale(gs__sub(p, x[i]), ih);
         s2 = v.x * v.x + v.y * v.y + v.z * v.z;
         m->xn[i] = p;
         m->vn[i] = v;
         w2 = s2 > w2 ? s2 : w2;
         w2 = s2 == s2 ? w2 : s2; /* a NaN speed stays NaN */
-        sum += p.x + p.y + p.z;
+        sx += p.x; sy += p.y; sz += p.z;
         lx = p.x < lx ? p.x : lx; ly = p.y < ly ? p.y : ly; lz = p.z < lz ? p.z : lz;
         hx = p.x > hx ? p.x : hx; hy = p.y > hy ? p.y : hy; hz = p.z > hz ? p.z : hz;
     }
     m->checked = 1;
-    m->check_ok = w2 <= vmax2 && gs__finite(sum) && gs__in_range3(gs__v3(lx, ly, lz)) &&
+    m->check_ok = w2 <= vmax2 && gs__finite(sx + sy + sz) && gs__in_range3(gs__v3(lx, ly, lz)) &&
                   gs__in_range3(gs__v3(hx, hy, hz));
     if (m->check_ok) {
         m->lo = gs__v3(lx - m->radius, ly - m->radius, lz - m->radius);
