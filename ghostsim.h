@@ -3501,8 +3501,9 @@ typedef struct gs__mesh {
     double *ck, *cc;  /* its stiffness (N/m) and damping (N s/m), 0 = none */
     double *cdepth;   /* XPBD: the deepest contact's depth (m) at x, */
     gs_vec3 *cvel;    /* and the velocity of what it touches (m/s) */
-    gs_vec3 *clo, *chi; /* m; boxes of GS__CHUNK particles each, of x
-                           where a body's box meets the mesh's (contacts) */
+    gs_vec3 *clo, *chi; /* m; boxes of GS__CHUNK particles each, of x */
+    double *cvm;      /* m/s; the largest velocity component in each box */
+    int chunks_ok;    /* the boxes are those of x and v (gs__mesh_chunks) */
     int ext_active;   /* ext holds a non-zero force */
     int probe_touch;  /* in this step a probe that moves touched it: it
                          does not rest (gs__mesh_rest) */
@@ -3563,6 +3564,7 @@ GS__PRIVATE void gs__mesh_layout(gs__mesh *m, gs__carver *cv) {
     m->ext = (gs_vec3 *)gs__carve(cv, v3);
     m->clo = (gs_vec3 *)gs__carve(cv, (n / GS__CHUNK + 1) * sizeof(gs_vec3));
     m->chi = (gs_vec3 *)gs__carve(cv, (n / GS__CHUNK + 1) * sizeof(gs_vec3));
+    m->cvm = (double *)gs__carve(cv, (n / GS__CHUNK + 1) * sizeof(double));
     m->mass = (double *)gs__carve(cv, n * sizeof(double));
     m->inv_mass = (double *)gs__carve(cv, n * sizeof(double));
     m->springs = (gs__spring *)gs__carve(cv, gs__mul_sat((size_t)m->ns, sizeof(gs__spring)));
@@ -4592,6 +4594,17 @@ GS__PRIVATE int gs__mesh_sane(gs__mesh *m) {
 
 GS__PRIVATE void gs__mesh_contacts(gs__mesh *m, double t);
 GS__PRIVATE void gs__mesh_update_bounds(gs__mesh *m);
+GS__PRIVATE void gs__mesh_chunks(gs__mesh *m);
+
+/* After x or v change: the boxes of the contacts' broad phase follow them
+   where a body could ask (gs__rigid_vs_mesh), else they are marked stale
+   and made when asked. */
+GS__PRIVATE void gs__mesh_keep_chunks(gs__mesh *m) {
+    if (m->base.world->nbodies > 0)
+        gs__mesh_chunks(m);
+    else
+        m->chunks_ok = 0;
+}
 
 /* One integrator step of h seconds starting at simulation time t0. */
 GS__PRIVATE gs_result gs__mesh_substep(gs__mesh *m, double t0, double h) {
@@ -4619,6 +4632,7 @@ GS__PRIVATE gs_result gs__mesh_substep(gs__mesh *m, double t0, double h) {
                         m->solver.max_speed);
     t = m->x; m->x = m->xn; m->xn = t;
     t = m->v; m->v = m->vn; m->vn = t;
+    gs__mesh_keep_chunks(m);
     return GS_OK;
 }
 
@@ -4703,6 +4717,7 @@ GS__PRIVATE gs_result gs__mesh_step(gs_agent *a, double dt) {
             t = m->v; m->v = m->v0; m->v0 = t;
             m->lo = lo; /* the broad phase must see the undone state */
             m->hi = hi;
+            gs__mesh_keep_chunks(m);
         }
         return r;
     }
@@ -7267,18 +7282,25 @@ GS__PRIVATE int gs__mesh_info(const gs_agent *a, const gs_vec3 **x,
 /* The reaction of a mesh's particles on a rigid body, each particle taken
    where its velocity puts it at the body's time (see gs__mesh_vs_rigid: both
    sides of a contact must see the same overlap, or energy appears). */
+GS__PRIVATE int gs__chunk_skip(gs__mesh *m, int k, gs_vec3 c, double far, double lag);
+GS__PRIVATE double gs__chunk_reach(double rp, double reach);
+
 GS__PRIVATE void gs__rigid_vs_mesh(gs__rigid *r, gs_agent *m, double t) {
     const gs_vec3 *x = NULL, *v = NULL;
     const gs_material *mat = NULL;
     gs_vec3 lo, hi;
     double rp = 0.0, reach, slope, lag = fmax(-0.1, fmin(0.1, t - gs__agent_time(m)));
-    int n = gs__mesh_info(m, &x, &v, &rp, &mat), i;
+    int n = gs__mesh_info(m, &x, &v, &rp, &mat), i, k, end;
     gs__mesh_bounds(m, &lo, &hi);
     reach = r->shape.bound + rp + fabs(lag) * r->solver.max_speed;
     if (r->x.x + reach < lo.x || r->x.x - reach > hi.x || r->x.y + reach < lo.y ||
         r->x.y - reach > hi.y || r->x.z + reach < lo.z || r->x.z - reach > hi.z)
         return;
-    for (i = 0; i < n; ++i) {
+    for (k = 0, i = 0; i < n; ++k, i = end) {
+        end = i + GS__CHUNK < n ? i + GS__CHUNK : n;
+        if (gs__chunk_skip(gs__as_mesh(m), k, r->x, gs__chunk_reach(rp, r->shape.bound), lag))
+            continue;
+        for (; i < end; ++i) {
         gs_contact c;
         gs_vec3 f;
         if (!gs__particle_contact(gs__madd(x[i], v[i], lag), rp, r, r->x, &c)) continue;
@@ -7293,6 +7315,7 @@ GS__PRIVATE void gs__rigid_vs_mesh(gs__rigid *r, gs_agent *m, double t) {
         r->force = gs__sub(r->force, f);
         r->torque = gs__sub(r->torque, gs__cross(gs__sub(c.point, r->x), f));
         r->torque = gs__add(r->torque, gs__rolling_torque(r, c.normal, gs__dot(f, c.normal), r->w));
+        }
     }
 }
 
@@ -7362,6 +7385,7 @@ GS__PRIVATE void gs__mesh_update_bounds(gs__mesh *m) {
     r = gs__v3(m->radius, m->radius, m->radius);
     m->lo = gs__sub(lo, r);
     m->hi = gs__add(hi, r);
+    gs__mesh_chunks(m);
 }
 
 GS__PRIVATE void gs__mesh_bounds(const gs_agent *a, gs_vec3 *lo, gs_vec3 *hi) {
@@ -7419,21 +7443,29 @@ GS__PRIVATE void gs__mesh_touch(gs__mesh *m, int i, const gs_contact *c,
    most 0.1 s ahead or behind): held still, a body that steps less often
    than the mesh would jump into particles that have already relaxed against
    it, and each jump would store penalty energy the particles then release. */
-/* The boxes of m's particles at x, GS__CHUNK at a time. */
+/* The boxes of m's particles at x, GS__CHUNK at a time, and the fastest
+   velocity component in each (a NaN makes the box's bound NaN: never
+   apart, see gs__chunk_apart). */
 GS__PRIVATE void gs__mesh_chunks(gs__mesh *m) {
     int i, k;
     for (k = 0, i = 0; i < m->n; ++k) {
         gs_vec3 lo = m->x[i], hi = m->x[i];
+        double vm = 0.0;
         int end = i + GS__CHUNK < m->n ? i + GS__CHUNK : m->n;
-        for (++i; i < end; ++i) {
-            gs_vec3 p = m->x[i];
+        for (; i < end; ++i) {
+            gs_vec3 p = m->x[i], v = m->v[i];
+            double a = fabs(v.x) > fabs(v.y) ? fabs(v.x) : fabs(v.y);
+            a = fabs(v.z) > a ? fabs(v.z) : a;
+            vm = a > vm || a != a ? a : vm;
             lo.x = p.x < lo.x ? p.x : lo.x; lo.y = p.y < lo.y ? p.y : lo.y;
             lo.z = p.z < lo.z ? p.z : lo.z; hi.x = p.x > hi.x ? p.x : hi.x;
             hi.y = p.y > hi.y ? p.y : hi.y; hi.z = p.z > hi.z ? p.z : hi.z;
         }
         m->clo[k] = lo;
         m->chi[k] = hi;
+        m->cvm[k] = vm;
     }
+    m->chunks_ok = 1;
 }
 
 /* How far from a body's centre a particle may be and still touch it:
@@ -7452,7 +7484,23 @@ GS__PRIVATE int gs__chunk_apart(gs_vec3 lo, gs_vec3 hi, gs_vec3 c, double far) {
            lo.z - c.z > far || c.z - hi.z > far;
 }
 
-GS__PRIVATE void gs__mesh_vs_rigid(gs__mesh *m, gs__rigid *r, double t, int *boxed) {
+/* Box k of m cannot touch a body at c when its particles are taken `lag`
+   seconds along their velocities (gs__rigid_vs_mesh): the box grows by
+   the fastest component times |lag|, and by 1e-9 of its coordinates for
+   the rounding of x + v lag (1e-16 of them at most). */
+GS__PRIVATE int gs__chunk_skip(gs__mesh *m, int k, gs_vec3 c, double far, double lag) {
+    gs_vec3 lo, hi;
+    double mag;
+    if (!m->chunks_ok) gs__mesh_chunks(m);
+    lo = m->clo[k];
+    hi = m->chi[k];
+    mag = fmax(fmax(fabs(lo.x), fabs(hi.x)), fmax(fmax(fabs(lo.y), fabs(hi.y)),
+                                                fmax(fabs(lo.z), fabs(hi.z))));
+    return gs__chunk_apart(lo, hi, c, far + m->cvm[k] * fabs(lag) * (1.0 + 1e-9) +
+                                          1e-9 * (1.0 + mag + fabs(c.x) + fabs(c.y) + fabs(c.z)));
+}
+
+GS__PRIVATE void gs__mesh_vs_rigid(gs__mesh *m, gs__rigid *r, double t) {
     double reach = r->shape.bound;
     double lag = fmax(-0.1, fmin(0.1, t - gs__agent_time(&r->base)));
     gs_vec3 centre = r->probe ? r->x : gs__madd(r->x, r->v, lag);
@@ -7463,8 +7511,7 @@ GS__PRIVATE void gs__mesh_vs_rigid(gs__mesh *m, gs__rigid *r, double t, int *box
         centre.y + reach < m->lo.y || centre.y - reach > m->hi.y ||
         centre.z + reach < m->lo.z || centre.z - reach > m->hi.z)
         return;
-    if (!*boxed) gs__mesh_chunks(m);
-    *boxed = 1;
+    if (!m->chunks_ok) gs__mesh_chunks(m);
     for (k = 0, i = 0; i < m->n; ++k, i = end) {
         end = i + GS__CHUNK < m->n ? i + GS__CHUNK : m->n;
         if (gs__chunk_apart(m->clo[k], m->chi[k], centre, far)) continue;
@@ -7486,7 +7533,7 @@ GS__PRIVATE void gs__mesh_vs_rigid(gs__mesh *m, gs__rigid *r, double t, int *box
    them. */
 GS__PRIVATE void gs__mesh_contacts(gs__mesh *m, double t) {
     gs_world *w = m->base.world;
-    int i, n, boxed = 0;
+    int i, n;
     if (m->ext_active) {
         memset(m->ext, 0, (size_t)m->n * sizeof *m->ext);
         if (m->ck) memset(m->ck, 0, (size_t)m->n * sizeof *m->ck);
@@ -7503,7 +7550,7 @@ GS__PRIVATE void gs__mesh_contacts(gs__mesh *m, double t) {
         }
     }
     n = gs__sap_query(w, m->lo.x, m->hi.x, gs__lag_bound(w, t, 0.1));
-    for (i = 0; i < n; ++i) gs__mesh_vs_rigid(m, w->cand[i], t, &boxed);
+    for (i = 0; i < n; ++i) gs__mesh_vs_rigid(m, w->cand[i], t);
 }
 
 /* ========================================================================

@@ -2,9 +2,11 @@
    >>contact) against the plain loops they replace.
 
    - Particle-vs-body contacts cull the particles by boxes of GS__CHUNK
-     particles: on scenes with spheres and a probe resting on and pressing
-     into a cloth, the contact forces, springs and depths of every particle
-     are compared bit for bit with the loop over every particle.
+     particles, on both sides (the mesh's and the body's, whose particles
+     are taken along their velocities): on scenes with spheres and a probe
+     resting on and pressing into a cloth, the contact forces, springs and
+     depths of every particle and each body's force, torque and stiffness
+     sums are compared bit for bit with the loops over every particle.
    - XPBD on a cloth goes over blocks of four springs (gs__xpbd_schedule):
      every spring is in exactly one block, no two lanes of a block share a
      particle (so the order inside a block is free), the AVX kernel gives
@@ -62,6 +64,57 @@ static void brute_contacts(gs__mesh *m, double t) {
     }
 }
 
+/* gs__rigid_vs_mesh as it was: every particle, taken lag along its
+   velocity. */
+static void brute_rigid_vs_mesh(gs__rigid *r, gs_agent *m, double t) {
+    const gs_vec3 *x = NULL, *v = NULL;
+    const gs_material *mat = NULL;
+    double rp = 0.0, slope, lag = fmax(-0.1, fmin(0.1, t - gs__agent_time(m)));
+    int n = gs__mesh_info(m, &x, &v, &rp, &mat), i;
+    for (i = 0; i < n; ++i) {
+        gs_contact c;
+        gs_vec3 f;
+        if (!gs__particle_contact(gs__madd(x[i], v[i], lag), rp, r, r->x, &c)) continue;
+        if (m->sleeping && !(gs__rigid_speed(r) < m->world->sleep_speed))
+            gs__agent_wake_at(m, gs__agent_time(&r->base));
+        slope = gs__friction_slope(r->reach2, 1.0 / gs__mesh_mass(m, i), r->base.dt);
+        f = gs__penalty(&c, gs__sub(v[i], gs__point_velocity(r, c.point)), mat, &r->mat, slope);
+        r->k_sum += 0.5 * (r->mat.stiffness + mat->stiffness);
+        r->c_sum += 0.5 * (r->mat.damping + mat->damping) + slope;
+        r->force = gs__sub(r->force, f);
+        r->torque = gs__sub(r->torque, gs__cross(gs__sub(c.point, r->x), f));
+        r->torque = gs__add(r->torque, gs__rolling_torque(r, c.normal, gs__dot(f, c.normal), r->w));
+    }
+}
+
+/* A body's side of its contacts with the cloth, culled and full, at lags
+   of -50 ms to +50 ms: the same bits; returns how many bodies felt any. */
+static int rigid_side_matches(gs_scene *sc) {
+    static const double lags[] = {-0.05, -0.003, 0.0, 0.003, 0.05};
+    gs_agent *bodies[GS_SCENE_MAX_SPHERES + GS_SCENE_MAX_PROBES];
+    int nb = 0, i, l, felt = 0;
+    for (i = 0; i < sc->sphere_count; ++i) bodies[nb++] = sc->spheres[i];
+    for (i = 0; i < sc->probe_count; ++i) bodies[nb++] = sc->probes[i];
+    for (i = 0; i < nb; ++i)
+        for (l = 0; l < (int)(sizeof lags / sizeof lags[0]); ++l) {
+            gs__rigid *r = gs__as_rigid(bodies[i]);
+            double t = gs__agent_time(sc->cloth) + lags[l], sums[2];
+            gs_vec3 f, tq;
+            r->force = r->torque = gs__v3(0.0, 0.0, 0.0);
+            r->k_sum = r->c_sum = 0.0;
+            brute_rigid_vs_mesh(r, sc->cloth, t);
+            f = r->force; tq = r->torque; sums[0] = r->k_sum; sums[1] = r->c_sum;
+            felt += f.x != 0.0 || f.y != 0.0 || f.z != 0.0;
+            r->force = r->torque = gs__v3(0.0, 0.0, 0.0);
+            r->k_sum = r->c_sum = 0.0;
+            gs__rigid_vs_mesh(r, sc->cloth, t);
+            assert_memory_equal(&f, &r->force, sizeof f);
+            assert_memory_equal(&tq, &r->torque, sizeof tq);
+            assert_true(sums[0] == r->k_sum && sums[1] == r->c_sum);
+        }
+    return felt;
+}
+
 /* Everything a contact pass writes, from a clean start. */
 static void clear_contacts(gs__mesh *m) {
     size_t n = (size_t)m->n;
@@ -92,7 +145,7 @@ static void culled_matches(gs_integrator integrator, const char *name) {
     size_t n;
     gs_vec3 *ext, *cn, *cvel;
     double *ck, *cc, *cdepth;
-    int moment, touched = 0, i;
+    int moment, touched = 0, felt = 0, i;
     assert_int_equal(gs_world_create(&wd, &w), GS_OK);
     sd.cloth_n = 28;
     sd.sphere_count = 6;
@@ -138,10 +191,12 @@ static void culled_matches(gs_integrator integrator, const char *name) {
         assert_true(!m->cdepth || same(cdepth, m->cdepth, n * sizeof *cdepth));
         assert_true(!m->cvel || same(cvel, m->cvel, n * sizeof *cvel));
         for (i = 0; i < m->n; ++i) touched += ext[i].x != 0.0 || ext[i].y != 0.0 || ext[i].z != 0.0;
+        felt += rigid_side_matches(&sc);
     }
-    print_message("%s: %d particle contacts over 8 moments, culled = full bit for bit\n",
-                  name, touched);
-    assert_true(touched > 20); /* the comparison saw contacts */
+    print_message("%s: %d particle contacts, %d body-side checks with a force over 8 moments, "
+                  "culled = full bit for bit\n", name, touched, felt);
+    assert_true(touched > 20); /* the comparisons saw contacts */
+    assert_true(felt > 5);
     free(ext); free(cn); free(cvel); free(ck); free(cc); free(cdepth);
     gs_world_destroy(w);
 }
