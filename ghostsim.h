@@ -3504,6 +3504,7 @@ typedef struct gs__mesh {
     gs_vec3 *clo, *chi; /* m; boxes of GS__CHUNK particles each, of x */
     double *cvm;      /* m/s; the largest velocity component in each box */
     int chunks_ok;    /* the boxes are those of x and v (gs__mesh_chunks) */
+    int chunks_next;  /* the integrator left the boxes of xn and vn there */
     int ext_active;   /* ext holds a non-zero force */
     int probe_touch;  /* in this step a probe that moves touched it: it
                          does not rest (gs__mesh_rest) */
@@ -4502,7 +4503,7 @@ GS__PRIVATE void gs__xpbd_contacts(gs__mesh *m, double h) {
    gs__mesh_sane's checks and bounds in the same loop (pinned particles
    neither move nor gain speed, as the substep's pin pass leaves them). */
 GS__PRIVATE void gs__int_xpbd_blocks(gs__mesh *m, double h) {
-    size_t n = (size_t)m->n, st = gs__soa_stride(n), i;
+    size_t n = (size_t)m->n, st = gs__soa_stride(n), i, k;
     double *X = m->soa, *Y = X + st, *Z = Y + st, *PX = Z + st, *PY = PX + st, *PZ = PY + st;
     const double *im = m->inv_mass;
     gs_vec3 g = m->base.world->gravity;
@@ -4517,20 +4518,34 @@ GS__PRIVATE void gs__int_xpbd_blocks(gs__mesh *m, double h) {
         PX[i] = x[i].x; PY[i] = x[i].y; PZ[i] = x[i].z;
     }
     gs__xpbd_blocks(m, h);
-    for (i = 0; i < n; ++i) {
-        gs_vec3 p = gs__v3(X[i], Y[i], Z[i]), v;
-        double s2;
-        if (ext) p = gs__xpbd_contact(m, (int)i, p, h);
-        v = gs__scale(gs__sub(p, x[i]), ih);
-        s2 = v.x * v.x + v.y * v.y + v.z * v.z;
-        m->xn[i] = p;
-        m->vn[i] = v;
-        w2 = s2 > w2 ? s2 : w2;
-        w2 = s2 == s2 ? w2 : s2; /* a NaN speed stays NaN */
-        sx += p.x; sy += p.y; sz += p.z;
-        lx = p.x < lx ? p.x : lx; ly = p.y < ly ? p.y : ly; lz = p.z < lz ? p.z : lz;
-        hx = p.x > hx ? p.x : hx; hy = p.y > hy ? p.y : hy; hz = p.z > hz ? p.z : hz;
+    for (k = 0, i = 0; i < n; ++k) { /* box by box (gs__mesh_chunks) */
+        size_t end = i + GS__CHUNK < n ? i + GS__CHUNK : n;
+        double bx = HUGE_VAL, by = HUGE_VAL, bz = HUGE_VAL, tx = -HUGE_VAL, ty = -HUGE_VAL,
+               tz = -HUGE_VAL, vm = 0.0;
+        for (; i < end; ++i) {
+            gs_vec3 p = gs__v3(X[i], Y[i], Z[i]), v;
+            double s2, a;
+            if (ext) p = gs__xpbd_contact(m, (int)i, p, h);
+            v = gs__scale(gs__sub(p, x[i]), ih);
+            s2 = v.x * v.x + v.y * v.y + v.z * v.z;
+            m->xn[i] = p;
+            m->vn[i] = v;
+            w2 = s2 > w2 ? s2 : w2;
+            w2 = s2 == s2 ? w2 : s2; /* a NaN speed stays NaN */
+            sx += p.x; sy += p.y; sz += p.z;
+            a = fabs(v.x) > fabs(v.y) ? fabs(v.x) : fabs(v.y);
+            a = fabs(v.z) > a ? fabs(v.z) : a;
+            vm = a > vm ? a : vm; /* a NaN fails the check above: no box of it is used */
+            bx = p.x < bx ? p.x : bx; by = p.y < by ? p.y : by; bz = p.z < bz ? p.z : bz;
+            tx = p.x > tx ? p.x : tx; ty = p.y > ty ? p.y : ty; tz = p.z > tz ? p.z : tz;
+        }
+        m->clo[k] = gs__v3(bx, by, bz);
+        m->chi[k] = gs__v3(tx, ty, tz);
+        m->cvm[k] = vm;
+        lx = bx < lx ? bx : lx; ly = by < ly ? by : ly; lz = bz < lz ? bz : lz;
+        hx = tx > hx ? tx : hx; hy = ty > hy ? ty : hy; hz = tz > hz ? tz : hz;
     }
+    m->chunks_next = 1;
     m->checked = 1;
     m->check_ok = w2 <= vmax2 && gs__finite(sx + sy + sz) && gs__in_range3(gs__v3(lx, ly, lz)) &&
                   gs__in_range3(gs__v3(hx, hy, hz));
@@ -4612,6 +4627,7 @@ GS__PRIVATE gs_result gs__mesh_substep(gs__mesh *m, double t0, double h) {
     int i;
     gs__mesh_contacts(m, t0);
     m->checked = 0;
+    m->chunks_next = 0;
     switch (m->solver.integrator) {
     case GS_INTEGRATOR_EXPLICIT_EULER: gs__int_explicit_euler(m, h); break;
     case GS_INTEGRATOR_VERLET: gs__int_verlet(m, h); break;
@@ -4624,6 +4640,7 @@ GS__PRIVATE gs_result gs__mesh_substep(gs__mesh *m, double t0, double h) {
         m->xn[m->pins[i]] = m->x[m->pins[i]];
         m->vn[m->pins[i]] = gs__v3(0.0, 0.0, 0.0);
     }
+    if (m->chunks_next) m->chunks_ok = 0; /* they are the new state's, which may fail */
     if (!(m->checked ? m->check_ok : gs__mesh_sane(m)))
         return gs__fail(m->base.world, GS_ERR_UNSTABLE,
                         "%s agent %d: a step of %g s blew up (non-finite "
@@ -4632,7 +4649,10 @@ GS__PRIVATE gs_result gs__mesh_substep(gs__mesh *m, double t0, double h) {
                         m->solver.max_speed);
     t = m->x; m->x = m->xn; m->xn = t;
     t = m->v; m->v = m->vn; m->vn = t;
-    gs__mesh_keep_chunks(m);
+    if (m->chunks_next)
+        m->chunks_ok = 1;
+    else
+        gs__mesh_keep_chunks(m);
     return GS_OK;
 }
 
