@@ -24,9 +24,8 @@
        gs_net *net[2];
        gs_scene sc[2];
        gs_scene_desc sd = gs_scene_desc_default(); // a cloth, 3 spheres
-       gs_ghost_desc gd = gs_ghost_desc_default();
+       gs_ghost_desc gd = gs_ghost_desc_default(); // client/server rule
        sd.probe_count = 2;                      // one probe per host
-       gd.weight = gs_weight_cs;                // one authority: the leader
        if (gs_simnet_create(NULL, &sim) != GS_OK) return 1;
        for (int h = 0; h < 2; ++h) {            // every host builds the same
            gs_world_desc wd = gs_world_desc_default();
@@ -68,11 +67,9 @@
        gs_scene_desc sd = gs_scene_desc_default();
        gs_ghost_desc gd = gs_ghost_desc_default();
        sd.probe_count = 2;
-       gd.weight = gs_weight_cs;
        for (int h = 0; h < 2; ++h) {
            gs_world_desc wd = gs_world_desc_default();
-           gs_udp_desc ud;
-           memset(&ud, 0, sizeof ud);           // threads 0: poll mode
+           gs_udp_desc ud = gs_udp_desc_default(); // poll mode
            wd.host_id = (uint32_t)h + 1;
            ud.bind = addr[h];
            if (gs_world_create(&wd, &w[h]) != GS_OK) return 1;
@@ -487,6 +484,10 @@ typedef struct gs_sync_desc {
                               blend at the present and are counted */
 } gs_sync_desc;
 
+/* Mode present, local clock, the world's clock, 16 frames of history, a
+   replay budget of 4096 steps. */
+GS_API gs_sync_desc gs_sync_desc_default(void);
+
 typedef struct gs_world_desc {
     uint32_t host_id;      /* this host's id in a session; default 1 */
     int queue_count;       /* N+1 priority queues Q_0..Q_N; default 8,
@@ -733,8 +734,10 @@ GS_API void gs_agent_set_priority(gs_agent *a, int priority);
 /* Replaces the behaviour rule; NULL restores gs_behaviour_default. */
 GS_API void gs_agent_set_behaviour(gs_agent *a, gs_behaviour_fn fn,
                                    void *user);
-/* The agent's scheduling counters (by value; never fails). */
-GS_API gs_agent_stats gs_agent_get_stats(const gs_agent *a);
+/* The agent's scheduling counters into *out. GS_ERR_INVALID_ARG for a
+   NULL agent or out. Every stats call has this shape: a gs_result, the
+   object, *out. */
+GS_API gs_result gs_agent_get_stats(const gs_agent *a, gs_agent_stats *out);
 /* Removes the agent from its world and frees it. GS_ERR_BUSY from a
    callback (see ERRORS). */
 GS_API gs_result gs_agent_destroy(gs_agent *a);
@@ -766,8 +769,8 @@ GS_API gs_result gs_agent_wake(gs_agent *a);
 /* A user agent. Its variables live in user memory; ghostsim keeps its time
    and schedules it like any other. */
 typedef struct gs_custom_desc {
-    double dt;          /* s; required, >= GS_MIN_DT */
-    size_t state_size;  /* doubles, excluding time; may be 0 */
+    double dt;          /* s, >= GS_MIN_DT; default 0.001 (as a solver's) */
+    size_t state_size;  /* doubles, excluding time; default 0 */
     /* Advances by dt seconds from time t. Returning an error leaves the
        agent's time unchanged; the callback should leave its state too.
        A step that leaves a NaN or infinity in the state is undone: the
@@ -779,13 +782,17 @@ typedef struct gs_custom_desc {
     void *user;
 } gs_custom_desc;
 
+/* dt 0.001 s, no state, no callbacks (step is required). */
+GS_API gs_custom_desc gs_custom_desc_default(void);
+
 /* Creates a user agent from desc (copied; desc->user must outlive the
-   agent). Returns GS_OK and *out, or GS_ERR_INVALID_ARG (a NULL desc or
-   out, dt below GS_MIN_DT, step NULL, or a state_size without get_state
-   and set_state), GS_ERR_OUT_OF_RANGE for a state_size whose bytes do not
-   fit in size_t, GS_ERR_NO_MEMORY, GS_ERR_BUSY from a callback; *out is
-   NULL on failure, the reason in gs_world_error. The callbacks run with
-   the world's guard up (see ERRORS). */
+   agent); a zero dt is the default. Returns GS_OK and *out, or
+   GS_ERR_INVALID_ARG (a NULL desc or out, dt below GS_MIN_DT, step NULL,
+   or a state_size without get_state and set_state), GS_ERR_OUT_OF_RANGE
+   for a state_size whose bytes do not fit in size_t, GS_ERR_NO_MEMORY,
+   GS_ERR_BUSY from a callback; *out is NULL on failure, the reason in
+   gs_world_error. The callbacks run with the world's guard up (see
+   ERRORS). */
 GS_API gs_result gs_custom_create(gs_world *w, const gs_custom_desc *desc,
                                   gs_agent **out);
 
@@ -801,18 +808,19 @@ typedef struct gs_spring {
     double damping;     /* N s/m along the spring, >= 0 */
 } gs_spring;
 
+/* A mesh has no default shape: its particles are required. */
 typedef struct gs_mesh_desc {
-    int particle_count;        /* >= 1 */
+    int particle_count;        /* >= 1, required */
     const gs_vec3 *positions;  /* m, within +-GS_MAX_COORD; particle_count
                                   of them, required */
     const gs_vec3 *velocities; /* m/s; NULL = at rest */
     const double *masses;      /* kg each, > 0; NULL = mass / count */
     double mass;               /* kg in all when masses is NULL; default 1 */
-    int spring_count;
+    int spring_count;          /* default 0: free particles */
     const gs_spring *springs;
-    int pin_count;
+    int pin_count;             /* default 0 */
     const int *pins;           /* particles held where they are */
-    double air_damping;        /* 1/s; force -m * air_damping * v */
+    double air_damping;        /* 1/s; force -m * air_damping * v; default 0 */
     double particle_radius;    /* m, for contacts; default 0.01 */
     gs_material material;      /* contacts; zero fields take defaults */
     gs_solver_desc solver;
@@ -836,7 +844,8 @@ enum {
 };
 
 typedef struct gs_cloth_desc {
-    int nx, ny;          /* particles along u and v; each >= 2 */
+    int nx, ny;          /* particles along u and v; each >= 2; default
+                            16 x 16 (the paper's scene) */
     double width, height; /* m along u and v, at most GS_MAX_COORD;
                              default 1 x 1 */
     gs_vec3 origin;      /* m; where particle (0,0) is; default 0. Every
@@ -852,8 +861,9 @@ typedef struct gs_cloth_desc {
     double bend_stiffness;    /* N/m; default stretch / 100 */
     double spring_damping;    /* N s/m on every spring; default 0.02 */
     double air_damping;       /* 1/s; default 0.1 */
-    int pin_corners;     /* GS_CORNER_* mask */
-    int pin_count;       /* more pins, as particle index i + nx * j */
+    int pin_corners;     /* GS_CORNER_* mask; default 0: none */
+    int pin_count;       /* more pins, as particle index i + nx * j;
+                            default 0 */
     const int *pins;
     double particle_radius; /* m, for contacts; default half the smaller
                                spacing between particles */
@@ -927,8 +937,10 @@ typedef enum gs_shape_type {
 
 #define GS_MAX_HULL_POINTS 64
 
+/* A shape has no default: its type is required (GS_SHAPE_NONE is refused,
+   so that a forgotten shape is an error, not some ball). */
 typedef struct gs_shape_desc {
-    gs_shape_type type;
+    gs_shape_type type;     /* required; the sizes of that type too */
     double radius;          /* m, sphere; sizes at most GS_MAX_COORD */
     gs_vec3 half_extents;   /* m, box */
     const gs_vec3 *points;  /* m, hull, in body coordinates (within
@@ -937,21 +949,25 @@ typedef struct gs_shape_desc {
     int point_count;
 } gs_shape_desc;
 
+/* Every field zero: type GS_SHAPE_NONE, which the caller must set. */
+GS_API gs_shape_desc gs_shape_desc_default(void);
+
 typedef struct gs_rigid_desc {
     gs_shape_desc shape;
     double density;        /* kg/m^3; default 1000 */
     double mass;           /* kg; > 0 overrides density */
     gs_vec3 inertia;       /* kg m^2, principal moments in body axes;
                               default from shape and mass */
-    gs_vec3 position;      /* m, within +-GS_MAX_COORD */
+    gs_vec3 position;      /* m, within +-GS_MAX_COORD; default 0 */
     gs_quat orientation;   /* default identity (all zero); normalized on
                               create, whatever its finite size */
-    gs_vec3 velocity;      /* m/s */
-    gs_vec3 angular_velocity; /* rad/s, world frame */
-    gs_material material;
+    gs_vec3 velocity;      /* m/s; default 0 */
+    gs_vec3 angular_velocity; /* rad/s, world frame; default 0 */
+    gs_material material;  /* all zero: gs_material_default() */
     int continuous;        /* 1: substep so that the body never moves more
                               than a quarter of its smallest size per
-                              substep (stops tunnelling of fast bodies) */
+                              substep (stops tunnelling of fast bodies);
+                              default 0: off */
     gs_solver_desc solver; /* symplectic Euler (default), Verlet or RK4;
                               substeps keep contact stiffness stable */
     double rolling;        /* m, >= 0; rolling resistance: at each contact
@@ -966,9 +982,9 @@ typedef struct gs_rigid_desc {
 /* A kinematic body the application moves: nothing pushes it back. */
 typedef struct gs_probe_desc {
     gs_shape_desc shape;
-    gs_vec3 position;      /* m, within +-GS_MAX_COORD */
+    gs_vec3 position;      /* m, within +-GS_MAX_COORD; default 0 */
     gs_quat orientation;   /* default identity */
-    gs_material material;
+    gs_material material;  /* all zero: gs_material_default() */
     double dt;             /* s, >= GS_MIN_DT; default 0.001 */
     double max_speed;      /* m/s it may move at to reach its target;
                               default 10 */
@@ -1027,15 +1043,19 @@ typedef struct gs_contact {
     double depth; /* m */
 } gs_contact;
 
-/* The exact or libccd answer for two shapes at two poses: returns 1 and
-   fills *c when they overlap, 0 when apart. Every output is finite: where
-   libccd returns a non-finite direction (touching or coincident shapes) the
-   answer falls back to the direction between the centres, and coincident
-   centres to +y (a's normal). Shapes or positions outside GS_MAX_COORD (or
-   otherwise invalid) give 0. */
-GS_API int gs_collide_shapes(const gs_shape_desc *a, gs_vec3 pa, gs_quat qa,
-                             const gs_shape_desc *b, gs_vec3 pb, gs_quat qb,
-                             gs_contact *c);
+/* The exact or libccd answer for two shapes at two poses: GS_OK with
+   *overlap 1 and *c filled when they overlap, *overlap 0 when apart. Every
+   output is finite: where libccd returns a non-finite direction (touching
+   or coincident shapes) the answer falls back to the direction between the
+   centres, and coincident centres to +y (a's normal). GS_ERR_INVALID_ARG
+   for a NULL pointer; a shape gs_rigid_create would refuse gives what it
+   would (GS_ERR_INVALID_ARG, GS_ERR_NOT_FINITE, GS_ERR_OUT_OF_RANGE);
+   GS_ERR_NOT_FINITE for a NaN or infinite position, GS_ERR_OUT_OF_RANGE
+   for one outside +-GS_MAX_COORD. On an error *overlap is 0 (if given)
+   and *c untouched. */
+GS_API gs_result gs_collide_shapes(const gs_shape_desc *a, gs_vec3 pa, gs_quat qa,
+                                   const gs_shape_desc *b, gs_vec3 pb, gs_quat qb,
+                                   gs_contact *c, int *overlap);
 
 /* A ground plane y = height (within +-GS_MAX_COORD) that every body
    meets. GS_ERR_BUSY from a callback. */
@@ -1050,15 +1070,29 @@ GS_API gs_result gs_world_set_ground(gs_world *w, int enabled, double height,
    ======================================================================== */
 #define GS_SCENE_MAX_SPHERES 64
 #define GS_SCENE_MAX_PROBES 16
+/* A count set to GS_NONE asks for none: zero is the default there, as in
+   every desc (a zeroed desc is the paper's scene). */
+#define GS_NONE (-1)
+/* Probes of a scene whose world has no net when it is made. */
+#define GS_SCENE_DEFAULT_PROBES 1
 
+/* Zero means the default in every field: a zeroed desc, NULL, and
+   gs_scene_desc_default() all give the paper's scene. */
 typedef struct gs_scene_desc {
     int cloth_n;          /* particles per side; default 16 */
     double cloth_size;    /* m; default 1 */
-    int sphere_count;     /* 0..GS_SCENE_MAX_SPHERES, taken as given (0 =
-                             none); gs_scene_desc_default() says 3 */
+    int sphere_count;     /* 1..GS_SCENE_MAX_SPHERES; default 3;
+                             GS_NONE: no sphere */
     double sphere_radius; /* m; default 0.08 */
-    int probe_count;      /* 0..GS_SCENE_MAX_PROBES, taken as given;
-                             gs_scene_desc_default() says 1 */
+    int probe_count;      /* 1..GS_SCENE_MAX_PROBES; GS_NONE: no probe.
+                             Default (0) one per host: probe i is host
+                             i + 1's, so as many as the highest host id
+                             the world's net knows (its own and its
+                             peers') when the scene is made;
+                             GS_SCENE_DEFAULT_PROBES if it has no net.
+                             Probe ids are shared: every host of a
+                             session needs the same count, so make the
+                             scene once every peer is added, or set it */
     uint32_t seed;        /* sphere placement; default 1 */
     gs_integrator cloth_integrator; /* default implicit Euler */
     double dt;            /* s for every agent, >= GS_MIN_DT; default 0.002 */
@@ -1139,10 +1173,24 @@ typedef struct gs_weight_in {
     uint32_t owner;  /* the object's owner, 0 if shared */
     int local;       /* 1 for the local state */
     int local_owns;  /* 1 if this host owns the object */
+    uint32_t object_id;    /* the object weighed (its ghost's object id) */
+    const gs_agent *agent; /* the local agent under that ghost: its kind,
+                              state and time are readable here, not
+                              writable (the blend is reading it) */
 } gs_weight_in;
 
 /* A weight rule: any finite value >= 0. A negative, NaN or infinite weight
-   counts as 0 (and is counted); if every weight is 0 the local state stands. */
+   counts as 0 (and is counted); if every weight is 0 the local state stands.
+   One rule may serve many objects (in->object_id and in->agent say which),
+   or each object its own (gs_ghost_desc.weight; gs_scene_attach_ghosts asks
+   gs_ghost_desc.rule_for for each object of the scene).
+   Objects in contact need one authority: give every object that touches
+   another (the cloth and the spheres resting on it) the same rule, so that
+   the same host's state wins for all of them. Two authorities over objects
+   that push each other never settle: each host corrects its copy of one
+   object towards a peer whose copy of the other it overrides (two hosts of
+   the paper's scene, the cloth under one host and the spheres under the
+   other, drift apart by centimetres and more). */
 typedef double (*gs_weight_fn)(const gs_weight_in *in, void *user);
 
 /* Client/server: 1 for the lead (the local state or a snapshot), 0 for the
@@ -1158,6 +1206,16 @@ GS_API double gs_weight_exp(const gs_weight_in *in, void *user);
 /* Owner authority: only the owner's state counts (the local state if this
    host owns the object); a shared object (owner 0) blends evenly. */
 GS_API double gs_weight_owner(const gs_weight_in *in, void *user);
+
+/* A rule and its user pointer, as gs_ghost_desc.rule_for gives them. */
+typedef struct gs_weight_rule {
+    gs_weight_fn fn;   /* NULL: the object's default rule */
+    void *user;
+} gs_weight_rule;
+/* The rule of one object of a scene (gs_scene_attach_ghosts): its object
+   id, and the agent the ghost will wrap. */
+typedef gs_weight_rule (*gs_rule_for_fn)(uint32_t object_id, const gs_agent *a,
+                                         void *user);
 
 typedef enum gs_encoding {
     GS_ENCODING_DEFAULT = 0, /* f64 */
@@ -1182,7 +1240,9 @@ typedef enum gs_catchup {
 
 typedef struct gs_ghost_desc {
     uint32_t object_id;    /* > 0, the same on every host */
-    gs_weight_fn weight;   /* default gs_weight_exp at 1/s */
+    gs_weight_fn weight;   /* default gs_weight_cs: under latency only
+                              one authority settles (the README's
+                              measurements); gs_weight_exp is the paper's */
     void *weight_user;
     uint32_t owner;        /* owning host (probes); 0 = shared */
     double send_rate;      /* Hz of wall time; default 60 */
@@ -1238,6 +1298,13 @@ typedef struct gs_ghost_desc {
                               carry every ghost due, ghosts go by priority:
                               the wall time since each was last sent times
                               this, so that none starves; default 1 */
+    /* gs_scene_attach_ghosts only (gs_ghost_attach ignores them): the rule
+       of each object, asked once per object before any ghost is attached.
+       A rule whose fn is NULL leaves the object its default (weight and
+       weight_user for the cloth and the spheres, gs_weight_owner for the
+       probes). NULL (default): the defaults for every object. */
+    gs_rule_for_fn rule_for;
+    void *rule_for_user;
 } gs_ghost_desc;
 
 /* The ghost desc with its defaults (what zero fields become); object_id
@@ -1278,7 +1345,9 @@ GS_API gs_result gs_ghost_render_state(const gs_agent *a, double *out,
    under `shared` (NULL: gs_ghost_desc_default(); its object_id and owner
    are ignored); probe i is 200 + i under owner authority, owned by host
    i + 1 (its other fields from `shared`, catch-up none: a probe is where
-   its owner puts it). On an error no ghost is left on the scene. */
+   its owner puts it). shared->rule_for, if set, gives any object its own
+   rule (keep one authority over objects in contact: see gs_weight_fn).
+   On an error no ghost is left on the scene. */
 GS_API gs_result gs_scene_attach_ghosts(gs_scene *sc, const gs_ghost_desc *shared);
 
 /* ========================================================================
@@ -1531,12 +1600,14 @@ GS_API gs_result gs_wire_add(unsigned char *buf, size_t cap, size_t *size,
 GS_API size_t gs_wire_end(unsigned char *buf, size_t size);
 /* Checks everything that needs no knowledge of the objects: size, magic,
    version, flags, checksum, chunk layout, encodings, finite numbers and
-   times. Returns 1 and fills *out, or 0 and *why. Datagrams in clear
+   times. Returns GS_OK and fills *out, or GS_ERR_REJECTED and *why (why
+   may be NULL); GS_ERR_INVALID_ARG for a NULL buf or out (*why
+   GS_REJECT_SHORT). Datagrams in clear
    only: a sealed one fails the checksum here (its trailer is no CRC), or
    if the CRC matched by chance its flag is a GS_REJECT_LAYOUT; only a net
    with the key opens it. */
-GS_API int gs_wire_decode(const unsigned char *buf, size_t size,
-                          gs_wire_view *out, gs_reject *why);
+GS_API gs_result gs_wire_decode(const unsigned char *buf, size_t size,
+                                gs_wire_view *out, gs_reject *why);
 /* Value i of a decoded chunk (quantized: as the sender's state reads
    after the round trip, bit for bit; linear in i there). */
 GS_API double gs_wire_value(const gs_wire_chunk *c, int i);
@@ -1556,9 +1627,10 @@ typedef struct gs_net gs_net;
    the way. `data` lives only during the call: a transport that sends
    later copies it. It runs inside gs_net_update (under the net's lock,
    see THREADS): calls that change the world or the net return
-   GS_ERR_BUSY there. Return GS_OK, or an error for a datagram that was
-   not sent (the net does not look at it yet: the datagram counts as
-   sent either way). */
+   GS_ERR_BUSY there. Return GS_OK when it was sent (or lost on the way,
+   as a network may), an error when it was not: the net counts it as a
+   send failure (gs_peer_stats.send_failures), not as sent, and
+   gs_net_update returns it. */
 typedef gs_result (*gs_send_fn)(void *user, uint32_t host, const void *data,
                                 size_t size);
 
@@ -1584,6 +1656,10 @@ typedef struct gs_net_desc {
                            this desc sends at most bandwidth / 1200 full
                            datagrams a second) */
 } gs_net_desc;
+
+/* Session 1, bandwidth 1e7 bytes/s, no time window, 16 peers, no key;
+   send NULL (required: set it); max_rate 0, which follows bandwidth. */
+GS_API gs_net_desc gs_net_desc_default(void);
 
 /* How a peer looks from here, in gs_peer_stats.health (a name a program
    can test, and gs_peer_stats.reason for a user to read, with the
@@ -1679,6 +1755,11 @@ typedef struct gs_peer_stats {
                                 GS_CLOCK_SLACK (the net's count: the same
                                 on each of its peers) */
     double clock_back_max;    /* s; the largest of those steps back */
+    uint64_t send_failures;  /* datagrams to the peer whose send callback
+                                returned an error: taken as not sent (not
+                                in datagrams_sent or bytes_sent, and their
+                                sequence number goes to the next one);
+                                gs_net_update returns the first error */
 } gs_peer_stats;
 
 /* Gives the world its net on your own transport: desc->send carries the
@@ -1711,7 +1792,10 @@ GS_API gs_result gs_net_add_peer(gs_net *net, uint32_t host);
    not a peer, GS_ERR_BUSY from a callback. */
 GS_API gs_result gs_net_remove_peer(gs_net *net, uint32_t host);
 /* Sends what is due at wall time `now` (s): each ghost's latest state at its
-   rate, within each peer's bandwidth. `now` is a clock that only moves
+   rate, within each peer's bandwidth. A send callback that fails is
+   counted on its peer (gs_peer_stats.send_failures), the other datagrams
+   still go, and the first failure's result is returned (with the host in
+   gs_world_error). `now` is a clock that only moves
    forward, in [0, GS_WIRE_MAX_TIME] (GS_ERR_INVALID_ARG outside it,
    GS_ERR_NOT_FINITE for NaN or infinity): the same clock for
    gs_net_deliver. A `now` that goes back is taken (a host whose clock
@@ -1759,9 +1843,14 @@ GS_API gs_result gs_net_deliver(gs_net *net, const void *data, size_t size,
 GS_API gs_result gs_net_peer_stats(const gs_net *net, uint32_t host,
                                    gs_peer_stats *out);
 /* Datagrams refused before their sender was known (bad magic, checksum,
-   unknown sender...), by reason. */
-GS_API gs_result gs_net_unknown_stats(const gs_net *net,
-                                      uint64_t rejected[GS_REJECT_COUNT]);
+   unknown sender...). */
+typedef struct gs_unknown_stats {
+    uint64_t rejected[GS_REJECT_COUNT]; /* by reason */
+    uint64_t rejected_total;
+} gs_unknown_stats;
+/* Into *out (safe from any thread). GS_ERR_INVALID_ARG for a NULL net or
+   out. */
+GS_API gs_result gs_net_unknown_stats(const gs_net *net, gs_unknown_stats *out);
 /* The world's net (made by gs_net_create, gs_simnet_join or gs_udp_open),
    or NULL if it has none. */
 GS_API gs_net *gs_world_net(const gs_world *w);
@@ -1800,22 +1889,30 @@ GS_API void gs_net_set_lock(gs_net *net, gs_net_lock lock);
 typedef struct gs_simnet gs_simnet;
 
 #define GS_MAX_OUTAGES 4
+/* Zero everywhere is the default: a perfect link. */
 typedef struct gs_link_desc {
-    double latency;    /* s, one way */
-    double jitter;     /* s; uniform in [0, jitter] added */
-    double loss;       /* probability a datagram is lost */
-    double duplicate;  /* probability it arrives twice */
-    double reorder;    /* probability it is held back by up to a latency */
-    double bandwidth;  /* bytes/s; 0 = unlimited */
+    double latency;    /* s, one way; default 0 */
+    double jitter;     /* s; uniform in [0, jitter] added; default 0 */
+    double loss;       /* probability a datagram is lost; default 0 */
+    double duplicate;  /* probability it arrives twice; default 0 */
+    double reorder;    /* probability it is held back by up to a latency;
+                          default 0 */
+    double bandwidth;  /* bytes/s; 0 (default) = unlimited */
     double outage_start[GS_MAX_OUTAGES]; /* s of virtual time; the link is */
-    double outage_end[GS_MAX_OUTAGES];   /* cut in [start, end) */
+    double outage_end[GS_MAX_OUTAGES];   /* cut in [start, end); an empty
+                                            window (default) cuts nothing */
 } gs_link_desc;
 
 typedef struct gs_simnet_desc {
     uint64_t seed;        /* default 1 */
     int max_in_flight;    /* datagrams on the wire at once; default 16384 */
-    gs_allocator allocator;
+    gs_allocator allocator; /* default GS_MALLOC / GS_FREE */
 } gs_simnet_desc;
+
+/* A perfect link: no latency, loss or cap (what gs_simnet_join sets). */
+GS_API gs_link_desc gs_link_desc_default(void);
+/* Seed 1, 16384 datagrams in flight, the default allocator. */
+GS_API gs_simnet_desc gs_simnet_desc_default(void);
 
 /* Creates an empty simulated network; desc may be NULL (all defaults).
    Returns GS_OK and *out, or GS_ERR_INVALID_ARG (a NULL out, max_in_flight
@@ -1856,19 +1953,26 @@ GS_API const char *gs_simnet_error(const gs_simnet *sim);
 /* A host's own clock on the simnet (tests of the session clock): the
    simnet's time t reads as offset + rate * t, plus step_by from step_at on. */
 typedef struct gs_sim_clock {
-    double offset;   /* s */
-    double rate;     /* default 1; 1.0001 runs 100 ppm fast */
+    double offset;   /* s; default 0 */
+    double rate;     /* default (0) 1; 1.0001 runs 100 ppm fast */
     double step_at;  /* s of simnet time */
-    double step_by;  /* s; 0 = no step */
+    double step_by;  /* s; 0 (default) = no step */
 } gs_sim_clock;
+/* The simnet's own clock: offset 0, rate 1, no step. */
+GS_API gs_sim_clock gs_sim_clock_default(void);
 /* Sets host's clock: its net's send and receive times and its world's
    session clock read it. GS_ERR_INVALID_ARG for an unknown host or a rate
    <= 0, GS_ERR_NOT_FINITE for a non-finite field. */
 GS_API gs_result gs_simnet_set_clock(gs_simnet *sim, uint32_t host,
                                      const gs_sim_clock *clock);
-/* Datagrams the simnet dropped (loss, outage, full), duplicated, delivered. */
-GS_API void gs_simnet_counts(const gs_simnet *sim, uint64_t *dropped,
-                             uint64_t *duplicated, uint64_t *delivered);
+/* What the simnet's links did to the datagrams. */
+typedef struct gs_simnet_stats {
+    uint64_t dropped;    /* lost, cut by an outage, or past max_in_flight */
+    uint64_t duplicated; /* sent twice */
+    uint64_t delivered;  /* handed to a net (gs_net_deliver) */
+} gs_simnet_stats;
+/* GS_ERR_INVALID_ARG for a NULL sim or out. */
+GS_API gs_result gs_simnet_get_stats(const gs_simnet *sim, gs_simnet_stats *out);
 
 /* ========================================================================
    >>udp
@@ -1890,10 +1994,16 @@ typedef struct gs_udp_desc {
     const char *bind;      /* "HOST:PORT", "[v6]:PORT"; required; a port
                               outside 0..65535 is GS_ERR_INVALID_ARG (0:
                               the kernel picks one) */
-    int threads;           /* 1: gather and scatter threads; 0: poll mode */
+    int threads;           /* 1: gather and scatter threads; 0 (default):
+                              poll mode (call gs_udp_poll each frame) */
     int rcvbuf;            /* bytes; default 4 MiB */
-    gs_net_desc net;       /* session, bandwidth...; send is ignored */
+    gs_net_desc net;       /* session, bandwidth...; zero fields take
+                              gs_net_desc_default()'s; send is ignored */
 } gs_udp_desc;
+
+/* bind NULL (required: set it), poll mode, 4 MiB of rcvbuf,
+   gs_net_desc_default(). */
+GS_API gs_udp_desc gs_udp_desc_default(void);
 
 /* Opens a UDP socket bound to desc->bind and gives the world its net on
    it (as gs_net_create, with desc->net; threads 1 starts the gather and
@@ -2361,6 +2471,16 @@ GS__PRIVATE int gs__size(size_t a, size_t b, size_t c, size_t *out) {
     return 1;
 }
 
+GS_API gs_sync_desc gs_sync_desc_default(void) {
+    gs_sync_desc d;
+    memset(&d, 0, sizeof d);
+    d.clock = GS_SYNC_CLOCK_LOCAL;
+    d.mode = GS_SYNC_PRESENT;
+    d.history_frames = 16;
+    d.replay_budget = 4096;
+    return d;
+}
+
 GS_API gs_world_desc gs_world_desc_default(void) {
     gs_world_desc d;
     memset(&d, 0, sizeof d);
@@ -2369,10 +2489,7 @@ GS_API gs_world_desc gs_world_desc_default(void) {
     d.tolerance = 0.01;
     d.aging_limit = 64;
     d.gravity = gs__v3(0.0, -9.81, 0.0);
-    d.sync.clock = GS_SYNC_CLOCK_LOCAL;
-    d.sync.mode = GS_SYNC_PRESENT;
-    d.sync.history_frames = 16;
-    d.sync.replay_budget = 4096;
+    d.sync = gs_sync_desc_default();
     d.max_steps = GS_DEFAULT_MAX_STEPS;
     d.sleep_time = 0.5;
     d.sleep_speed = 0.1;
@@ -3154,8 +3271,10 @@ GS_API gs_world *gs_agent_world(const gs_agent *a) { return a->world; }
 GS_API const char *gs_agent_kind(const gs_agent *a) { return a->kind->name; }
 GS_API gs_result gs_agent_result(const gs_agent *a) { return a->result; }
 GS_API int gs_agent_priority(const gs_agent *a) { return a->priority; }
-GS_API gs_agent_stats gs_agent_get_stats(const gs_agent *a) {
-    return a->stats;
+GS_API gs_result gs_agent_get_stats(const gs_agent *a, gs_agent_stats *out) {
+    if (!a || !out) return GS_ERR_INVALID_ARG;
+    *out = a->stats;
+    return GS_OK;
 }
 
 GS_API int gs_agent_sleeping(const gs_agent *a) { return a && a->sleeping; }
@@ -3366,13 +3485,24 @@ GS__PRIVATE gs_result gs__create_begin(gs_world *w, const void *desc,
     return GS_OK;
 }
 
-GS_API gs_result gs_custom_create(gs_world *w, const gs_custom_desc *desc,
+GS_API gs_custom_desc gs_custom_desc_default(void) {
+    gs_custom_desc d;
+    memset(&d, 0, sizeof d);
+    d.dt = 0.001;
+    return d;
+}
+
+GS_API gs_result gs_custom_create(gs_world *w, const gs_custom_desc *in,
                                   gs_agent **out) {
     gs__check c;
     gs__custom *a;
     size_t bytes = 0;
-    gs_result r = gs__create_begin(w, desc, out, "gs_custom_create");
+    gs_custom_desc dd;
+    const gs_custom_desc *desc = &dd;
+    gs_result r = gs__create_begin(w, in, out, "gs_custom_create");
     if (r != GS_OK) return r;
+    dd = *in;
+    if (dd.dt == 0.0) dd.dt = gs_custom_desc_default().dt;
     c = gs__check_begin(w, "gs_custom_create");
     gs__check_dt(&c, "dt", desc->dt);
     if (!desc->step) gs__check_fail(&c, GS_ERR_INVALID_ARG, "step is NULL");
@@ -5211,6 +5341,7 @@ GS_API gs_result gs_mesh_create(gs_world *w, const gs_mesh_desc *desc,
 GS_API gs_cloth_desc gs_cloth_desc_default(void) {
     gs_cloth_desc d;
     memset(&d, 0, sizeof d);
+    d.nx = d.ny = 16;
     d.width = d.height = 1.0;
     d.axis_u = gs__v3(1.0, 0.0, 0.0);
     d.axis_v = gs__v3(0.0, 0.0, 1.0);
@@ -5227,6 +5358,8 @@ GS_API gs_cloth_desc gs_cloth_desc_default(void) {
 
 GS__PRIVATE gs_cloth_desc gs__cloth_defaults(const gs_cloth_desc *in) {
     gs_cloth_desc def = gs_cloth_desc_default(), d = *in;
+    if (d.nx == 0) d.nx = def.nx;
+    if (d.ny == 0) d.ny = def.ny;
     if (d.width == 0.0) d.width = def.width;
     if (d.height == 0.0) d.height = def.height;
     if (gs__is_zero3(d.axis_u)) d.axis_u = def.axis_u;
@@ -5884,6 +6017,12 @@ GS__PRIVATE gs__rigid *gs__as_rigid(const gs_agent *a);
    its instructions grew as n). */
 GS__PRIVATE size_t gs__rigid_size(gs_shape_type type) {
     return offsetof(gs__rigid, shape) + gs__shape_size(type);
+}
+
+GS_API gs_shape_desc gs_shape_desc_default(void) {
+    gs_shape_desc d;
+    memset(&d, 0, sizeof d);
+    return d;
 }
 
 GS_API gs_rigid_desc gs_rigid_desc_default(void) {
@@ -6966,25 +7105,31 @@ GS__PRIVATE gs__body gs__body_of(const gs__rigid *r) {
     return b;
 }
 
-GS_API int gs_collide_shapes(const gs_shape_desc *a, gs_vec3 pa, gs_quat qa,
-                             const gs_shape_desc *b, gs_vec3 pb, gs_quat qb,
-                             gs_contact *c) {
+GS_API gs_result gs_collide_shapes(const gs_shape_desc *a, gs_vec3 pa, gs_quat qa,
+                                   const gs_shape_desc *b, gs_vec3 pb, gs_quat qb,
+                                   gs_contact *c, int *overlap) {
     gs__shape sa, sb;
     gs__body ba, bb;
     gs_contact all[2 * GS_MAX_HULL_POINTS];
     gs__check chk = gs__check_begin(NULL, "gs_collide_shapes");
     int n, i, deepest = 0;
-    if (!a || !b || !c) return 0;
+    if (overlap) *overlap = 0;
+    if (!a || !b || !c || !overlap) return GS_ERR_INVALID_ARG;
     gs__shape_build(&chk, a, &sa);
     gs__shape_build(&chk, b, &sb);
-    if (chk.r != GS_OK || !c || !gs__in_range3(pa) || !gs__in_range3(pb)) return 0;
+    if (chk.r != GS_OK) return chk.r;
+    if (!gs__finite(pa.x) || !gs__finite(pa.y) || !gs__finite(pa.z) ||
+        !gs__finite(pb.x) || !gs__finite(pb.y) || !gs__finite(pb.z))
+        return GS_ERR_NOT_FINITE;
+    if (!gs__in_range3(pa) || !gs__in_range3(pb)) return GS_ERR_OUT_OF_RANGE;
     ba.s = &sa; ba.p = pa; ba.q = gs__quat_normalize(gs__orientation_default(qa));
     bb.s = &sb; bb.p = pb; bb.q = gs__quat_normalize(gs__orientation_default(qb));
     n = gs__collide(&ba, &bb, gs__v3(0.0, 1.0, 0.0), all, 2 * GS_MAX_HULL_POINTS);
     for (i = 1; i < n; ++i)
         if (all[i].depth > all[deepest].depth) deepest = i;
     if (n) *c = all[deepest];
-    return n > 0;
+    *overlap = n > 0;
+    return GS_OK;
 }
 
 /* The force on a at a contact (normal from b to a) with relative velocity
@@ -7576,6 +7721,8 @@ GS__PRIVATE void gs__mesh_contacts(gs__mesh *m, double t) {
 /* ========================================================================
    >>scene
    ======================================================================== */
+GS__PRIVATE int gs__net_hosts(const gs_net *net);
+
 GS_API gs_scene_desc gs_scene_desc_default(void) {
     gs_scene_desc d;
     memset(&d, 0, sizeof d);
@@ -7583,17 +7730,21 @@ GS_API gs_scene_desc gs_scene_desc_default(void) {
     d.cloth_size = 1.0;
     d.sphere_count = 3;
     d.sphere_radius = 0.08;
-    d.probe_count = 1;
+    d.probe_count = 0; /* one per host: known only when the scene is made */
     d.seed = 1;
     d.cloth_integrator = GS_INTEGRATOR_IMPLICIT_EULER;
     d.dt = 0.002;
     return d;
 }
 
-GS__PRIVATE gs_scene_desc gs__scene_defaults(const gs_scene_desc *in) {
+GS__PRIVATE gs_scene_desc gs__scene_defaults(const gs_scene_desc *in, int hosts) {
     gs_scene_desc def = gs_scene_desc_default(), d = in ? *in : def;
     if (d.cloth_n == 0) d.cloth_n = def.cloth_n;
     if (d.cloth_size == 0.0) d.cloth_size = def.cloth_size;
+    if (d.sphere_count == 0) d.sphere_count = def.sphere_count;
+    else if (d.sphere_count == GS_NONE) d.sphere_count = 0;
+    if (d.probe_count == 0) d.probe_count = hosts;
+    else if (d.probe_count == GS_NONE) d.probe_count = 0;
     if (d.sphere_radius == 0.0) d.sphere_radius = def.sphere_radius;
     if (d.seed == 0) d.seed = def.seed;
     if (d.cloth_integrator == GS_INTEGRATOR_DEFAULT) d.cloth_integrator = def.cloth_integrator;
@@ -7702,7 +7853,7 @@ GS_API gs_result gs_scene_create(gs_world *w, const gs_scene_desc *desc,
     gs_material ground_material;
     if (!w || !out) return GS_ERR_INVALID_ARG;
     memset(out, 0, sizeof *out);
-    out->desc = gs__scene_defaults(desc);
+    out->desc = gs__scene_defaults(desc, w->net ? gs__net_hosts(w->net) : GS_SCENE_DEFAULT_PROBES);
     gs__check_int(&c, "cloth_n", out->desc.cloth_n, 2, 4096);
     gs__check_positive(&c, "cloth_size", out->desc.cloth_size);
     gs__check_int(&c, "sphere_count", out->desc.sphere_count, 0, GS_SCENE_MAX_SPHERES);
@@ -7925,6 +8076,8 @@ struct gs_net {
     int published;            /* a ghost published B since gs_udp's scatter
                                  thread last looked (it ticks while they do) */
     double now;               /* s, wall time of the last update/deliver */
+    gs_result send_error;     /* the first failed send of this update, */
+    uint32_t send_error_host; /* and to whom */
     /* the clock's diagnostics (gs_peer_health): the latest `now` seen
        (-1: none yet), whether the clock is behind it now, the steps back
        counted, the largest, and the last one (from, to) */
@@ -7950,6 +8103,16 @@ struct gs_net {
     gs__net_guard guard;      /* key, nonces, opened datagram (>>net) */
 };
 
+/* The probes of a scene on this net: one per host id up to the highest
+   it knows (its own and its peers'), as probe i is host i + 1's. */
+GS__PRIVATE int gs__net_hosts(const gs_net *net) {
+    uint32_t top = net->world->host_id;
+    int i;
+    for (i = 0; i < GS__MAX_PEERS; ++i)
+        if (net->peers[i].used && net->peers[i].host > top) top = net->peers[i].host;
+    return top < GS_SCENE_MAX_PROBES ? (int)top : GS_SCENE_MAX_PROBES;
+}
+
 GS__PRIVATE void gs__lock(gs_net *net) {
     if (net && net->lock.lock) net->lock.lock(net->lock.user);
 }
@@ -7960,7 +8123,7 @@ GS__PRIVATE void gs__unlock(gs_net *net) {
 GS_API gs_ghost_desc gs_ghost_desc_default(void) {
     gs_ghost_desc d;
     memset(&d, 0, sizeof d);
-    d.weight = gs_weight_exp;
+    d.weight = gs_weight_cs;
     d.send_rate = 60.0;
     d.encoding = GS_ENCODING_F64;
     d.queue_size = 8;
@@ -8216,28 +8379,48 @@ GS__PRIVATE int gs__scene_has_ghost(const gs_scene *sc) {
     return any;
 }
 
+/* The ghost of one object of the scene: `gd` with the object's id, owner
+   and the rule rule_for gives it (its default if none). */
+GS__PRIVATE gs_result gs__scene_attach_one(gs_agent *a, gs_ghost_desc gd, uint32_t id,
+                                           uint32_t owner, const gs_weight_rule *rule) {
+    gd.object_id = id;
+    gd.owner = owner;
+    if (rule->fn) {
+        gd.weight = rule->fn;
+        gd.weight_user = rule->user;
+    }
+    return gs_ghost_attach(a, &gd);
+}
+
 GS_API gs_result gs_scene_attach_ghosts(gs_scene *sc, const gs_ghost_desc *shared) {
-    gs_ghost_desc gd = shared ? *shared : gs_ghost_desc_default();
+    gs_ghost_desc gd = shared ? *shared : gs_ghost_desc_default(), pd;
+    gs_weight_rule rules[1 + GS_SCENE_MAX_SPHERES + GS_SCENE_MAX_PROBES];
     gs_result r = GS_OK;
-    int i;
+    int i, k;
     if (!sc || !sc->cloth) return GS_ERR_INVALID_ARG;
     if (gs__scene_has_ghost(sc))
         return gs__fail(sc->cloth->world, GS_ERR_INVALID_ARG,
                         "gs_scene_attach_ghosts: an agent of the scene has a ghost already");
-    gd.owner = 0;
-    gd.object_id = 1;
-    r = gs_ghost_attach(sc->cloth, &gd);
-    for (i = 0; r == GS_OK && i < sc->sphere_count; ++i) {
-        gd.object_id = 100 + (uint32_t)i;
-        r = gs_ghost_attach(sc->spheres[i], &gd);
+    /* every rule first, so that nothing is attached while user code runs */
+    memset(rules, 0, sizeof rules);
+    if (gd.rule_for) {
+        rules[0] = gd.rule_for(1, sc->cloth, gd.rule_for_user);
+        for (i = 0; i < sc->sphere_count; ++i)
+            rules[1 + i] = gd.rule_for(100 + (uint32_t)i, sc->spheres[i], gd.rule_for_user);
+        for (i = 0; i < sc->probe_count; ++i)
+            rules[1 + GS_SCENE_MAX_SPHERES + i] =
+                gd.rule_for(200 + (uint32_t)i, sc->probes[i], gd.rule_for_user);
     }
-    gd.weight = gs_weight_owner;
-    gd.weight_user = NULL;
-    gd.catchup = GS_CATCHUP_NONE;
+    r = gs__scene_attach_one(sc->cloth, gd, 1, 0, &rules[0]);
+    for (i = 0; r == GS_OK && i < sc->sphere_count; ++i)
+        r = gs__scene_attach_one(sc->spheres[i], gd, 100 + (uint32_t)i, 0, &rules[1 + i]);
+    pd = gd;
+    pd.weight = gs_weight_owner;
+    pd.weight_user = NULL;
+    pd.catchup = GS_CATCHUP_NONE;
     for (i = 0; r == GS_OK && i < sc->probe_count; ++i) {
-        gd.object_id = 200 + (uint32_t)i;
-        gd.owner = (uint32_t)i + 1;
-        r = gs_ghost_attach(sc->probes[i], &gd);
+        k = 1 + GS_SCENE_MAX_SPHERES + i;
+        r = gs__scene_attach_one(sc->probes[i], pd, 200 + (uint32_t)i, (uint32_t)i + 1, &rules[k]);
     }
     if (r != GS_OK) { /* the error message stays with the world */
         gs_ghost_detach(sc->cloth);
@@ -8284,6 +8467,8 @@ GS__PRIVATE gs_weight_in gs__weight_in(const gs__ghost *g, uint32_t host,
     in.owner = g->d.owner;
     in.local = local;
     in.local_owns = g->d.owner != 0 && g->d.owner == w->host_id;
+    in.object_id = g->d.object_id;
+    in.agent = g->agent;
     return in;
 }
 
@@ -10412,17 +10597,23 @@ GS__PRIVATE int gs__wire_parse(const unsigned char *buf, size_t end, gs_wire_vie
     return 1;
 }
 
-GS_API int gs_wire_decode(const unsigned char *buf, size_t size,
-                          gs_wire_view *out, gs_reject *why) {
-    gs_reject dummy;
+/* 1: decoded into *out; 0: refused for *why (the net's path). */
+GS__PRIVATE int gs__wire_decode(const unsigned char *buf, size_t size,
+                                gs_wire_view *out, gs_reject *why) {
     size_t end;
-    if (!why) why = &dummy;
-    if (!out || !buf) { *why = GS_REJECT_SHORT; return 0; }
     if (!gs__wire_front(buf, size, why)) return 0;
     end = size - 4;
     if (gs__crc32(buf, end) != gs__get32(buf + end)) { *why = GS_REJECT_CHECKSUM; return 0; }
     if (gs__hdr_flags(buf) != 0) { *why = GS_REJECT_LAYOUT; return 0; } /* sealed or unknown */
     return gs__wire_parse(buf, end, out, why);
+}
+
+GS_API gs_result gs_wire_decode(const unsigned char *buf, size_t size,
+                                gs_wire_view *out, gs_reject *why) {
+    gs_reject dummy;
+    if (!why) why = &dummy;
+    if (!out || !buf) { *why = GS_REJECT_SHORT; return GS_ERR_INVALID_ARG; }
+    return gs__wire_decode(buf, size, out, why) ? GS_OK : GS_ERR_REJECTED;
 }
 
 /* The nonce of a sealed datagram: run epoch, run salt, counter. */
@@ -10812,6 +11003,15 @@ GS__PRIVATE gs_peer_health gs__peer_judge(const gs_net *net, int p, char *buf, s
     return GS_PEER_OK;
 }
 
+GS_API gs_net_desc gs_net_desc_default(void) {
+    gs_net_desc d;
+    memset(&d, 0, sizeof d);
+    d.session = 1;
+    d.bandwidth = 1e7;
+    d.max_peers = GS__MAX_PEERS;
+    return d;
+}
+
 GS_API gs_result gs_net_create(gs_world *w, const gs_net_desc *desc,
                                gs_net **out) {
     gs__check c;
@@ -10825,9 +11025,9 @@ GS_API gs_result gs_net_create(gs_world *w, const gs_net_desc *desc,
     else if (w->net) gs__check_fail(&c, GS_ERR_INVALID_ARG, "the world has a net already");
     if (c.r != GS_OK) return c.r;
     d = *desc;
-    if (d.session == 0) d.session = 1;
-    if (d.bandwidth == 0.0) d.bandwidth = 1e7;
-    if (d.max_peers == 0) d.max_peers = GS__MAX_PEERS;
+    if (d.session == 0) d.session = gs_net_desc_default().session;
+    if (d.bandwidth == 0.0) d.bandwidth = gs_net_desc_default().bandwidth;
+    if (d.max_peers == 0) d.max_peers = gs_net_desc_default().max_peers;
     /* divided first: a bandwidth near DBL_MAX must not make it inf */
     if (d.max_rate == 0.0 && gs__finite(d.bandwidth))
         d.max_rate = fmax(20000.0, 2.0 * (d.bandwidth / GS_WIRE_MAX_DATAGRAM));
@@ -11017,12 +11217,14 @@ GS_API gs_result gs_net_peer_stats(const gs_net *net, uint32_t host,
     return GS_OK;
 }
 
-GS_API gs_result gs_net_unknown_stats(const gs_net *net,
-                                      uint64_t rejected[GS_REJECT_COUNT]) {
-    if (!net || !rejected) return GS_ERR_INVALID_ARG;
+GS_API gs_result gs_net_unknown_stats(const gs_net *net, gs_unknown_stats *out) {
+    int i;
+    if (!net || !out) return GS_ERR_INVALID_ARG;
     gs__lock((gs_net *)net);
-    memcpy(rejected, net->unknown_rejected, sizeof net->unknown_rejected);
+    memcpy(out->rejected, net->unknown_rejected, sizeof net->unknown_rejected);
     gs__unlock((gs_net *)net);
+    out->rejected_total = 0;
+    for (i = 0; i < GS_REJECT_COUNT; ++i) out->rejected_total += out->rejected[i];
     return GS_OK;
 }
 
@@ -11141,6 +11343,7 @@ GS__PRIVATE const unsigned char *gs__datagram_to_peer(gs_net *net, const gs__pee
    are done per peer. */
 GS__PRIVATE void gs__datagram_flush(gs_net *net, double now, size_t *size) {
     size_t wire = *size + (net->guard.keyed ? GS_WIRE_SEAL_TRAILER : 4), n;
+    gs_result r;
     int p;
     if (gs__hdr_chunks(net->buf) == 0) return;
     for (p = 0; p < GS__MAX_PEERS; ++p) {
@@ -11148,11 +11351,19 @@ GS__PRIVATE void gs__datagram_flush(gs_net *net, double now, size_t *size) {
         const unsigned char *d;
         if (!pe->used || !gs__peer_budget(net, pe, wire, now)) continue;
         d = gs__datagram_to_peer(net, pe, now, *size, &n);
+        r = net->d.send(net->d.send_user, pe->host, d, n);
+        if (r != GS_OK) { /* not sent: the peer sees no gap in the sequence */
+            pe->st.send_failures++;
+            if (net->send_error == GS_OK) {
+                net->send_error = r;
+                net->send_error_host = pe->host;
+            }
+            continue;
+        }
         pe->send_seq++;
         pe->st.datagrams_sent++;
         pe->diag.sent_at = now;
         pe->st.bytes_sent += n;
-        net->d.send(net->d.send_user, pe->host, d, n);
     }
     gs__datagram_begin(net, now, size);
 }
@@ -11359,6 +11570,7 @@ GS_API gs_result gs_net_update(gs_net *net, double now) {
     }
     net->inside++;
     net->now = now;
+    net->send_error = GS_OK;
     gs__diag_clock(net, now);
     net->updated = 1;
     net->update_now = now;
@@ -11389,6 +11601,15 @@ GS_API gs_result gs_net_update(gs_net *net, double now) {
     if (peers) gs__datagram_flush(net, now, &size);
     net->inside--;
     gs__unlock(net);
+    if (net->send_error != GS_OK) {
+        gs_peer_stats ps;
+        gs_net_peer_stats(net, net->send_error_host, &ps);
+        return gs__fail(w, net->send_error,
+                        "gs_net_update: the send callback failed for host %lu (%s); %llu "
+                        "datagrams to it have failed, the rest went out",
+                        (unsigned long)net->send_error_host, gs_result_str(net->send_error),
+                        (unsigned long long)ps.send_failures);
+    }
     return GS_OK;
 }
 
@@ -11754,7 +11975,7 @@ GS__PRIVATE int gs__receive(gs_net *net, const unsigned char *buf, size_t size, 
                             gs_reject *why) {
     if (!gs__wire_front(buf, size, why)) return 0;
     if (net->guard.keyed) return gs__receive_sealed(net, buf, size, p, why);
-    if (!gs_wire_decode(buf, size, &net->view, why)) return 0;
+    if (!gs__wire_decode(buf, size, &net->view, why)) return 0;
     return gs__receive_sender(net, net->view.header.session, net->view.header.sender, p, why);
 }
 
@@ -11878,6 +12099,27 @@ GS__PRIVATE double gs__sim_rand(gs_simnet *s) {
     return (double)((s->rng * 2685821657736338717ull) >> 11) / 9007199254740992.0;
 }
 
+GS_API gs_link_desc gs_link_desc_default(void) {
+    gs_link_desc d;
+    memset(&d, 0, sizeof d);
+    return d;
+}
+
+GS_API gs_simnet_desc gs_simnet_desc_default(void) {
+    gs_simnet_desc d;
+    memset(&d, 0, sizeof d);
+    d.seed = 1;
+    d.max_in_flight = 16384;
+    return d;
+}
+
+GS_API gs_sim_clock gs_sim_clock_default(void) {
+    gs_sim_clock c;
+    memset(&c, 0, sizeof c);
+    c.rate = 1.0;
+    return c;
+}
+
 GS_API gs_result gs_simnet_create(const gs_simnet_desc *desc, gs_simnet **out) {
     gs_simnet_desc d;
     gs_simnet *s;
@@ -11887,8 +12129,8 @@ GS_API gs_result gs_simnet_create(const gs_simnet_desc *desc, gs_simnet **out) {
     *out = NULL;
     memset(&d, 0, sizeof d);
     if (desc) d = *desc;
-    if (d.seed == 0) d.seed = 1;
-    if (d.max_in_flight == 0) d.max_in_flight = 16384;
+    if (d.seed == 0) d.seed = gs_simnet_desc_default().seed;
+    if (d.max_in_flight == 0) d.max_in_flight = gs_simnet_desc_default().max_in_flight;
     if (d.max_in_flight < 1 || d.max_in_flight > (1 << 22)) return GS_ERR_INVALID_ARG;
     if (!d.allocator.alloc != !d.allocator.free) return GS_ERR_INVALID_ARG;
     if (!d.allocator.alloc) { d.allocator.alloc = gs__default_alloc; d.allocator.free = gs__default_free; }
@@ -12186,11 +12428,12 @@ GS_API gs_result gs_simnet_run(gs_simnet *s, double seconds, double frame) {
 
 GS_API double gs_simnet_time(const gs_simnet *s) { return s->now; }
 
-GS_API void gs_simnet_counts(const gs_simnet *s, uint64_t *dropped,
-                             uint64_t *duplicated, uint64_t *delivered) {
-    if (dropped) *dropped = s->dropped;
-    if (duplicated) *duplicated = s->duplicated;
-    if (delivered) *delivered = s->delivered;
+GS_API gs_result gs_simnet_get_stats(const gs_simnet *s, gs_simnet_stats *out) {
+    if (!s || !out) return GS_ERR_INVALID_ARG;
+    out->dropped = s->dropped;
+    out->duplicated = s->duplicated;
+    out->delivered = s->delivered;
+    return GS_OK;
 }
 
 /* ========================================================================
@@ -12524,7 +12767,7 @@ GS__PRIVATE void *gs__udp_scatter(void *arg) {
 GS__PRIVATE gs_result gs__udp_socket(gs_udp *u, const gs_udp_desc *d) {
     struct sockaddr_storage addr;
     socklen_t len;
-    int rcv = d->rcvbuf ? d->rcvbuf : 4 << 20;
+    int rcv = d->rcvbuf ? d->rcvbuf : gs_udp_desc_default().rcvbuf;
     if (!gs__udp_resolve(d->bind, &addr, &len))
         return gs__fail(u->world, GS_ERR_INVALID_ARG, "gs_udp_open: bind address \"%s\" is "
                         "not HOST:PORT or [IPV6]:PORT", d->bind ? d->bind : "(null)");
@@ -12564,6 +12807,14 @@ GS__PRIVATE gs_result gs__udp_start(gs_udp *u) {
         return gs__fail(u->world, GS_ERR_SYSTEM, "gs_udp_open: cannot start the scatter thread");
     }
     return GS_OK;
+}
+
+GS_API gs_udp_desc gs_udp_desc_default(void) {
+    gs_udp_desc d;
+    memset(&d, 0, sizeof d);
+    d.rcvbuf = 4 << 20;
+    d.net = gs_net_desc_default();
+    return d;
 }
 
 GS_API gs_result gs_udp_open(gs_world *w, const gs_udp_desc *desc, gs_udp **out) {

@@ -391,7 +391,7 @@ static int build(peer_host *h) {
     }
     if (gs_world_create(&wd, &h->w) != GS_OK) return fail(h, "world");
     sd.cloth_n = o->cloth;
-    sd.sphere_count = o->spheres;
+    sd.sphere_count = o->spheres ? o->spheres : GS_NONE;
     sd.probe_count = probe_count(o);
     sd.seed = o->seed;
     sd.cloth_integrator = o->integrator;
@@ -404,7 +404,7 @@ static int build(peer_host *h) {
     gd.rest_threshold = o->rest_threshold;
     gd.heartbeat_rate = o->heartbeat_rate;
     if (gs_scene_attach_ghosts(&h->sc, &gd) != GS_OK) return fail(h, "ghost");
-    memset(&ud, 0, sizeof ud);
+    ud = gs_udp_desc_default(); /* its rcvbuf and net are what zero gave */
     ud.bind = o->listen;
     ud.threads = 1;
     ud.net.key = o->has_key ? o->key : NULL;
@@ -485,7 +485,8 @@ static void print_line(peer_host *h, int final) {
     gs_net *net = gs_udp_net(h->udp);
     double d[6 + 3 * GS_SCENE_MAX_SPHERES];
     int nd = digest(h, d), i;
-    uint64_t unknown[GS_REJECT_COUNT], unknown_total = 0, rejected = 0, rx = 0, sent = 0;
+    gs_unknown_stats unknown;
+    uint64_t unknown_total = 0, rejected = 0, rx = 0, sent = 0;
     printf("{\"wall\": %.6f, \"host\": %u, \"t\": %.6f, \"digest\": [", wall_now(),
            (unsigned)h->o.id, sim_time(h));
     for (i = 0; i < nd; ++i) printf("%s%.9g", i ? ", " : "", d[i]);
@@ -525,8 +526,7 @@ static void print_line(peer_host *h, int final) {
                (unsigned long long)st.fallbacks, st.lag, (unsigned)st.timekeeper);
     }
     if (final) {
-        gs_net_unknown_stats(net, unknown);
-        for (i = 0; i < GS_REJECT_COUNT; ++i) unknown_total += unknown[i];
+        if (gs_net_unknown_stats(net, &unknown) == GS_OK) unknown_total = unknown.rejected_total;
         printf(", \"final\": true, \"totals\": {\"wall_seconds\": %.3f, \"snapshots_sent\": %llu, "
                "\"snapshots_received\": %llu, \"rejected\": %llu, \"rejected_unknown\": %llu}",
                gs_udp_now() - h->mono0, (unsigned long long)sent, (unsigned long long)rx,

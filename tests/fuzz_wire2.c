@@ -156,7 +156,7 @@ static void requant_same(harness *h, const gs_wire_chunk *c) {
     CHECK(gs_wire_begin(out, sizeof out, &hd, &n) == GS_OK);
     CHECK(gs_wire_add(out, sizeof out, &n, c, v) == GS_OK);
     n = gs_wire_end(out, n);
-    CHECK(gs_wire_decode(out, n, &h->again, &why) == 1);
+    CHECK(gs_wire_decode(out, n, &h->again, &why) == GS_OK);
     gs_wire_values(&h->again.chunks[0], w);
     for (g = 0, k = 0; g < c->segment_count; ++g) {
         int end = k + c->segments[g].count;
@@ -174,7 +174,7 @@ static void one_datagram(harness *h, const unsigned char *src, size_t size) {
     int ok, i, k;
     CHECK(buf != NULL);
     if (size) memcpy(buf, src, size);
-    ok = gs_wire_decode(buf, size, &h->view, &dwhy);
+    ok = gs_wire_decode(buf, size, &h->view, &dwhy) == GS_OK;
     if (!ok) {
         CHECK(decode_reason(dwhy));
     } else {
