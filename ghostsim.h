@@ -4350,10 +4350,10 @@ GS__PRIVATE void gs__xpbd_pass(gs__mesh *m, double h) {
    run as two colours: a run of offset `off` (spring j joins a0 + j and a0
    + j + off) shares no particle among any `off` springs in a row, so it
    goes in segments of `off` springs, four at a time (GS__XB_SPAN), even
-   segments first, then odd ones. (A sweep of the segments in order, a
-   Gauss-Seidel order as valid on paper, carries one pass's correction
-   from the pinned edge through the whole cloth: a 128 x 128 cloth gained
-   energy from it and blew up within 200 steps.) Runs of
+   segments first, then odd ones. (A sweep of the segments in order, as
+   valid a Gauss-Seidel order on paper, carries one pass's correction from
+   the pinned edge through the whole cloth: a 128 x 128 cloth gains energy
+   under it and fails the sanity check within 200 steps.) Runs of
    offset 1 and 2 (a row's neighbours and bend springs) would be serial:
    they go even springs then odd ones (GS__XB_PAIRS: ends a + 2q and a +
    2q + 1 for q = 0..3), and pairs of pairs (GS__XB_DUOS: ends a, a + 1, a
