@@ -45,8 +45,9 @@ static gs_vec3 v3(double x, double y, double z) {
     return v;
 }
 
-enum { ENC_F64, ENC_F32, ENC_QUANT, ENC_QUANT_REST, ENC_COUNT };
-static const char *enc_name[ENC_COUNT] = {"f64", "f32", "quant", "quant+rest"};
+enum { ENC_F64, ENC_F32, ENC_QUANT, ENC_QUANT_REST, ENC_DELTA, ENC_DELTA_REST, ENC_COUNT };
+static const char *enc_name[ENC_COUNT] = {"f64", "f32", "quant", "quant+rest", "quant+delta",
+                                          "delta+rest"};
 
 enum { SC_PAPER_PUSH, SC_PAPER_REST, SC_CLOTH64, SC_SPHERES, SC_COUNT };
 static const char *sc_name[SC_COUNT] = {"paper-push", "paper-rest", "cloth64-push", "spheres900"};
@@ -57,7 +58,8 @@ static gs_ghost_desc ghost_desc(int enc) {
     gs_ghost_desc gd = gs_ghost_desc_default();
     gd.encoding = enc == ENC_F64 ? GS_ENCODING_F64 : enc == ENC_F32 ? GS_ENCODING_F32
                                                                      : GS_ENCODING_QUANT;
-    if (enc == ENC_QUANT_REST) gd.rest_threshold = 1e-4;
+    if (enc == ENC_QUANT_REST || enc == ENC_DELTA_REST) gd.rest_threshold = 1e-4;
+    gd.delta = enc == ENC_DELTA || enc == ENC_DELTA_REST;
     gd.weight = gs_weight_cs;
     return gd;
 }
