@@ -10584,7 +10584,10 @@ GS__PRIVATE gs__base *gs__delta_base(const gs_net *net, gs__ghost *g) {
         if (!any || gs__seq_newer(oldest, gp->acked)) oldest = gp->acked;
         any = 1;
     }
-    return any ? gs__ring_find(g->ring, oldest) : NULL;
+    /* too old: a peer that received every snapshot sent since may have let
+       it go (it keeps as many as we do) */
+    if (!any || g->b_seq - oldest >= (uint32_t)GS_DELTA_RING) return NULL;
+    return gs__ring_find(g->ring, oldest);
 }
 
 /* Adds a chunk (values, or differences d for a delta) to the datagram,
