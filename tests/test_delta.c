@@ -189,11 +189,11 @@ static void deliver(pair *pr) {
 static void frame(pair *pr, int probes) {
     int i;
     pr->now += FRAME;
-    if (probes) {
+    if (probes && pr->w[0]) {
         gs_quat q = {0, 0, 0, 1};
         gs_probe_set_target(pr->sc[0].probes[0], gs_scene_probe_path(0, pr->now), q);
     }
-    gs_world_advance(pr->w[0], FRAME, NULL);
+    if (pr->w[0]) gs_world_advance(pr->w[0], FRAME, NULL);
     for (i = 0; i < 2; ++i)
         if (pr->net[i]) gs_net_update(pr->net[i], pr->now);
     deliver(pr);
