@@ -1182,8 +1182,8 @@ GS_API gs_result gs_world_sync_test(gs_world *w, int frames, int *bad_agent);
        (element count 0, payload 0 bytes, chunk index 0); the object is at
        rest at the time it carries, its state within the sender's
        rest_threshold of the last snapshot it sent of it.
-     Bit 1 (GS_WIRE_CHUNK_DELTA, GS_ENCODING_QUANT only): the chunk's
-       values as differences from the same chunk of an earlier snapshot of
+     Bit 1 (GS_WIRE_CHUNK_DELTA, GS_ENCODING_QUANT only, element count
+       1..GS_WIRE_QUANT_CHUNK): the chunk's values as differences from the same chunk of an earlier snapshot of
        the object (its baseline), in the integers of the quantized state:
        a scalar's integer is its value over its segment's step (base + q
        above), a quaternion's four are the index of its largest component
@@ -1397,8 +1397,9 @@ GS_API int gs_wire_decode(const unsigned char *buf, size_t size,
                           gs_wire_view *out, gs_reject *why);
 /* Appends a delta chunk (c->flags GS_WIRE_CHUNK_DELTA, GS_ENCODING_QUANT,
    c->baseline the baseline's sequence, older than c->sequence by 1..2^31)
-   of c->elements integer differences from the baseline (see >>wire; each
-   within +-2^31); c->segments are not used. The coding is whichever is
+   of c->elements (1..GS_WIRE_QUANT_CHUNK, a quantized chunk's most)
+   integer differences from the baseline (see >>wire; each within
+   +-2^31); c->segments are not used. The coding is whichever is
    smaller. Errors as gs_wire_add's; GS_ERR_INVALID_ARG for a difference
    out of range. */
 GS_API gs_result gs_wire_add_delta(unsigned char *buf, size_t cap, size_t *size,
@@ -9463,7 +9464,9 @@ GS__PRIVATE int gs__delta_parse(gs_wire_chunk *c, const unsigned char *p, size_t
     uint64_t dist = 0;
     size_t need, bm, i;
     int nz = 0;
-    if (c->encoding != GS_ENCODING_QUANT || c->elements == 0) return 0;
+    if (c->encoding != GS_ENCODING_QUANT || c->elements == 0 ||
+        c->elements > GS_WIRE_QUANT_CHUNK)
+        return 0;
     if (!gs__varint_get(&q, end, 5, &dist) || dist < 1 || dist > 0x80000000u || q >= end)
         return 0;
     c->delta_width = *q & 0x3f;
@@ -9718,7 +9721,8 @@ GS_API gs_result gs_wire_add_delta(unsigned char *buf, size_t cap, size_t *size,
     uint32_t dist;
     gs_result r;
     int i;
-    if (!buf || !size || !c || !diff || c->elements == 0) return GS_ERR_INVALID_ARG;
+    if (!buf || !size || !c || !diff || c->elements == 0 || c->elements > GS_WIRE_QUANT_CHUNK)
+        return GS_ERR_INVALID_ARG;
     dist = c->sequence - c->baseline;
     if (c->encoding != GS_ENCODING_QUANT || c->flags != GS_WIRE_CHUNK_DELTA || dist == 0 ||
         dist > 0x80000000u || c->count == 0 || c->index >= c->count)
