@@ -1,6 +1,7 @@
 # ghostsim - build, test, install.
 #   make test      install missing Debian packages, build and run every test
-#                  (plain, then under ASan+UBSan), compile checks, examples
+#                  (plain, then under ASan+UBSan), compile checks, examples,
+#                  all but the slow ones (make test-slow; .ci/run runs both)
 #   make demo      three ghostpeer processes on loopback, live statistics,
 #                  plots and a picture in demo-results/
 #   make examples  build examples/ and the reference peer into build/
@@ -46,9 +47,9 @@ TESTS    := $(basename $(notdir $(wildcard tests/test_*.c)))
 TESTS_NOSODIUM := test_security_nosodium
 EXAMPLES := $(basename $(notdir $(wildcard examples/*.c)))
 
-.PHONY: all deps deps-bench bench bench-quick bench-build test test-build test-plain test-asan tsan valgrind-udp \
+.PHONY: all deps deps-bench bench bench-quick bench-build test test-slow test-build test-plain test-asan tsan valgrind-udp \
         test-peers demo compile-checks examples peer valgrind install uninstall install-check \
-        cmake-check clean fuzz fuzz-ci
+        cmake-check clean fuzz fuzz-ci doc-check
 
 all: examples
 
@@ -93,6 +94,22 @@ $(BUILD)/asan/test_%: tests/test_%.c $(BUILD)/asan/gs_impl.o ghostsim.h
 # The regression test replays the fuzz harness's checks.
 $(BUILD)/test_fuzz_regress $(BUILD)/asan/test_fuzz_regress: tests/fuzz_wire.c tests/fuzz_sealed.c \
   tests/fuzz_clock.c tests/fuzz_world.h
+
+# The manual's quick starts (the top comment of ghostsim.h), extracted as
+# functions that tests/test_manual.c runs: the manual cannot drift from
+# what works.
+$(BUILD)/manual_quickstart.h: ghostsim.h tests/manual_extract.py | $(BUILD)
+	python3 tests/manual_extract.py ghostsim.h $@
+$(BUILD)/test_manual $(BUILD)/asan/test_manual: $(BUILD)/manual_quickstart.h
+
+# Every public declaration of ghostsim.h has its comment (tests/doc_check.py),
+# and the manual's quick starts compile as C++11 too (test_manual runs them
+# as C99).
+doc-check: $(BUILD)/manual_quickstart.h
+	@python3 tests/doc_check.py ghostsim.h
+	@for cxx in g++ clang++; do \
+	  $$cxx -std=c++11 $(WARN) $(SODIUM_CFLAGS) -I. -fsyntax-only -x c++ tests/test_manual.c || exit 1; \
+	done; echo "doc-check: the quick starts compile as C++11 (g++, clang++)"
 
 # The viewer needs SDL2 (Debian libsdl2-dev); its headless mode draws PNGs.
 $(BUILD)/viewer: examples/viewer.c ghostsim.h | $(BUILD)
@@ -146,12 +163,19 @@ test-build: examples $(addprefix $(BUILD)/,$(TESTS) $(TESTS_NOSODIUM)) \
 # (tsan and valgrind on the UDP threads, the peers, the fault suite) run
 # alone, as a loaded machine would fail them for the wrong reason.
 test: deps
-	@$(MAKE) --no-print-directory -j2 test-build
-	@$(MAKE) --no-print-directory -j2 --output-sync=target compile-checks examples \
-	  cmake-check install-check fuzz-ci
-	@$(MAKE) --no-print-directory -j2 --output-sync=target test-plain test-asan
-	@$(MAKE) --no-print-directory tsan valgrind-udp
-	@$(MAKE) --no-print-directory test-peers faults-short
+	@sh tests/phase.sh "build" $(MAKE) --no-print-directory -j2 test-build
+	@sh tests/phase.sh "checks and fuzzers" $(MAKE) --no-print-directory -j2 --output-sync=target \
+	  compile-checks doc-check examples cmake-check install-check fuzz-ci
+	@sh tests/phase.sh "cmocka suites" $(MAKE) --no-print-directory -j2 --output-sync=target \
+	  test-plain test-asan
+	@sh tests/phase.sh "tsan and valgrind" $(MAKE) --no-print-directory tsan valgrind-udp
+	@sh tests/phase.sh "peers and faults" $(MAKE) --no-print-directory test-peers faults-short
+
+# Suites too slow for make test's 10 minutes, which .ci/run runs after it:
+# the paper scene's convergence on a perfect and a bad link (85 s of
+# simulation; README "Convergence").
+test-slow: $(BUILD)/test_net
+	@GHOSTSIM_SLOW_TESTS=1 sh tests/run.sh "slow" "$(BUILD)/test_net test_scene_perfect_and_bad"
 
 # The UDP tests (gather and scatter threads) under ThreadSanitizer, and under
 # valgrind for leaks: sockets, threads and buffers all released at shutdown.
@@ -185,22 +209,26 @@ FUZZ_CLOCK_SECONDS ?= $(FUZZ_SECONDS)
 FUZZ_CC      ?= clang
 FUZZ_FLAGS   := -O1 -g -fsanitize=fuzzer,address,undefined -fno-sanitize-recover=all \
                 -fno-omit-frame-pointer -fsanitize-coverage-ignorelist=tests/fuzz_ignore.txt
-$(BUILD)/fuzz_wire: tests/fuzz_wire.c tests/fuzz_world.h tests/gs_impl.c tests/fuzz_ignore.txt \
-                    ghostsim.h | $(BUILD)
-	$(FUZZ_CC) $(CSTD) $(WARN) $(FUZZ_FLAGS) $(CCD_CFLAGS) -I. tests/fuzz_wire.c tests/gs_impl.c \
-	  -o $@ $(LIBS)
-$(BUILD)/fuzz_wire2: tests/fuzz_wire2.c tests/fuzz_world.h tests/gs_impl.c tests/fuzz_ignore.txt \
-                     ghostsim.h | $(BUILD)
-	$(FUZZ_CC) $(CSTD) $(WARN) $(FUZZ_FLAGS) $(CCD_CFLAGS) -I. tests/fuzz_wire2.c tests/gs_impl.c \
-	  -o $@ $(LIBS)
-$(BUILD)/fuzz_sealed: tests/fuzz_sealed.c tests/fuzz_wire.c tests/fuzz_world.h tests/gs_impl.c \
-                      tests/fuzz_ignore.txt ghostsim.h | $(BUILD)
+# The library is built once for the four harnesses (with GHOSTSIM_SODIUM,
+# which the sealed harness needs and the others do not see): four builds of
+# the implementation under these flags were a minute of make test's build.
+$(BUILD)/fuzz:
+	mkdir -p $@
+$(BUILD)/fuzz/gs_impl.o: tests/gs_impl.c tests/fuzz_ignore.txt ghostsim.h | $(BUILD)/fuzz
+	$(FUZZ_CC) $(CSTD) $(WARN) $(FUZZ_FLAGS) $(SODIUM_CFLAGS) $(CCD_CFLAGS) -I. -c $< -o $@
+$(BUILD)/fuzz_wire: tests/fuzz_wire.c tests/fuzz_world.h $(BUILD)/fuzz/gs_impl.o ghostsim.h
+	$(FUZZ_CC) $(CSTD) $(WARN) $(FUZZ_FLAGS) $(CCD_CFLAGS) -I. tests/fuzz_wire.c $(BUILD)/fuzz/gs_impl.o \
+	  -o $@ $(LIBS) $(SODIUM_LIBS)
+$(BUILD)/fuzz_wire2: tests/fuzz_wire2.c tests/fuzz_world.h $(BUILD)/fuzz/gs_impl.o ghostsim.h
+	$(FUZZ_CC) $(CSTD) $(WARN) $(FUZZ_FLAGS) $(CCD_CFLAGS) -I. tests/fuzz_wire2.c $(BUILD)/fuzz/gs_impl.o \
+	  -o $@ $(LIBS) $(SODIUM_LIBS)
+$(BUILD)/fuzz_sealed: tests/fuzz_sealed.c tests/fuzz_wire.c tests/fuzz_world.h $(BUILD)/fuzz/gs_impl.o \
+                      ghostsim.h
 	$(FUZZ_CC) $(CSTD) $(WARN) $(FUZZ_FLAGS) $(SODIUM_CFLAGS) $(CCD_CFLAGS) -I. \
-	  tests/fuzz_sealed.c tests/gs_impl.c -o $@ $(LIBS) $(SODIUM_LIBS)
-$(BUILD)/fuzz_clock: tests/fuzz_clock.c tests/fuzz_world.h tests/gs_impl.c tests/fuzz_ignore.txt \
-                     ghostsim.h | $(BUILD)
-	$(FUZZ_CC) $(CSTD) $(WARN) $(FUZZ_FLAGS) $(CCD_CFLAGS) -I. tests/fuzz_clock.c tests/gs_impl.c \
-	  -o $@ $(LIBS)
+	  tests/fuzz_sealed.c $(BUILD)/fuzz/gs_impl.o -o $@ $(LIBS) $(SODIUM_LIBS)
+$(BUILD)/fuzz_clock: tests/fuzz_clock.c tests/fuzz_world.h $(BUILD)/fuzz/gs_impl.o ghostsim.h
+	$(FUZZ_CC) $(CSTD) $(WARN) $(FUZZ_FLAGS) $(CCD_CFLAGS) -I. tests/fuzz_clock.c $(BUILD)/fuzz/gs_impl.o \
+	  -o $@ $(LIBS) $(SODIUM_LIBS)
 $(BUILD)/fuzz_seeds: tests/fuzz_seeds.c tests/fuzz_world.h $(BUILD)/gs_impl.o ghostsim.h
 	$(CC) $(CSTD) $(WARN) $(CFLAGS) -I. $< $(BUILD)/gs_impl.o -o $@ $(LIBS) $(SODIUM_LIBS)
 $(BUILD)/fuzz-seeds.stamp: $(BUILD)/fuzz_seeds
