@@ -327,7 +327,9 @@
                            ghosts, wire format v1, simnet, POSIX UDP.
        unreleased          wire format v2 (v1 refused as GS_REJECT_OLD_VERSION):
                            GS_ENCODING_QUANT, send on change with heartbeats,
-                           priority within a peer's budget, gs_wire_values.
+                           priority within a peer's budget, gs_wire_values;
+                           delta coding against acknowledged baselines
+                           (gs_ghost_desc.delta, GS_REJECT_BASELINE).
 
    LICENSE: MIT, at the end of this file.
 */
