@@ -338,23 +338,24 @@ static void test_delta_peer_restart(void **state) {
     free(pr);
 }
 
-/* The same chain on gs_simnet, a lossy, duplicating, reordering link,
-   both worlds stepping and blending: what each host holds of the other's
-   snapshots (its baselines, every frame) is the sender's record. */
-static void test_delta_simnet(void **state) {
+/* The same chain on gs_simnet, lossy, duplicating, reordering links, every
+   world stepping and blending, 2 or 3 hosts (with 3, a sender codes
+   against the newest snapshot both peers acknowledged): what each host
+   holds of another's snapshots (its baselines, every frame) is that
+   sender's record. */
+static void delta_simnet(int hosts) {
     gs_simnet *sim;
     gs_simnet_desc smd;
     gs_link_desc ld;
-    gs_world *w[2];
-    gs_net *net[2];
-    gs_scene sc[2];
-    long matched = 0, mismatched = 0;
-    int i, f, a, k, c;
-    (void)state;
+    gs_world *w[3];
+    gs_net *net[3];
+    gs_scene sc[3];
+    long matched = 0, mismatched = 0, based = 0;
+    int i, j, f, a, k, c;
     memset(&smd, 0, sizeof smd);
     smd.seed = 5;
     assert_int_equal(gs_simnet_create(&smd, &sim), GS_OK);
-    for (i = 0; i < 2; ++i) {
+    for (i = 0; i < hosts; ++i) {
         gs_world_desc wd = gs_world_desc_default();
         gs_scene_desc sd = gs_scene_desc_default();
         gs_ghost_desc gd = delta_desc();
@@ -362,7 +363,7 @@ static void test_delta_simnet(void **state) {
         wd.host_id = (uint32_t)i + 1;
         assert_int_equal(gs_world_create(&wd, &w[i]), GS_OK);
         sd.cloth_n = 10;
-        sd.probe_count = 2;
+        sd.probe_count = hosts;
         assert_int_equal(gs_scene_create(w[i], &sd, &sc[i]), GS_OK);
         gd.queue_size = 8;
         assert_int_equal(gs_scene_attach_ghosts(&sc[i], &gd), GS_OK);
@@ -376,18 +377,23 @@ static void test_delta_simnet(void **state) {
     ld.loss = 0.1;
     ld.duplicate = 0.05;
     ld.reorder = 0.1;
-    assert_int_equal(gs_simnet_link(sim, 1, 2, &ld), GS_OK);
+    for (i = 0; i < hosts; ++i)
+        for (j = i + 1; j < hosts; ++j)
+            assert_int_equal(gs_simnet_link(sim, (uint32_t)i + 1, (uint32_t)j + 1, &ld), GS_OK);
     for (f = 0; f < 240; ++f) {
-        for (i = 0; i < 2; ++i) {
+        for (i = 0; i < hosts; ++i) {
             gs_quat q = {0, 0, 0, 1};
             gs_probe_set_target(sc[i].probes[i], gs_scene_probe_path(i, f * FRAME), q);
         }
         assert_int_equal(gs_simnet_run(sim, FRAME, FRAME), GS_OK);
-        for (i = 0; i < 2; ++i) /* host i's baselines of host 1 - i */
-            for (a = 0; a < w[i]->agent_count; ++a) {
+        /* the cloth of host 1 has a baseline every peer acknowledged */
+        based += gs__delta_base(net[0], gs__ghost_find(w[0], 1)) != NULL;
+        for (i = 0; i < hosts; ++i) /* host i's baselines of host j */
+            for (j = 0; j < hosts; ++j)
+            for (a = 0; a < w[i]->agent_count && j != i; ++a) {
                 gs__ghost *gr = gs__ghost_of(w[i]->agents[a]);
-                gs__ghost *gs = gr ? gs__ghost_find(w[1 - i], gr->d.object_id) : NULL;
-                int p = gs__peer_slot(net[i], (uint32_t)(2 - i));
+                gs__ghost *gs = gr ? gs__ghost_find(w[j], gr->d.object_id) : NULL;
+                int p = gs__peer_slot(net[i], (uint32_t)j + 1);
                 if (!gs) continue;
                 for (k = 0; k < GS_DELTA_RING; ++k) {
                     gs__base *e = &gr->gp[p].ring[k], *s;
@@ -408,12 +414,23 @@ static void test_delta_simnet(void **state) {
             }
     }
     assert_int_equal(mismatched, 0);
-    assert_true(matched > 1000);
-    for (i = 0; i < 2; ++i) {
+    assert_true(matched > 1000 * (hosts - 1));
+    assert_true(based > 240 / 2); /* deltas most of the time, despite the loss */
+    for (i = 0; i < hosts; ++i) {
         gs_net_destroy(net[i]);
         gs_world_destroy(w[i]);
     }
     gs_simnet_destroy(sim);
+}
+
+static void test_delta_simnet(void **state) {
+    (void)state;
+    delta_simnet(2);
+}
+
+static void test_delta_simnet_three(void **state) {
+    (void)state;
+    delta_simnet(3);
 }
 
 /* The wire: differences and acknowledgements round trip; each coding is
@@ -537,6 +554,7 @@ int main(void) {
         cmocka_unit_test(test_delta_old_baseline),
         cmocka_unit_test(test_delta_peer_restart),
         cmocka_unit_test(test_delta_simnet),
+        cmocka_unit_test(test_delta_simnet_three),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }
