@@ -9787,12 +9787,45 @@ GS_API int gs_wire_acks(const gs_wire_chunk *c, gs_wire_ack *out, int max) {
     return i;
 }
 
+/* One value of w bits from a packed run at *p (before end), through the
+   accumulator: 32 bits at a time while they are there. */
+#define GS__UNPACK(z, p, end, acc, n, w, mask)                                  \
+    do {                                                                       \
+        if ((n) < (w)) {                                                       \
+            if ((end) - (p) >= 4) {                                            \
+                (acc) |= (uint64_t)gs__get32(p) << (n);                        \
+                (p) += 4;                                                      \
+                (n) += 32;                                                     \
+            } else                                                             \
+                while ((n) < (w)) { (acc) |= (uint64_t)*(p)++ << (n); (n) += 8; } \
+        }                                                                      \
+        (z) = (acc) & (mask);                                                  \
+        (acc) >>= (w);                                                         \
+        (n) -= (w);                                                            \
+    } while (0)
+
+/* In one pass, the accumulator in locals (as gs__quant_get): this is the
+   receiving side's inner loop. */
 GS_API void gs_wire_deltas(const gs_wire_chunk *c, int64_t *out) {
-    gs__dread d;
-    int i;
+    const unsigned char *q, *end, *map = NULL;
+    uint64_t dist = 0, acc = 0, mask, z;
+    int i, n = 0, w;
     if (!c || !out || !(c->flags & GS_WIRE_CHUNK_DELTA) || !c->payload) return;
-    gs__dread_init(c, &d);
-    for (i = 0; i < c->elements; ++i) out[i] = gs__dread_next(&d);
+    q = c->payload;
+    end = q + c->payload_bytes;
+    gs__varint_get(&q, end, 5, &dist);
+    q++;
+    w = c->delta_width;
+    mask = ((uint64_t)1 << w) - 1;
+    if (c->delta_coding) {
+        map = q;
+        q += ((size_t)c->elements + 7) / 8;
+    }
+    for (i = 0; i < c->elements; ++i) {
+        if (map && !(map[i >> 3] >> (i & 7) & 1)) { out[i] = 0; continue; }
+        GS__UNPACK(z, q, end, acc, n, w, mask);
+        out[i] = gs__unzigzag(z + (map != NULL));
+    }
 }
 
 /* Writes a delta payload at p (room bytes): its size, or 0 if it does not
@@ -9804,7 +9837,6 @@ GS__PRIVATE size_t gs__delta_put(unsigned char *p, size_t room, const gs_wire_ch
     size_t need0, need1, need;
     uint64_t m0 = 0, m1 = 0;
     int i, nz = 0, w0 = 0, w1 = 0, coding, wd;
-    gs__bitw w;
     for (i = 0; i < c->elements; ++i) {
         uint64_t z = gs__zigzag(d[i]);
         m0 |= z;
@@ -9820,17 +9852,33 @@ GS__PRIVATE size_t gs__delta_put(unsigned char *p, size_t room, const gs_wire_ch
     if (need > room) return 0;
     memcpy(p, head, hn);
     p[hn] = (unsigned char)(wd | coding << 7);
-    w.p = p + hn + 1; w.end = p + need; w.acc = 0; w.n = 0; w.over = 0;
-    if (coding) {
-        for (i = 0; i < c->elements; ++i) gs__bitw_put(&w, d[i] != 0, 1);
-        gs__bitw_flush(&w);
-        for (i = 0; i < c->elements; ++i)
-            if (d[i]) gs__bitw_put(&w, gs__zigzag(d[i]) - 1u, wd);
-    } else {
-        for (i = 0; i < c->elements; ++i) gs__bitw_put(&w, gs__zigzag(d[i]), wd);
+    /* the writer in locals (as gs__quant_put_scalar); need counts every
+       bit, so the 32-bit stores stay inside it */
+    {
+        unsigned char *o = p + hn + 1;
+        uint64_t acc = 0;
+        int n = 0;
+        if (coding) {
+            size_t bm = ((size_t)c->elements + 7) / 8;
+            memset(o, 0, bm);
+            for (i = 0; i < c->elements; ++i)
+                if (d[i]) o[i >> 3] = (unsigned char)(o[i >> 3] | 1u << (i & 7));
+            o += bm;
+        }
+        for (i = 0; i < c->elements; ++i) {
+            if (coding && !d[i]) continue;
+            acc |= (gs__zigzag(d[i]) - (uint64_t)coding) << n;
+            n += wd;
+            if (n >= 32) {
+                gs__put32(o, (uint32_t)acc);
+                o += 4;
+                acc >>= 32;
+                n -= 32;
+            }
+        }
+        for (; n > 0; n -= 8, acc >>= 8) *o++ = (unsigned char)acc;
     }
-    gs__bitw_flush(&w);
-    return w.over ? 0 : need;
+    return need;
 }
 
 
