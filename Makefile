@@ -152,6 +152,20 @@ test-asan: $(addprefix $(BUILD)/asan/,$(TESTS) $(TESTS_NOSODIUM))
 	@ASAN_OPTIONS=detect_leaks=1:abort_on_error=1 UBSAN_OPTIONS=print_stacktrace=1 \
 	  sh tests/run.sh "asan+ubsan" $(addprefix $(BUILD)/asan/,$(TESTS) $(TESTS_NOSODIUM))
 
+# make test runs each cmocka binary as a target of its own, two at a time,
+# the longest first (under ASan the net and ghost suites are most of the
+# time), so both cores stay busy to the end; test-plain and test-asan run
+# them in one line each.
+SLOW_SUITES := test_net test_ghost
+SUITES_BY_LENGTH := $(addprefix run-asan-,$(SLOW_SUITES)) \
+  $(addprefix run-asan-,$(filter-out $(SLOW_SUITES),$(TESTS) $(TESTS_NOSODIUM))) \
+  $(addprefix run-plain-,$(TESTS) $(TESTS_NOSODIUM))
+run-plain-%: $(BUILD)/%
+	@sh tests/run.sh "plain" $(BUILD)/$*
+run-asan-%: $(BUILD)/asan/%
+	@ASAN_OPTIONS=detect_leaks=1:abort_on_error=1 UBSAN_OPTIONS=print_stacktrace=1 \
+	  sh tests/run.sh "asan+ubsan" $(BUILD)/asan/$*
+
 # Everything `make test` runs, built first on both cores.
 test-build: examples $(addprefix $(BUILD)/,$(TESTS) $(TESTS_NOSODIUM)) \
             $(addprefix $(BUILD)/asan/,$(TESTS) $(TESTS_NOSODIUM)) $(BUILD)/tsan/test_net \
@@ -167,7 +181,7 @@ test: deps
 	@sh tests/phase.sh "checks and fuzzers" $(MAKE) --no-print-directory -j2 --output-sync=target \
 	  compile-checks doc-check examples cmake-check install-check fuzz-ci
 	@sh tests/phase.sh "cmocka suites" $(MAKE) --no-print-directory -j2 --output-sync=target \
-	  test-plain test-asan
+	  $(SUITES_BY_LENGTH)
 	@sh tests/phase.sh "tsan and valgrind" $(MAKE) --no-print-directory tsan valgrind-udp
 	@sh tests/phase.sh "peers and faults" $(MAKE) --no-print-directory test-peers faults-short
 

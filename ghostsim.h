@@ -24,9 +24,8 @@
        gs_net *net[2];
        gs_scene sc[2];
        gs_scene_desc sd = gs_scene_desc_default(); // a cloth, 3 spheres
-       gs_ghost_desc gd = gs_ghost_desc_default();
+       gs_ghost_desc gd = gs_ghost_desc_default(); // client/server rule
        sd.probe_count = 2;                      // one probe per host
-       gd.weight = gs_weight_cs;                // one authority: the leader
        if (gs_simnet_create(NULL, &sim) != GS_OK) return 1;
        for (int h = 0; h < 2; ++h) {            // every host builds the same
            gs_world_desc wd = gs_world_desc_default();
@@ -68,11 +67,9 @@
        gs_scene_desc sd = gs_scene_desc_default();
        gs_ghost_desc gd = gs_ghost_desc_default();
        sd.probe_count = 2;
-       gd.weight = gs_weight_cs;
        for (int h = 0; h < 2; ++h) {
            gs_world_desc wd = gs_world_desc_default();
-           gs_udp_desc ud;
-           memset(&ud, 0, sizeof ud);           // threads 0: poll mode
+           gs_udp_desc ud = gs_udp_desc_default(); // poll mode
            wd.host_id = (uint32_t)h + 1;
            ud.bind = addr[h];
            if (gs_world_create(&wd, &w[h]) != GS_OK) return 1;
@@ -253,7 +250,11 @@
        a message then); a count whose bytes would not fit in size_t is
        GS_ERR_OUT_OF_RANGE; out of memory is GS_ERR_NO_MEMORY, never
        abort(); a fixed limit (max_peers, the simnet's hosts) is
-       GS_ERR_CAPACITY.
+       GS_ERR_CAPACITY. The simnet's own failures are in gs_simnet_error.
+       Mistakes no call can return (nothing sent or heard for a second,
+       every datagram of a peer refused, a clock that went back) show in
+       gs_peer_stats.health and .reason, and gs_world_diagnose(w) lists
+       them (README: Troubleshooting).
        Callbacks: user code runs inside the library's calls: a custom
        agent's step, get_state and set_state, behaviour rules and weight
        rules run inside gs_world_advance, gs_agent_step, gs_world_hash,
@@ -485,6 +486,10 @@ typedef struct gs_sync_desc {
                               blend at the present and are counted */
 } gs_sync_desc;
 
+/* Mode present, local clock, the world's clock, 16 frames of history, a
+   replay budget of 4096 steps. */
+GS_API gs_sync_desc gs_sync_desc_default(void);
+
 typedef struct gs_world_desc {
     uint32_t host_id;      /* this host's id in a session; default 1 */
     int queue_count;       /* N+1 priority queues Q_0..Q_N; default 8,
@@ -562,7 +567,10 @@ GS_API gs_result gs_world_advance(gs_world *w, double seconds,
 GS_API double gs_world_time(const gs_world *w);
 
 /* The detail of the last failed call on this world ("" if none, or for a
-   NULL w). The text stays valid until the next call on the world. */
+   NULL w). gs_world_advance starts it afresh: after an advance it tells
+   what failed in it (an agent whose step failed, named, with what its
+   step returned; a call refused from one of its callbacks), or is "" when
+   nothing did. The text stays valid until the next call on the world. */
 GS_API const char *gs_world_error(const gs_world *w);
 
 /* This host's id in its session (gs_world_desc.host_id: 1 by default). */
@@ -728,8 +736,10 @@ GS_API void gs_agent_set_priority(gs_agent *a, int priority);
 /* Replaces the behaviour rule; NULL restores gs_behaviour_default. */
 GS_API void gs_agent_set_behaviour(gs_agent *a, gs_behaviour_fn fn,
                                    void *user);
-/* The agent's scheduling counters (by value; never fails). */
-GS_API gs_agent_stats gs_agent_get_stats(const gs_agent *a);
+/* The agent's scheduling counters into *out. GS_ERR_INVALID_ARG for a
+   NULL agent or out. Every stats call has this shape: a gs_result, the
+   object, *out. */
+GS_API gs_result gs_agent_get_stats(const gs_agent *a, gs_agent_stats *out);
 /* Removes the agent from its world and frees it. GS_ERR_BUSY from a
    callback (see ERRORS). */
 GS_API gs_result gs_agent_destroy(gs_agent *a);
@@ -761,8 +771,8 @@ GS_API gs_result gs_agent_wake(gs_agent *a);
 /* A user agent. Its variables live in user memory; ghostsim keeps its time
    and schedules it like any other. */
 typedef struct gs_custom_desc {
-    double dt;          /* s; required, >= GS_MIN_DT */
-    size_t state_size;  /* doubles, excluding time; may be 0 */
+    double dt;          /* s, >= GS_MIN_DT; default 0.001 (as a solver's) */
+    size_t state_size;  /* doubles, excluding time; default 0 */
     /* Advances by dt seconds from time t. Returning an error leaves the
        agent's time unchanged; the callback should leave its state too.
        A step that leaves a NaN or infinity in the state is undone: the
@@ -774,13 +784,17 @@ typedef struct gs_custom_desc {
     void *user;
 } gs_custom_desc;
 
+/* dt 0.001 s, no state, no callbacks (step is required). */
+GS_API gs_custom_desc gs_custom_desc_default(void);
+
 /* Creates a user agent from desc (copied; desc->user must outlive the
-   agent). Returns GS_OK and *out, or GS_ERR_INVALID_ARG (a NULL desc or
-   out, dt below GS_MIN_DT, step NULL, or a state_size without get_state
-   and set_state), GS_ERR_OUT_OF_RANGE for a state_size whose bytes do not
-   fit in size_t, GS_ERR_NO_MEMORY, GS_ERR_BUSY from a callback; *out is
-   NULL on failure, the reason in gs_world_error. The callbacks run with
-   the world's guard up (see ERRORS). */
+   agent); a zero dt is the default. Returns GS_OK and *out, or
+   GS_ERR_INVALID_ARG (a NULL desc or out, dt below GS_MIN_DT, step NULL,
+   or a state_size without get_state and set_state), GS_ERR_OUT_OF_RANGE
+   for a state_size whose bytes do not fit in size_t, GS_ERR_NO_MEMORY,
+   GS_ERR_BUSY from a callback; *out is NULL on failure, the reason in
+   gs_world_error. The callbacks run with the world's guard up (see
+   ERRORS). */
 GS_API gs_result gs_custom_create(gs_world *w, const gs_custom_desc *desc,
                                   gs_agent **out);
 
@@ -796,18 +810,19 @@ typedef struct gs_spring {
     double damping;     /* N s/m along the spring, >= 0 */
 } gs_spring;
 
+/* A mesh has no default shape: its particles are required. */
 typedef struct gs_mesh_desc {
-    int particle_count;        /* >= 1 */
+    int particle_count;        /* >= 1, required */
     const gs_vec3 *positions;  /* m, within +-GS_MAX_COORD; particle_count
                                   of them, required */
     const gs_vec3 *velocities; /* m/s; NULL = at rest */
     const double *masses;      /* kg each, > 0; NULL = mass / count */
     double mass;               /* kg in all when masses is NULL; default 1 */
-    int spring_count;
+    int spring_count;          /* default 0: free particles */
     const gs_spring *springs;
-    int pin_count;
+    int pin_count;             /* default 0 */
     const int *pins;           /* particles held where they are */
-    double air_damping;        /* 1/s; force -m * air_damping * v */
+    double air_damping;        /* 1/s; force -m * air_damping * v; default 0 */
     double particle_radius;    /* m, for contacts; default 0.01 */
     gs_material material;      /* contacts; zero fields take defaults */
     gs_solver_desc solver;
@@ -831,7 +846,8 @@ enum {
 };
 
 typedef struct gs_cloth_desc {
-    int nx, ny;          /* particles along u and v; each >= 2 */
+    int nx, ny;          /* particles along u and v; each >= 2; default
+                            16 x 16 (the paper's scene) */
     double width, height; /* m along u and v, at most GS_MAX_COORD;
                              default 1 x 1 */
     gs_vec3 origin;      /* m; where particle (0,0) is; default 0. Every
@@ -847,8 +863,9 @@ typedef struct gs_cloth_desc {
     double bend_stiffness;    /* N/m; default stretch / 100 */
     double spring_damping;    /* N s/m on every spring; default 0.02 */
     double air_damping;       /* 1/s; default 0.1 */
-    int pin_corners;     /* GS_CORNER_* mask */
-    int pin_count;       /* more pins, as particle index i + nx * j */
+    int pin_corners;     /* GS_CORNER_* mask; default 0: none */
+    int pin_count;       /* more pins, as particle index i + nx * j;
+                            default 0 */
     const int *pins;
     double particle_radius; /* m, for contacts; default half the smaller
                                spacing between particles */
@@ -922,8 +939,10 @@ typedef enum gs_shape_type {
 
 #define GS_MAX_HULL_POINTS 64
 
+/* A shape has no default: its type is required (GS_SHAPE_NONE is refused,
+   so that a forgotten shape is an error, not some ball). */
 typedef struct gs_shape_desc {
-    gs_shape_type type;
+    gs_shape_type type;     /* required; the sizes of that type too */
     double radius;          /* m, sphere; sizes at most GS_MAX_COORD */
     gs_vec3 half_extents;   /* m, box */
     const gs_vec3 *points;  /* m, hull, in body coordinates (within
@@ -932,21 +951,25 @@ typedef struct gs_shape_desc {
     int point_count;
 } gs_shape_desc;
 
+/* Every field zero: type GS_SHAPE_NONE, which the caller must set. */
+GS_API gs_shape_desc gs_shape_desc_default(void);
+
 typedef struct gs_rigid_desc {
     gs_shape_desc shape;
     double density;        /* kg/m^3; default 1000 */
     double mass;           /* kg; > 0 overrides density */
     gs_vec3 inertia;       /* kg m^2, principal moments in body axes;
                               default from shape and mass */
-    gs_vec3 position;      /* m, within +-GS_MAX_COORD */
+    gs_vec3 position;      /* m, within +-GS_MAX_COORD; default 0 */
     gs_quat orientation;   /* default identity (all zero); normalized on
                               create, whatever its finite size */
-    gs_vec3 velocity;      /* m/s */
-    gs_vec3 angular_velocity; /* rad/s, world frame */
-    gs_material material;
+    gs_vec3 velocity;      /* m/s; default 0 */
+    gs_vec3 angular_velocity; /* rad/s, world frame; default 0 */
+    gs_material material;  /* all zero: gs_material_default() */
     int continuous;        /* 1: substep so that the body never moves more
                               than a quarter of its smallest size per
-                              substep (stops tunnelling of fast bodies) */
+                              substep (stops tunnelling of fast bodies);
+                              default 0: off */
     gs_solver_desc solver; /* symplectic Euler (default), Verlet or RK4;
                               substeps keep contact stiffness stable */
     double rolling;        /* m, >= 0; rolling resistance: at each contact
@@ -961,9 +984,9 @@ typedef struct gs_rigid_desc {
 /* A kinematic body the application moves: nothing pushes it back. */
 typedef struct gs_probe_desc {
     gs_shape_desc shape;
-    gs_vec3 position;      /* m, within +-GS_MAX_COORD */
+    gs_vec3 position;      /* m, within +-GS_MAX_COORD; default 0 */
     gs_quat orientation;   /* default identity */
-    gs_material material;
+    gs_material material;  /* all zero: gs_material_default() */
     double dt;             /* s, >= GS_MIN_DT; default 0.001 */
     double max_speed;      /* m/s it may move at to reach its target;
                               default 10 */
@@ -1022,15 +1045,19 @@ typedef struct gs_contact {
     double depth; /* m */
 } gs_contact;
 
-/* The exact or libccd answer for two shapes at two poses: returns 1 and
-   fills *c when they overlap, 0 when apart. Every output is finite: where
-   libccd returns a non-finite direction (touching or coincident shapes) the
-   answer falls back to the direction between the centres, and coincident
-   centres to +y (a's normal). Shapes or positions outside GS_MAX_COORD (or
-   otherwise invalid) give 0. */
-GS_API int gs_collide_shapes(const gs_shape_desc *a, gs_vec3 pa, gs_quat qa,
-                             const gs_shape_desc *b, gs_vec3 pb, gs_quat qb,
-                             gs_contact *c);
+/* The exact or libccd answer for two shapes at two poses: GS_OK with
+   *overlap 1 and *c filled when they overlap, *overlap 0 when apart. Every
+   output is finite: where libccd returns a non-finite direction (touching
+   or coincident shapes) the answer falls back to the direction between the
+   centres, and coincident centres to +y (a's normal). GS_ERR_INVALID_ARG
+   for a NULL pointer; a shape gs_rigid_create would refuse gives what it
+   would (GS_ERR_INVALID_ARG, GS_ERR_NOT_FINITE, GS_ERR_OUT_OF_RANGE);
+   GS_ERR_NOT_FINITE for a NaN or infinite position, GS_ERR_OUT_OF_RANGE
+   for one outside +-GS_MAX_COORD. On an error *overlap is 0 (if given)
+   and *c untouched. */
+GS_API gs_result gs_collide_shapes(const gs_shape_desc *a, gs_vec3 pa, gs_quat qa,
+                                   const gs_shape_desc *b, gs_vec3 pb, gs_quat qb,
+                                   gs_contact *c, int *overlap);
 
 /* A ground plane y = height (within +-GS_MAX_COORD) that every body
    meets. GS_ERR_BUSY from a callback. */
@@ -1045,15 +1072,29 @@ GS_API gs_result gs_world_set_ground(gs_world *w, int enabled, double height,
    ======================================================================== */
 #define GS_SCENE_MAX_SPHERES 64
 #define GS_SCENE_MAX_PROBES 16
+/* A count set to GS_NONE asks for none: zero is the default there, as in
+   every desc (a zeroed desc is the paper's scene). */
+#define GS_NONE (-1)
+/* Probes of a scene whose world has no net when it is made. */
+#define GS_SCENE_DEFAULT_PROBES 1
 
+/* Zero means the default in every field: a zeroed desc, NULL, and
+   gs_scene_desc_default() all give the paper's scene. */
 typedef struct gs_scene_desc {
     int cloth_n;          /* particles per side; default 16 */
     double cloth_size;    /* m; default 1 */
-    int sphere_count;     /* 0..GS_SCENE_MAX_SPHERES, taken as given (0 =
-                             none); gs_scene_desc_default() says 3 */
+    int sphere_count;     /* 1..GS_SCENE_MAX_SPHERES; default 3;
+                             GS_NONE: no sphere */
     double sphere_radius; /* m; default 0.08 */
-    int probe_count;      /* 0..GS_SCENE_MAX_PROBES, taken as given;
-                             gs_scene_desc_default() says 1 */
+    int probe_count;      /* 1..GS_SCENE_MAX_PROBES; GS_NONE: no probe.
+                             Default (0) one per host: probe i is host
+                             i + 1's, so as many as the highest host id
+                             the world's net knows (its own and its
+                             peers') when the scene is made;
+                             GS_SCENE_DEFAULT_PROBES if it has no net.
+                             Probe ids are shared: every host of a
+                             session needs the same count, so make the
+                             scene once every peer is added, or set it */
     uint32_t seed;        /* sphere placement; default 1 */
     gs_integrator cloth_integrator; /* default implicit Euler */
     double dt;            /* s for every agent, >= GS_MIN_DT; default 0.002 */
@@ -1139,10 +1180,24 @@ typedef struct gs_weight_in {
     uint32_t owner;  /* the object's owner, 0 if shared */
     int local;       /* 1 for the local state */
     int local_owns;  /* 1 if this host owns the object */
+    uint32_t object_id;    /* the object weighed (its ghost's object id) */
+    const gs_agent *agent; /* the local agent under that ghost: its kind,
+                              state and time are readable here, not
+                              writable (the blend is reading it) */
 } gs_weight_in;
 
 /* A weight rule: any finite value >= 0. A negative, NaN or infinite weight
-   counts as 0 (and is counted); if every weight is 0 the local state stands. */
+   counts as 0 (and is counted); if every weight is 0 the local state stands.
+   One rule may serve many objects (in->object_id and in->agent say which),
+   or each object its own (gs_ghost_desc.weight; gs_scene_attach_ghosts asks
+   gs_ghost_desc.rule_for for each object of the scene).
+   Objects in contact need one authority: give every object that touches
+   another (the cloth and the spheres resting on it) the same rule, so that
+   the same host's state wins for all of them. Two authorities over objects
+   that push each other never settle: each host corrects its copy of one
+   object towards a peer whose copy of the other it overrides (two hosts of
+   the paper's scene, the cloth under one host and the spheres under the
+   other, drift apart by centimetres and more). */
 typedef double (*gs_weight_fn)(const gs_weight_in *in, void *user);
 
 /* Client/server: 1 for the lead (the local state or a snapshot), 0 for the
@@ -1158,6 +1213,16 @@ GS_API double gs_weight_exp(const gs_weight_in *in, void *user);
 /* Owner authority: only the owner's state counts (the local state if this
    host owns the object); a shared object (owner 0) blends evenly. */
 GS_API double gs_weight_owner(const gs_weight_in *in, void *user);
+
+/* A rule and its user pointer, as gs_ghost_desc.rule_for gives them. */
+typedef struct gs_weight_rule {
+    gs_weight_fn fn;   /* NULL: the object's default rule */
+    void *user;
+} gs_weight_rule;
+/* The rule of one object of a scene (gs_scene_attach_ghosts): its object
+   id, and the agent the ghost will wrap. */
+typedef gs_weight_rule (*gs_rule_for_fn)(uint32_t object_id, const gs_agent *a,
+                                         void *user);
 
 typedef enum gs_encoding {
     GS_ENCODING_DEFAULT = 0, /* f64 */
@@ -1182,7 +1247,9 @@ typedef enum gs_catchup {
 
 typedef struct gs_ghost_desc {
     uint32_t object_id;    /* > 0, the same on every host */
-    gs_weight_fn weight;   /* default gs_weight_exp at 1/s */
+    gs_weight_fn weight;   /* default gs_weight_cs: under latency only
+                              one authority settles (the README's
+                              measurements); gs_weight_exp is the paper's */
     void *weight_user;
     uint32_t owner;        /* owning host (probes); 0 = shared */
     double send_rate;      /* Hz of wall time; default 60 */
@@ -1238,6 +1305,13 @@ typedef struct gs_ghost_desc {
                               carry every ghost due, ghosts go by priority:
                               the wall time since each was last sent times
                               this, so that none starves; default 1 */
+    /* gs_scene_attach_ghosts only (gs_ghost_attach ignores them): the rule
+       of each object, asked once per object before any ghost is attached.
+       A rule whose fn is NULL leaves the object its default (weight and
+       weight_user for the cloth and the spheres, gs_weight_owner for the
+       probes). NULL (default): the defaults for every object. */
+    gs_rule_for_fn rule_for;
+    void *rule_for_user;
     int delta;             /* GS_ENCODING_QUANT only: 1 codes each snapshot
                               chunk as its differences from the newest
                               snapshot every peer acknowledged (see >>wire),
@@ -1285,7 +1359,9 @@ GS_API gs_result gs_ghost_render_state(const gs_agent *a, double *out,
    under `shared` (NULL: gs_ghost_desc_default(); its object_id and owner
    are ignored); probe i is 200 + i under owner authority, owned by host
    i + 1 (its other fields from `shared`, catch-up none: a probe is where
-   its owner puts it). On an error no ghost is left on the scene. */
+   its owner puts it). shared->rule_for, if set, gives any object its own
+   rule (keep one authority over objects in contact: see gs_weight_fn).
+   On an error no ghost is left on the scene. */
 GS_API gs_result gs_scene_attach_ghosts(gs_scene *sc, const gs_ghost_desc *shared);
 
 /* ========================================================================
@@ -1554,9 +1630,8 @@ typedef struct gs_wire_view {
       "wire format v1 (a ghostsim before wire v2): every host of a session "  \
       "must speak v2")                                                        \
     X(GS_REJECT_BASELINE,                                                      \
-      "a delta chunk against a baseline this host does not hold (lost, too "  \
-      "old, from before a restart, or the ghost codes no deltas), or that "   \
-      "leaves its ranges: that chunk only is refused")
+      "a delta chunk whose baseline is not held (lost, too old, from before "  \
+      "a restart) or that leaves its ranges: that chunk only")
 
 typedef enum gs_reject {
 #define GS__REJECT_ENUM(name, text) name,
@@ -1591,12 +1666,14 @@ GS_API gs_result gs_wire_add(unsigned char *buf, size_t cap, size_t *size,
 GS_API size_t gs_wire_end(unsigned char *buf, size_t size);
 /* Checks everything that needs no knowledge of the objects: size, magic,
    version, flags, checksum, chunk layout, encodings, finite numbers and
-   times. Returns 1 and fills *out, or 0 and *why. Datagrams in clear
+   times. Returns GS_OK and fills *out, or GS_ERR_REJECTED and *why (why
+   may be NULL); GS_ERR_INVALID_ARG for a NULL buf or out (*why
+   GS_REJECT_SHORT). Datagrams in clear
    only: a sealed one fails the checksum here (its trailer is no CRC), or
    if the CRC matched by chance its flag is a GS_REJECT_LAYOUT; only a net
    with the key opens it. */
-GS_API int gs_wire_decode(const unsigned char *buf, size_t size,
-                          gs_wire_view *out, gs_reject *why);
+GS_API gs_result gs_wire_decode(const unsigned char *buf, size_t size,
+                                gs_wire_view *out, gs_reject *why);
 /* Appends a delta chunk (c->flags GS_WIRE_CHUNK_DELTA, GS_ENCODING_QUANT,
    c->baseline the baseline's sequence, older than c->sequence by 1..2^31)
    of c->elements (1..GS_WIRE_QUANT_CHUNK, a quantized chunk's most)
@@ -1635,9 +1712,10 @@ typedef struct gs_net gs_net;
    the way. `data` lives only during the call: a transport that sends
    later copies it. It runs inside gs_net_update (under the net's lock,
    see THREADS): calls that change the world or the net return
-   GS_ERR_BUSY there. Return GS_OK, or an error for a datagram that was
-   not sent (the net does not look at it yet: the datagram counts as
-   sent either way). */
+   GS_ERR_BUSY there. Return GS_OK when it was sent (or lost on the way,
+   as a network may), an error when it was not: the net counts it as a
+   send failure (gs_peer_stats.send_failures), not as sent, and
+   gs_net_update returns it. */
 typedef gs_result (*gs_send_fn)(void *user, uint32_t host, const void *data,
                                 size_t size);
 
@@ -1664,6 +1742,67 @@ typedef struct gs_net_desc {
                            datagrams a second) */
 } gs_net_desc;
 
+/* Session 1, bandwidth 1e7 bytes/s, no time window, 16 peers, no key;
+   send NULL (required: set it); max_rate 0, which follows bandwidth. */
+GS_API gs_net_desc gs_net_desc_default(void);
+
+/* How a peer looks from here, in gs_peer_stats.health (a name a program
+   can test, and gs_peer_stats.reason for a user to read, with the
+   figures). Judged by gs_net_peer_stats at the latest (largest) `now`
+   the net was given, in this order (the first that holds):
+   - GS_PEER_NO_UPDATE: the world advanced GS_PEER_QUIET s since the last
+     gs_net_update (or since the net was made, with none): nothing is sent.
+   - GS_PEER_CLOCK_BACK: the latest `now` given to gs_net_update,
+     gs_net_deliver or gs_udp_poll is more than GS_CLOCK_SLACK before one
+     given earlier, and the clock has not caught up with it yet.
+   - GS_PEER_NOT_SENDING: updates run, but nothing went to this peer for
+     GS_PEER_QUIET s (a world with no ghosts has nothing to send).
+   - GS_PEER_REFUSED: datagrams naming the peer as sender came in the last
+     full GS_PEER_QUIET s and every one was refused (the reason and what
+     did not match: gs_peer_stats.refused_reason and .reason). A refusal
+     made before the sender is known (another session, a checksum) is
+     read from the header's sender field here, unauthenticated: a forger
+     can make a silent peer look refused, never a heard one.
+   - GS_PEER_SILENT: nothing taken from the peer for GS_PEER_QUIET s (it
+     does not run, poll or update, has not added this host, or the link
+     is down).
+   - GS_PEER_PARTLY_REFUSED: datagrams are taken, but in the last full
+     GS_PEER_QUIET s some were refused as GS_REJECT_OBJECT or
+     GS_REJECT_RANGE: the hosts disagree on some objects (an id, a cloth
+     size), which then never meet, while the rest do. A refusal the
+     network causes (a duplicate, a corrupted datagram) is no sign.
+   - GS_PEER_WAITING: added less than GS_PEER_QUIET s ago, nothing taken
+     from it yet.
+   - GS_PEER_OK: datagrams taken from it and sent to it within
+     GS_PEER_QUIET s.
+   The list makes the enum and the names (gs_peer_health_str). */
+#define GS__PEER_HEALTH_LIST(X)                                                \
+    X(GS_PEER_OK, "ok")                                                        \
+    X(GS_PEER_WAITING, "waiting")                                              \
+    X(GS_PEER_NO_UPDATE, "no_update")                                          \
+    X(GS_PEER_CLOCK_BACK, "clock_back")                                        \
+    X(GS_PEER_NOT_SENDING, "not_sending")                                      \
+    X(GS_PEER_REFUSED, "refused")                                              \
+    X(GS_PEER_SILENT, "silent")                                                \
+    X(GS_PEER_PARTLY_REFUSED, "partly_refused")
+
+typedef enum gs_peer_health {
+#define GS__PEER_HEALTH_ENUM(name, text) name,
+    GS__PEER_HEALTH_LIST(GS__PEER_HEALTH_ENUM)
+#undef GS__PEER_HEALTH_ENUM
+    GS_PEER_HEALTH_COUNT
+} gs_peer_health;
+
+/* The health's short name ("silent", "refused"...; "unknown" out of
+   range): what ghostpeer's JSON says. Static, never NULL. */
+GS_API const char *gs_peer_health_str(gs_peer_health h);
+
+#define GS_PEER_QUIET 1.0   /* s: silence, or refusal, this long is a sign */
+#define GS_CLOCK_SLACK 0.1  /* s: a clock this little behind is no step back
+                               (gs_udp delivers from its own thread at its
+                               own reading of the clock) */
+#define GS_PEER_REASON_CHARS 320
+
 /* Per peer statistics. */
 typedef struct gs_peer_stats {
     uint64_t datagrams_sent, datagrams_received;
@@ -1689,6 +1828,23 @@ typedef struct gs_peer_stats {
                                 distance between an object's local position
                                 values and the peer's latest snapshot of it
                                 (brought to local time when extrapolating) */
+    /* Diagnostics (filled by gs_net_peer_stats; see gs_peer_health). */
+    gs_peer_health health;
+    char reason[GS_PEER_REASON_CHARS]; /* what health means here, with
+                                the figures: "nothing received from this
+                                peer for 1.2 s ...", "" for GS_PEER_OK */
+    gs_reject refused_reason; /* GS_PEER_REFUSED: the first refusal's
+                                reason (GS_PEER_PARTLY_REFUSED: the
+                                mismatch's); GS_REJECT_COUNT otherwise */
+    uint64_t clock_backwards; /* times the net's `now` went back more than
+                                GS_CLOCK_SLACK (the net's count: the same
+                                on each of its peers) */
+    double clock_back_max;    /* s; the largest of those steps back */
+    uint64_t send_failures;  /* datagrams to the peer whose send callback
+                                returned an error: taken as not sent (not
+                                in datagrams_sent or bytes_sent, and their
+                                sequence number goes to the next one);
+                                gs_net_update returns the first error */
 } gs_peer_stats;
 
 /* Gives the world its net on your own transport: desc->send carries the
@@ -1721,10 +1877,16 @@ GS_API gs_result gs_net_add_peer(gs_net *net, uint32_t host);
    not a peer, GS_ERR_BUSY from a callback. */
 GS_API gs_result gs_net_remove_peer(gs_net *net, uint32_t host);
 /* Sends what is due at wall time `now` (s): each ghost's latest state at its
-   rate, within each peer's bandwidth. `now` is a clock that only moves
-   forward, in [0, GS_WIRE_MAX_TIME] (GS_ERR_INVALID_ARG otherwise,
+   rate, within each peer's bandwidth. A send callback that fails is
+   counted on its peer (gs_peer_stats.send_failures), the other datagrams
+   still go, and the first failure's result is returned (with the host in
+   gs_world_error). `now` is a clock that only moves
+   forward, in [0, GS_WIRE_MAX_TIME] (GS_ERR_INVALID_ARG outside it,
    GS_ERR_NOT_FINITE for NaN or infinity): the same clock for
-   gs_net_deliver. Call it once a frame, after gs_world_advance (see THE
+   gs_net_deliver. A `now` that goes back is taken (a host whose clock
+   stepped back goes on sending) and counted: gs_peer_stats.clock_backwards,
+   and the health GS_PEER_CLOCK_BACK until the clock is past its old
+   reading again. Call it once a frame, after gs_world_advance (see THE
    FRAME LOOP at the top). GS_ERR_BUSY from a weight rule or the send
    callback. */
 GS_API gs_result gs_net_update(gs_net *net, double now);
@@ -1750,7 +1912,7 @@ GS_API gs_result gs_net_update(gs_net *net, double now);
    sequence (duplicates) and the peer's rate cap (max_rate: only datagrams
    that passed everything count against it, so forgeries cannot starve a
    peer).
-   Memory: nothing is allocated here. A net is one fixed struct (25 KB, half of it the
+   Memory: nothing is allocated here. A net is one fixed struct (33 KB, 12 KB of it the
    decode view: 64 chunks with their quantized segments; a
    gs_udp adds 25 KB, 16 datagrams of them waiting to go out, and its
    socket's rcvbuf in the kernel), and each ghost
@@ -1760,17 +1922,34 @@ GS_API gs_result gs_net_update(gs_net *net, double now);
    a full queue drops its oldest), whatever arrives. */
 GS_API gs_result gs_net_deliver(gs_net *net, const void *data, size_t size,
                                 double now, gs_reject *why);
-/* A peer's statistics into *out (safe from any thread).
-   GS_ERR_INVALID_ARG for a NULL net or out, or a host that is not a peer. */
+/* A peer's statistics into *out (safe from any thread), and its health
+   judged now (see gs_peer_health). GS_ERR_INVALID_ARG for a NULL net or
+   out, or a host that is not a peer. */
 GS_API gs_result gs_net_peer_stats(const gs_net *net, uint32_t host,
                                    gs_peer_stats *out);
 /* Datagrams refused before their sender was known (bad magic, checksum,
-   unknown sender...), by reason. */
-GS_API gs_result gs_net_unknown_stats(const gs_net *net,
-                                      uint64_t rejected[GS_REJECT_COUNT]);
+   unknown sender...). */
+typedef struct gs_unknown_stats {
+    uint64_t rejected[GS_REJECT_COUNT]; /* by reason */
+    uint64_t rejected_total;
+} gs_unknown_stats;
+/* Into *out (safe from any thread). GS_ERR_INVALID_ARG for a NULL net or
+   out. */
+GS_API gs_result gs_net_unknown_stats(const gs_net *net, gs_unknown_stats *out);
 /* The world's net (made by gs_net_create, gs_simnet_join or gs_udp_open),
    or NULL if it has none. */
 GS_API gs_net *gs_world_net(const gs_world *w);
+/* What is wrong with this world's networking that no call returned as an
+   error, for a user to read: "" when nothing is found, else one line per
+   finding, e.g. "3 ghosts and no net: nothing is sent or received
+   (gs_net_create, gs_simnet_join or gs_udp_open)", "a net and no peers:
+   nothing is sent (...)", "a net and no ghosts: ...", then each peer
+   whose health is not GS_PEER_OK or GS_PEER_WAITING, with its name and
+   reason ("peer 2: silent: nothing received from this peer for 1.2 s
+   ..."). The text lives in the world and stays valid until the next call
+   on it; "" for a NULL w. Changes nothing else; cheap (a look at each
+   peer): call it when hosts do not meet. */
+GS_API const char *gs_world_diagnose(gs_world *w);
 
 /* Optional lock around the queues, for transports that deliver from another
    thread (the UDP gather thread sets it). Weight rules and the send
@@ -1795,22 +1974,30 @@ GS_API void gs_net_set_lock(gs_net *net, gs_net_lock lock);
 typedef struct gs_simnet gs_simnet;
 
 #define GS_MAX_OUTAGES 4
+/* Zero everywhere is the default: a perfect link. */
 typedef struct gs_link_desc {
-    double latency;    /* s, one way */
-    double jitter;     /* s; uniform in [0, jitter] added */
-    double loss;       /* probability a datagram is lost */
-    double duplicate;  /* probability it arrives twice */
-    double reorder;    /* probability it is held back by up to a latency */
-    double bandwidth;  /* bytes/s; 0 = unlimited */
+    double latency;    /* s, one way; default 0 */
+    double jitter;     /* s; uniform in [0, jitter] added; default 0 */
+    double loss;       /* probability a datagram is lost; default 0 */
+    double duplicate;  /* probability it arrives twice; default 0 */
+    double reorder;    /* probability it is held back by up to a latency;
+                          default 0 */
+    double bandwidth;  /* bytes/s; 0 (default) = unlimited */
     double outage_start[GS_MAX_OUTAGES]; /* s of virtual time; the link is */
-    double outage_end[GS_MAX_OUTAGES];   /* cut in [start, end) */
+    double outage_end[GS_MAX_OUTAGES];   /* cut in [start, end); an empty
+                                            window (default) cuts nothing */
 } gs_link_desc;
 
 typedef struct gs_simnet_desc {
     uint64_t seed;        /* default 1 */
     int max_in_flight;    /* datagrams on the wire at once; default 16384 */
-    gs_allocator allocator;
+    gs_allocator allocator; /* default GS_MALLOC / GS_FREE */
 } gs_simnet_desc;
+
+/* A perfect link: no latency, loss or cap (what gs_simnet_join sets). */
+GS_API gs_link_desc gs_link_desc_default(void);
+/* Seed 1, 16384 datagrams in flight, the default allocator. */
+GS_API gs_simnet_desc gs_simnet_desc_default(void);
 
 /* Creates an empty simulated network; desc may be NULL (all defaults).
    Returns GS_OK and *out, or GS_ERR_INVALID_ARG (a NULL out, max_in_flight
@@ -1832,7 +2019,8 @@ GS_API gs_result gs_simnet_join(gs_simnet *sim, gs_world *w,
 /* Sets the link from host a to host b (one direction), both joined.
    GS_ERR_INVALID_ARG for a host not joined, a negative latency, jitter or
    bandwidth, a probability outside [0, 1]; GS_ERR_NOT_FINITE for an
-   outage time; GS_ERR_BUSY while the simnet runs. */
+   outage time; GS_ERR_BUSY while the simnet runs. gs_simnet_error says
+   which. */
 GS_API gs_result gs_simnet_link(gs_simnet *sim, uint32_t a, uint32_t b,
                                 const gs_link_desc *desc);
 /* Runs every world for `seconds` of virtual time in frames of `frame`
@@ -1842,22 +2030,34 @@ GS_API gs_result gs_simnet_link(gs_simnet *sim, uint32_t a, uint32_t b,
 GS_API gs_result gs_simnet_run(gs_simnet *sim, double seconds, double frame);
 /* The simnet's virtual time, in seconds: the frames run so far. */
 GS_API double gs_simnet_time(const gs_simnet *sim);
+/* The detail of the last failed call on this simnet ("" if none, or for a
+   NULL sim): the simnet may have no world to hold it. gs_simnet_join's
+   failures are also in the joining world's gs_world_error. Valid until the
+   next call on the simnet. */
+GS_API const char *gs_simnet_error(const gs_simnet *sim);
 /* A host's own clock on the simnet (tests of the session clock): the
    simnet's time t reads as offset + rate * t, plus step_by from step_at on. */
 typedef struct gs_sim_clock {
-    double offset;   /* s */
-    double rate;     /* default 1; 1.0001 runs 100 ppm fast */
+    double offset;   /* s; default 0 */
+    double rate;     /* default (0) 1; 1.0001 runs 100 ppm fast */
     double step_at;  /* s of simnet time */
-    double step_by;  /* s; 0 = no step */
+    double step_by;  /* s; 0 (default) = no step */
 } gs_sim_clock;
+/* The simnet's own clock: offset 0, rate 1, no step. */
+GS_API gs_sim_clock gs_sim_clock_default(void);
 /* Sets host's clock: its net's send and receive times and its world's
    session clock read it. GS_ERR_INVALID_ARG for an unknown host or a rate
    <= 0, GS_ERR_NOT_FINITE for a non-finite field. */
 GS_API gs_result gs_simnet_set_clock(gs_simnet *sim, uint32_t host,
                                      const gs_sim_clock *clock);
-/* Datagrams the simnet dropped (loss, outage, full), duplicated, delivered. */
-GS_API void gs_simnet_counts(const gs_simnet *sim, uint64_t *dropped,
-                             uint64_t *duplicated, uint64_t *delivered);
+/* What the simnet's links did to the datagrams. */
+typedef struct gs_simnet_stats {
+    uint64_t dropped;    /* lost, cut by an outage, or past max_in_flight */
+    uint64_t duplicated; /* sent twice */
+    uint64_t delivered;  /* handed to a net (gs_net_deliver) */
+} gs_simnet_stats;
+/* GS_ERR_INVALID_ARG for a NULL sim or out. */
+GS_API gs_result gs_simnet_get_stats(const gs_simnet *sim, gs_simnet_stats *out);
 
 /* ========================================================================
    >>udp
@@ -1879,10 +2079,16 @@ typedef struct gs_udp_desc {
     const char *bind;      /* "HOST:PORT", "[v6]:PORT"; required; a port
                               outside 0..65535 is GS_ERR_INVALID_ARG (0:
                               the kernel picks one) */
-    int threads;           /* 1: gather and scatter threads; 0: poll mode */
+    int threads;           /* 1: gather and scatter threads; 0 (default):
+                              poll mode (call gs_udp_poll each frame) */
     int rcvbuf;            /* bytes; default 4 MiB */
-    gs_net_desc net;       /* session, bandwidth...; send is ignored */
+    gs_net_desc net;       /* session, bandwidth...; zero fields take
+                              gs_net_desc_default()'s; send is ignored */
 } gs_udp_desc;
+
+/* bind NULL (required: set it), poll mode, 4 MiB of rcvbuf,
+   gs_net_desc_default(). */
+GS_API gs_udp_desc gs_udp_desc_default(void);
 
 /* Opens a UDP socket bound to desc->bind and gives the world its net on
    it (as gs_net_create, with desc->net; threads 1 starts the gather and
@@ -1911,8 +2117,10 @@ GS_API gs_result gs_udp_add_peer(gs_udp *u, uint32_t host, const char *addr);
 GS_API gs_result gs_udp_remove_peer(gs_udp *u, uint32_t host);
 /* Poll mode: receives every waiting datagram and sends what is due at wall
    time now (refused as gs_net_update refuses it; GS_ERR_BUSY from a
-   callback of the world). In thread mode it only wakes the scatter
-   thread. */
+   callback of the world). Pass gs_udp_now(): what it receives is
+   delivered at that clock's reading, and one net needs one clock
+   (another shows as GS_PEER_CLOCK_BACK). In thread mode it only wakes the
+   scatter thread. */
 GS_API gs_result gs_udp_poll(gs_udp *u, double now);
 /* The wall clock gs_udp uses (CLOCK_MONOTONIC seconds). */
 GS_API double gs_udp_now(void);
@@ -2292,6 +2500,7 @@ struct gs_world {
     gs__queue queues[GS_MAX_QUEUES];
     struct gs__sync *sync; /* session clock and history (>>sync) */
     char error[256];
+    char diag[2048];     /* gs_world_diagnose's text */
 };
 
 GS__PRIVATE void *gs__alloc(gs_world *w, size_t size) {
@@ -2347,6 +2556,16 @@ GS__PRIVATE int gs__size(size_t a, size_t b, size_t c, size_t *out) {
     return 1;
 }
 
+GS_API gs_sync_desc gs_sync_desc_default(void) {
+    gs_sync_desc d;
+    memset(&d, 0, sizeof d);
+    d.clock = GS_SYNC_CLOCK_LOCAL;
+    d.mode = GS_SYNC_PRESENT;
+    d.history_frames = 16;
+    d.replay_budget = 4096;
+    return d;
+}
+
 GS_API gs_world_desc gs_world_desc_default(void) {
     gs_world_desc d;
     memset(&d, 0, sizeof d);
@@ -2355,10 +2574,7 @@ GS_API gs_world_desc gs_world_desc_default(void) {
     d.tolerance = 0.01;
     d.aging_limit = 64;
     d.gravity = gs__v3(0.0, -9.81, 0.0);
-    d.sync.clock = GS_SYNC_CLOCK_LOCAL;
-    d.sync.mode = GS_SYNC_PRESENT;
-    d.sync.history_frames = 16;
-    d.sync.replay_budget = 4096;
+    d.sync = gs_sync_desc_default();
     d.max_steps = GS_DEFAULT_MAX_STEPS;
     d.sleep_time = 0.5;
     d.sleep_speed = 0.1;
@@ -2976,6 +3192,7 @@ GS__PRIVATE void gs__world_follow(gs_world *w, double target) {
 }
 
 GS__PRIVATE void gs__sync_begin(gs_world *w, double seconds);
+GS__PRIVATE void gs__net_advanced(gs_world *w, double seconds);
 GS__PRIVATE void gs__sync_target(gs_world *w, double seconds, double before);
 GS__PRIVATE void gs__sync_end(gs_world *w, double seconds, const gs_advance_report *rep);
 GS__PRIVATE gs_result gs__sync_run(gs_world *w, double budget, gs_advance_report *rep);
@@ -3029,6 +3246,7 @@ GS_API gs_result gs_world_advance(gs_world *w, double seconds,
         return gs__fail(w, GS_ERR_INVALID_ARG,
                         "gs_world_advance: %g s on from %.17g s would pass "
                         "GS_WIRE_MAX_TIME (%g s)", seconds, from, GS_WIRE_MAX_TIME);
+    w->error[0] = '\0'; /* from here on the text is this advance's */
     w->busy = 1;
     w->epoch++;
     gs__sync_begin(w, seconds);
@@ -3036,6 +3254,7 @@ GS_API gs_result gs_world_advance(gs_world *w, double seconds,
     gs__world_follow(w, gs__world_follow_target(w));
     before = w->target;
     w->target += seconds;
+    gs__net_advanced(w, seconds);
     gs__sync_target(w, seconds, before);
     first_error = gs__sync_run(w, w->budget, &rep);
     gs__sync_end(w, seconds, &rep);
@@ -3137,8 +3356,10 @@ GS_API gs_world *gs_agent_world(const gs_agent *a) { return a->world; }
 GS_API const char *gs_agent_kind(const gs_agent *a) { return a->kind->name; }
 GS_API gs_result gs_agent_result(const gs_agent *a) { return a->result; }
 GS_API int gs_agent_priority(const gs_agent *a) { return a->priority; }
-GS_API gs_agent_stats gs_agent_get_stats(const gs_agent *a) {
-    return a->stats;
+GS_API gs_result gs_agent_get_stats(const gs_agent *a, gs_agent_stats *out) {
+    if (!a || !out) return GS_ERR_INVALID_ARG;
+    *out = a->stats;
+    return GS_OK;
 }
 
 GS_API int gs_agent_sleeping(const gs_agent *a) { return a && a->sleeping; }
@@ -3265,6 +3486,8 @@ typedef struct gs__custom {
     double *before;  /* state_size doubles: the state before a step */
 } gs__custom;
 
+GS__PRIVATE uint32_t gs__agent_object(const gs_agent *a);
+
 /* The user's step, held to the NUMBERS promise like a built-in one: a
    state with a NaN or infinity after it is replaced by the one before. */
 GS__PRIVATE gs_result gs__custom_step(gs_agent *a, double dt) {
@@ -3276,7 +3499,16 @@ GS__PRIVATE gs_result gs__custom_step(gs_agent *a, double dt) {
     r = c->d.step(c->d.user, gs__agent_time(a), dt);
     if (r == GS_OK && n) c->d.get_state(c->d.user, c->scratch);
     a->world->inside--;
-    if (r != GS_OK || n == 0) return r;
+    if (r != GS_OK) { /* the user's code said no: say who and when */
+        char label[40] = "";
+        if (gs__agent_object(a))
+            snprintf(label, sizeof label, " (object %lu)", (unsigned long)gs__agent_object(a));
+        return gs__fail(a->world, r, "custom agent %d%s: its step from t = %.9g s by %g s "
+                        "returned %d (%s); the agent stays at t = %.9g s and is tried "
+                        "again at the next advance", a->index, label, gs__agent_time(a), dt,
+                        (int)r, gs_result_str(r), gs__agent_time(a));
+    }
+    if (n == 0) return r;
     for (i = 0; i < n; ++i)
         if (!gs__finite(c->scratch[i])) break;
     if (i == n) return GS_OK;
@@ -3338,13 +3570,24 @@ GS__PRIVATE gs_result gs__create_begin(gs_world *w, const void *desc,
     return GS_OK;
 }
 
-GS_API gs_result gs_custom_create(gs_world *w, const gs_custom_desc *desc,
+GS_API gs_custom_desc gs_custom_desc_default(void) {
+    gs_custom_desc d;
+    memset(&d, 0, sizeof d);
+    d.dt = 0.001;
+    return d;
+}
+
+GS_API gs_result gs_custom_create(gs_world *w, const gs_custom_desc *in,
                                   gs_agent **out) {
     gs__check c;
     gs__custom *a;
     size_t bytes = 0;
-    gs_result r = gs__create_begin(w, desc, out, "gs_custom_create");
+    gs_custom_desc dd;
+    const gs_custom_desc *desc = &dd;
+    gs_result r = gs__create_begin(w, in, out, "gs_custom_create");
     if (r != GS_OK) return r;
+    dd = *in;
+    if (dd.dt == 0.0) dd.dt = gs_custom_desc_default().dt;
     c = gs__check_begin(w, "gs_custom_create");
     gs__check_dt(&c, "dt", desc->dt);
     if (!desc->step) gs__check_fail(&c, GS_ERR_INVALID_ARG, "step is NULL");
@@ -4809,6 +5052,7 @@ GS_API gs_result gs_mesh_create(gs_world *w, const gs_mesh_desc *desc,
 GS_API gs_cloth_desc gs_cloth_desc_default(void) {
     gs_cloth_desc d;
     memset(&d, 0, sizeof d);
+    d.nx = d.ny = 16;
     d.width = d.height = 1.0;
     d.axis_u = gs__v3(1.0, 0.0, 0.0);
     d.axis_v = gs__v3(0.0, 0.0, 1.0);
@@ -4825,6 +5069,8 @@ GS_API gs_cloth_desc gs_cloth_desc_default(void) {
 
 GS__PRIVATE gs_cloth_desc gs__cloth_defaults(const gs_cloth_desc *in) {
     gs_cloth_desc def = gs_cloth_desc_default(), d = *in;
+    if (d.nx == 0) d.nx = def.nx;
+    if (d.ny == 0) d.ny = def.ny;
     if (d.width == 0.0) d.width = def.width;
     if (d.height == 0.0) d.height = def.height;
     if (gs__is_zero3(d.axis_u)) d.axis_u = def.axis_u;
@@ -5482,6 +5728,12 @@ GS__PRIVATE gs__rigid *gs__as_rigid(const gs_agent *a);
    its instructions grew as n). */
 GS__PRIVATE size_t gs__rigid_size(gs_shape_type type) {
     return offsetof(gs__rigid, shape) + gs__shape_size(type);
+}
+
+GS_API gs_shape_desc gs_shape_desc_default(void) {
+    gs_shape_desc d;
+    memset(&d, 0, sizeof d);
+    return d;
 }
 
 GS_API gs_rigid_desc gs_rigid_desc_default(void) {
@@ -6564,25 +6816,31 @@ GS__PRIVATE gs__body gs__body_of(const gs__rigid *r) {
     return b;
 }
 
-GS_API int gs_collide_shapes(const gs_shape_desc *a, gs_vec3 pa, gs_quat qa,
-                             const gs_shape_desc *b, gs_vec3 pb, gs_quat qb,
-                             gs_contact *c) {
+GS_API gs_result gs_collide_shapes(const gs_shape_desc *a, gs_vec3 pa, gs_quat qa,
+                                   const gs_shape_desc *b, gs_vec3 pb, gs_quat qb,
+                                   gs_contact *c, int *overlap) {
     gs__shape sa, sb;
     gs__body ba, bb;
     gs_contact all[2 * GS_MAX_HULL_POINTS];
     gs__check chk = gs__check_begin(NULL, "gs_collide_shapes");
     int n, i, deepest = 0;
-    if (!a || !b || !c) return 0;
+    if (overlap) *overlap = 0;
+    if (!a || !b || !c || !overlap) return GS_ERR_INVALID_ARG;
     gs__shape_build(&chk, a, &sa);
     gs__shape_build(&chk, b, &sb);
-    if (chk.r != GS_OK || !c || !gs__in_range3(pa) || !gs__in_range3(pb)) return 0;
+    if (chk.r != GS_OK) return chk.r;
+    if (!gs__finite(pa.x) || !gs__finite(pa.y) || !gs__finite(pa.z) ||
+        !gs__finite(pb.x) || !gs__finite(pb.y) || !gs__finite(pb.z))
+        return GS_ERR_NOT_FINITE;
+    if (!gs__in_range3(pa) || !gs__in_range3(pb)) return GS_ERR_OUT_OF_RANGE;
     ba.s = &sa; ba.p = pa; ba.q = gs__quat_normalize(gs__orientation_default(qa));
     bb.s = &sb; bb.p = pb; bb.q = gs__quat_normalize(gs__orientation_default(qb));
     n = gs__collide(&ba, &bb, gs__v3(0.0, 1.0, 0.0), all, 2 * GS_MAX_HULL_POINTS);
     for (i = 1; i < n; ++i)
         if (all[i].depth > all[deepest].depth) deepest = i;
     if (n) *c = all[deepest];
-    return n > 0;
+    *overlap = n > 0;
+    return GS_OK;
 }
 
 /* The force on a at a contact (normal from b to a) with relative velocity
@@ -7098,6 +7356,8 @@ GS__PRIVATE void gs__mesh_contacts(gs__mesh *m, double t) {
 /* ========================================================================
    >>scene
    ======================================================================== */
+GS__PRIVATE int gs__net_hosts(const gs_net *net);
+
 GS_API gs_scene_desc gs_scene_desc_default(void) {
     gs_scene_desc d;
     memset(&d, 0, sizeof d);
@@ -7105,17 +7365,21 @@ GS_API gs_scene_desc gs_scene_desc_default(void) {
     d.cloth_size = 1.0;
     d.sphere_count = 3;
     d.sphere_radius = 0.08;
-    d.probe_count = 1;
+    d.probe_count = 0; /* one per host: known only when the scene is made */
     d.seed = 1;
     d.cloth_integrator = GS_INTEGRATOR_IMPLICIT_EULER;
     d.dt = 0.002;
     return d;
 }
 
-GS__PRIVATE gs_scene_desc gs__scene_defaults(const gs_scene_desc *in) {
+GS__PRIVATE gs_scene_desc gs__scene_defaults(const gs_scene_desc *in, int hosts) {
     gs_scene_desc def = gs_scene_desc_default(), d = in ? *in : def;
     if (d.cloth_n == 0) d.cloth_n = def.cloth_n;
     if (d.cloth_size == 0.0) d.cloth_size = def.cloth_size;
+    if (d.sphere_count == 0) d.sphere_count = def.sphere_count;
+    else if (d.sphere_count == GS_NONE) d.sphere_count = 0;
+    if (d.probe_count == 0) d.probe_count = hosts;
+    else if (d.probe_count == GS_NONE) d.probe_count = 0;
     if (d.sphere_radius == 0.0) d.sphere_radius = def.sphere_radius;
     if (d.seed == 0) d.seed = def.seed;
     if (d.cloth_integrator == GS_INTEGRATOR_DEFAULT) d.cloth_integrator = def.cloth_integrator;
@@ -7224,7 +7488,7 @@ GS_API gs_result gs_scene_create(gs_world *w, const gs_scene_desc *desc,
     gs_material ground_material;
     if (!w || !out) return GS_ERR_INVALID_ARG;
     memset(out, 0, sizeof *out);
-    out->desc = gs__scene_defaults(desc);
+    out->desc = gs__scene_defaults(desc, w->net ? gs__net_hosts(w->net) : GS_SCENE_DEFAULT_PROBES);
     gs__check_int(&c, "cloth_n", out->desc.cloth_n, 2, 4096);
     gs__check_positive(&c, "cloth_size", out->desc.cloth_size);
     gs__check_int(&c, "sphere_count", out->desc.sphere_count, 0, GS_SCENE_MAX_SPHERES);
@@ -7393,10 +7657,52 @@ typedef struct gs__src {
     int peer;
 } gs__src;
 
+/* What a refusal did not match, kept as numbers (the text is made only
+   when gs_net_peer_stats is asked). */
+typedef enum gs__mismatch {
+    GS__MISMATCH_NONE,
+    GS__MISMATCH_OBJECT,   /* object: no ghost of that id here */
+    GS__MISMATCH_VALUES,   /* object: state values here, in the datagram
+                              (there_min: at least that many) */
+    GS__MISMATCH_ENCODING, /* object: encodings here, there */
+    GS__MISMATCH_SESSION,  /* sessions here, there */
+    GS__MISMATCH_SEALED    /* sealed datagrams to a net with no key */
+} gs__mismatch;
+
+typedef struct gs__detail {
+    gs__mismatch what;
+    uint32_t object;
+    long here, there;
+    int there_min;
+} gs__detail;
+
+/* One window of GS_PEER_QUIET s of datagrams naming a peer as sender. */
+typedef struct gs__diag_win {
+    uint32_t taken, refused;
+    uint32_t mismatched;  /* refused as GS_REJECT_OBJECT or _RANGE: the
+                             hosts disagree on the objects (a setup
+                             mistake, where the rest is the network's) */
+    int reasons;          /* distinct reasons seen: 0, 1 or 2 (more) */
+    gs_reject reason;     /* the first refusal's */
+    gs__detail detail;    /* and what it did not match */
+} gs__diag_win;
+
+/* A peer's diagnostics (gs_peer_health). Times are the net's `now`; -1:
+   not yet. */
+typedef struct gs__peer_diag {
+    double added_at;      /* the first `now` after the peer was added */
+    double sent_at;       /* the last datagram sent to it */
+    double taken_at;      /* the last datagram taken from it */
+    double win_at;        /* the start of win[0] */
+    gs__diag_win win[2];  /* [0] the current window, [1] the one before it
+                             (empty unless it ended when [0] began) */
+} gs__peer_diag;
+
 typedef struct gs__peer {
     int used;
     uint32_t host;
     gs_peer_stats st;
+    gs__peer_diag diag;
     uint32_t send_seq;        /* our next datagram sequence to them */
     uint32_t recv_top;        /* highest datagram sequence received */
     uint64_t recv_window;     /* bit i: recv_top - i received */
@@ -7428,12 +7734,42 @@ struct gs_net {
     int published;            /* a ghost published B since gs_udp's scatter
                                  thread last looked (it ticks while they do) */
     double now;               /* s, wall time of the last update/deliver */
+    gs_result send_error;     /* the first failed send of this update, */
+    uint32_t send_error_host; /* and to whom */
+    /* the clock's diagnostics (gs_peer_health): the latest `now` seen
+       (-1: none yet), whether the clock is behind it now, the steps back
+       counted, the largest, and the last one (from, to) */
+    double clock_max;
+    int clock_behind;
+    uint64_t clock_backwards;
+    double clock_back_max, clock_back_from, clock_back_to;
+    int updated;              /* a gs_net_update has run */
+    int peer_added;           /* since the last `now`: a peer's added_at
+                                 waits for the next */
+    double update_now;        /* s; its `now` (the first `now` seen before
+                                 the first; -1: none yet) */
+    double unsent_world;      /* s; the seconds given to gs_world_advance
+                                 since (or since the create): a missing
+                                 update is measured in them, not in the
+                                 world's time, which also jumps to follow
+                                 the agents of a late joiner */
+    gs__detail detail;        /* what the refusal being made did not match */
     struct gs__ghost **order; /* the due ghosts of an update, by priority */
     int order_cap;            /* its room: at least the world's ghosts */
     unsigned char buf[GS_WIRE_MAX_DATAGRAM];
     gs_wire_view view;        /* decode scratch (too big for the stack) */
     gs__net_guard guard;      /* key, nonces, opened datagram (>>net) */
 };
+
+/* The probes of a scene on this net: one per host id up to the highest
+   it knows (its own and its peers'), as probe i is host i + 1's. */
+GS__PRIVATE int gs__net_hosts(const gs_net *net) {
+    uint32_t top = net->world->host_id;
+    int i;
+    for (i = 0; i < GS__MAX_PEERS; ++i)
+        if (net->peers[i].used && net->peers[i].host > top) top = net->peers[i].host;
+    return top < GS_SCENE_MAX_PROBES ? (int)top : GS_SCENE_MAX_PROBES;
+}
 
 GS__PRIVATE void gs__lock(gs_net *net) {
     if (net && net->lock.lock) net->lock.lock(net->lock.user);
@@ -7445,7 +7781,7 @@ GS__PRIVATE void gs__unlock(gs_net *net) {
 GS_API gs_ghost_desc gs_ghost_desc_default(void) {
     gs_ghost_desc d;
     memset(&d, 0, sizeof d);
-    d.weight = gs_weight_exp;
+    d.weight = gs_weight_cs;
     d.send_rate = 60.0;
     d.encoding = GS_ENCODING_F64;
     d.queue_size = 8;
@@ -7540,6 +7876,11 @@ GS__PRIVATE void gs__ghost_free(gs__ghost *g) {
 
 GS__PRIVATE gs__ghost *gs__ghost_of(const gs_agent *a) {
     return (gs__ghost *)a->ghost;
+}
+
+/* The object id of an agent's ghost, 0 for an agent without one. */
+GS__PRIVATE uint32_t gs__agent_object(const gs_agent *a) {
+    return a->ghost ? gs__ghost_of(a)->d.object_id : 0;
 }
 
 GS__PRIVATE gs__ghost *gs__ghost_find(const gs_world *w, uint32_t object_id) {
@@ -7743,28 +8084,48 @@ GS__PRIVATE int gs__scene_has_ghost(const gs_scene *sc) {
     return any;
 }
 
+/* The ghost of one object of the scene: `gd` with the object's id, owner
+   and the rule rule_for gives it (its default if none). */
+GS__PRIVATE gs_result gs__scene_attach_one(gs_agent *a, gs_ghost_desc gd, uint32_t id,
+                                           uint32_t owner, const gs_weight_rule *rule) {
+    gd.object_id = id;
+    gd.owner = owner;
+    if (rule->fn) {
+        gd.weight = rule->fn;
+        gd.weight_user = rule->user;
+    }
+    return gs_ghost_attach(a, &gd);
+}
+
 GS_API gs_result gs_scene_attach_ghosts(gs_scene *sc, const gs_ghost_desc *shared) {
-    gs_ghost_desc gd = shared ? *shared : gs_ghost_desc_default();
+    gs_ghost_desc gd = shared ? *shared : gs_ghost_desc_default(), pd;
+    gs_weight_rule rules[1 + GS_SCENE_MAX_SPHERES + GS_SCENE_MAX_PROBES];
     gs_result r = GS_OK;
-    int i;
+    int i, k;
     if (!sc || !sc->cloth) return GS_ERR_INVALID_ARG;
     if (gs__scene_has_ghost(sc))
         return gs__fail(sc->cloth->world, GS_ERR_INVALID_ARG,
                         "gs_scene_attach_ghosts: an agent of the scene has a ghost already");
-    gd.owner = 0;
-    gd.object_id = 1;
-    r = gs_ghost_attach(sc->cloth, &gd);
-    for (i = 0; r == GS_OK && i < sc->sphere_count; ++i) {
-        gd.object_id = 100 + (uint32_t)i;
-        r = gs_ghost_attach(sc->spheres[i], &gd);
+    /* every rule first, so that nothing is attached while user code runs */
+    memset(rules, 0, sizeof rules);
+    if (gd.rule_for) {
+        rules[0] = gd.rule_for(1, sc->cloth, gd.rule_for_user);
+        for (i = 0; i < sc->sphere_count; ++i)
+            rules[1 + i] = gd.rule_for(100 + (uint32_t)i, sc->spheres[i], gd.rule_for_user);
+        for (i = 0; i < sc->probe_count; ++i)
+            rules[1 + GS_SCENE_MAX_SPHERES + i] =
+                gd.rule_for(200 + (uint32_t)i, sc->probes[i], gd.rule_for_user);
     }
-    gd.weight = gs_weight_owner;
-    gd.weight_user = NULL;
-    gd.catchup = GS_CATCHUP_NONE;
+    r = gs__scene_attach_one(sc->cloth, gd, 1, 0, &rules[0]);
+    for (i = 0; r == GS_OK && i < sc->sphere_count; ++i)
+        r = gs__scene_attach_one(sc->spheres[i], gd, 100 + (uint32_t)i, 0, &rules[1 + i]);
+    pd = gd;
+    pd.weight = gs_weight_owner;
+    pd.weight_user = NULL;
+    pd.catchup = GS_CATCHUP_NONE;
     for (i = 0; r == GS_OK && i < sc->probe_count; ++i) {
-        gd.object_id = 200 + (uint32_t)i;
-        gd.owner = (uint32_t)i + 1;
-        r = gs_ghost_attach(sc->probes[i], &gd);
+        k = 1 + GS_SCENE_MAX_SPHERES + i;
+        r = gs__scene_attach_one(sc->probes[i], pd, 200 + (uint32_t)i, (uint32_t)i + 1, &rules[k]);
     }
     if (r != GS_OK) { /* the error message stays with the world */
         gs_ghost_detach(sc->cloth);
@@ -7811,6 +8172,8 @@ GS__PRIVATE gs_weight_in gs__weight_in(const gs__ghost *g, uint32_t host,
     in.owner = g->d.owner;
     in.local = local;
     in.local_owns = g->d.owner != 0 && g->d.owner == w->host_id;
+    in.object_id = g->d.object_id;
+    in.agent = g->agent;
     return in;
 }
 
@@ -10242,17 +10605,23 @@ GS__PRIVATE int gs__wire_parse(const unsigned char *buf, size_t end, gs_wire_vie
     return 1;
 }
 
-GS_API int gs_wire_decode(const unsigned char *buf, size_t size,
-                          gs_wire_view *out, gs_reject *why) {
-    gs_reject dummy;
+/* 1: decoded into *out; 0: refused for *why (the net's path). */
+GS__PRIVATE int gs__wire_decode(const unsigned char *buf, size_t size,
+                                gs_wire_view *out, gs_reject *why) {
     size_t end;
-    if (!why) why = &dummy;
-    if (!out || !buf) { *why = GS_REJECT_SHORT; return 0; }
     if (!gs__wire_front(buf, size, why)) return 0;
     end = size - 4;
     if (gs__crc32(buf, end) != gs__get32(buf + end)) { *why = GS_REJECT_CHECKSUM; return 0; }
     if (gs__hdr_flags(buf) != 0) { *why = GS_REJECT_LAYOUT; return 0; } /* sealed or unknown */
     return gs__wire_parse(buf, end, out, why);
+}
+
+GS_API gs_result gs_wire_decode(const unsigned char *buf, size_t size,
+                                gs_wire_view *out, gs_reject *why) {
+    gs_reject dummy;
+    if (!why) why = &dummy;
+    if (!out || !buf) { *why = GS_REJECT_SHORT; return GS_ERR_INVALID_ARG; }
+    return gs__wire_decode(buf, size, out, why) ? GS_OK : GS_ERR_REJECTED;
 }
 
 /* The nonce of a sealed datagram: run epoch, run salt, counter. */
@@ -10372,6 +10741,285 @@ GS__PRIVATE uint32_t gs__net_run(const gs_net *net) {
     return (uint32_t)x ? (uint32_t)x : 1u;
 }
 
+/* ---- diagnostics: what a user reads when hosts do not meet (see
+   gs_peer_health). Counted as datagrams come and go; judged, and the
+   text made, only when gs_net_peer_stats is asked. ---- */
+
+GS_API const char *gs_peer_health_str(gs_peer_health h) {
+    switch (h) {
+#define GS__PEER_HEALTH_CASE(name, text) case name: return text;
+        GS__PEER_HEALTH_LIST(GS__PEER_HEALTH_CASE)
+#undef GS__PEER_HEALTH_CASE
+    default: return "unknown";
+    }
+}
+
+/* The enum's name of a reason ("GS_REJECT_RANGE"), for the reason text. */
+GS__PRIVATE const char *gs__reject_name(gs_reject r) {
+    switch (r) {
+#define GS__REJECT_NAME(name, text) case name: return #name;
+        GS__REJECT_LIST(GS__REJECT_NAME)
+#undef GS__REJECT_NAME
+    default: return "GS_REJECT_?";
+    }
+}
+
+GS__PRIVATE void gs__diag_added(gs__peer_diag *d) {
+    memset(d, 0, sizeof *d);
+    d->added_at = d->sent_at = d->taken_at = d->win_at = -1.0;
+}
+
+/* Every `now` the net is given: the steps back, and the time a peer added
+   since the last one was added at. A clock that keeps going back counts
+   once, until it is past its old reading again. */
+GS__PRIVATE void gs__diag_clock(gs_net *net, double now) {
+    int p;
+    if (net->clock_max < 0.0 || now >= net->clock_max) {
+        net->clock_max = now;
+        net->clock_behind = 0;
+    } else if (now < net->clock_max - GS_CLOCK_SLACK) {
+        double back = net->clock_max - now;
+        if (!net->clock_behind) {
+            net->clock_backwards++;
+            net->clock_back_from = net->clock_max;
+            net->clock_back_to = now;
+        }
+        if (now < net->clock_back_to) net->clock_back_to = now;
+        net->clock_behind = 1;
+        if (back > net->clock_back_max) net->clock_back_max = back;
+    }
+    if (net->update_now < 0.0) net->update_now = now;
+    if (!net->peer_added) return;
+    net->peer_added = 0;
+    for (p = 0; p < GS__MAX_PEERS; ++p)
+        if (net->peers[p].used && net->peers[p].diag.added_at < 0.0)
+            net->peers[p].diag.added_at = now;
+}
+
+/* Moves a peer's windows on to the one that holds `now` (whole windows of
+   GS_PEER_QUIET: the one before is kept only if it ended as this began). */
+GS__PRIVATE void gs__diag_roll(gs__peer_diag *d, double now) {
+    double k;
+    if (d->win_at < 0.0 || now < d->win_at) { /* the first, or a clock back */
+        if (d->win_at < 0.0) d->win_at = now;
+        return;
+    }
+    k = floor((now - d->win_at) / GS_PEER_QUIET);
+    if (k < 1.0) return;
+    if (k < 2.0) d->win[1] = d->win[0];
+    else memset(&d->win[1], 0, sizeof d->win[1]);
+    memset(&d->win[0], 0, sizeof d->win[0]);
+    d->win_at += k * GS_PEER_QUIET;
+}
+
+/* An advance of the world by `seconds` (its hook, as the sync layer's):
+   the net counts them until its next update. Under the net lock: gs_udp's
+   scatter thread updates. */
+GS__PRIVATE void gs__net_advanced(gs_world *w, double seconds) {
+    gs_net *net = w->net;
+    if (!net) return;
+    gs__lock(net);
+    net->unsent_world += seconds;
+    gs__unlock(net);
+}
+
+GS__PRIVATE void gs__diag_taken(gs__peer_diag *d, double now) {
+    gs__diag_roll(d, now);
+    d->win[0].taken++;
+    d->taken_at = now;
+}
+
+GS__PRIVATE void gs__mismatch_note(gs_net *net, gs__mismatch what, uint32_t object, long here,
+                                   long there, int there_min) {
+    net->detail.what = what;
+    net->detail.object = object;
+    net->detail.here = here;
+    net->detail.there = there;
+    net->detail.there_min = there_min;
+}
+
+/* A chunk that does not fit its object's state: the state sizes (the
+   sender's is known exactly from its last chunk, at least from another),
+   or the encodings. */
+GS__PRIVATE void gs__range_note(gs_net *net, const gs__ghost *g, const gs_wire_chunk *c) {
+    if (c->encoding != g->d.encoding) {
+        gs__mismatch_note(net, GS__MISMATCH_ENCODING, g->d.object_id, (long)g->d.encoding,
+                          (long)c->encoding, 0);
+        return;
+    }
+    gs__mismatch_note(net, GS__MISMATCH_VALUES, g->d.object_id, (long)(g->n - 1),
+                      (long)(c->first + c->elements), c->index + 1 < c->count);
+}
+
+GS__PRIVATE int gs__peer_slot(const gs_net *net, uint32_t host);
+
+/* A refused datagram, on the window of the peer it names: p, or while the
+   sender was not known yet (the session, a checksum: counted among the
+   unknown ones) the peer the header names, if it is one. */
+GS__PRIVATE void gs__diag_refused(gs_net *net, int p, gs_reject r, const unsigned char *buf,
+                                  size_t size, double now) {
+    gs__diag_win *win;
+    if (p < 0 && buf && size >= GS_WIRE_HEADER && memcmp(buf, "GSIM", 4) == 0 &&
+        gs__hdr_version(buf) == GS_WIRE_VERSION) {
+        p = gs__peer_slot(net, gs__hdr_sender(buf));
+        if (p >= 0 && r == GS_REJECT_CHECKSUM && (gs__hdr_flags(buf) & GS_WIRE_FLAG_SEALED) &&
+            !net->guard.keyed)
+            net->detail.what = GS__MISMATCH_SEALED;
+    }
+    if (p < 0) return;
+    gs__diag_roll(&net->peers[p].diag, now);
+    win = &net->peers[p].diag.win[0];
+    if (win->refused++ == 0) {
+        win->reasons = 1;
+        win->reason = r;
+        win->detail = net->detail;
+    } else if (r != win->reason) {
+        win->reasons = 2;
+    }
+    if ((r == GS_REJECT_OBJECT || r == GS_REJECT_RANGE) && win->mismatched++ == 0 &&
+        win->reason != r) { /* the one to tell, whatever came first */
+        win->reason = r;
+        win->detail = net->detail;
+    }
+}
+
+GS__PRIVATE const char *gs__encoding_name(long e) {
+    return e == GS_ENCODING_F32 ? "f32" : e == GS_ENCODING_QUANT ? "quant" : "f64";
+}
+
+/* What a refusal did not match, as a clause after ": " ("" if nothing). */
+GS__PRIVATE void gs__detail_text(const gs__detail *d, char *buf, size_t cap) {
+    unsigned long o = (unsigned long)d->object;
+    switch (d->what) {
+    case GS__MISMATCH_OBJECT:
+        snprintf(buf, cap, ": object %lu has no ghost here (every host ghosts the same "
+                 "objects under the same ids)", o);
+        break;
+    case GS__MISMATCH_VALUES:
+        snprintf(buf, cap, ": object %lu's state has %ld values here, %s%ld in the datagram "
+                 "(another cloth size or kind of object under this id?)", o, d->here,
+                 d->there_min ? "at least " : "", d->there);
+        break;
+    case GS__MISMATCH_ENCODING:
+        snprintf(buf, cap, ": object %lu is sent in %s here, in %s in the datagram (its "
+                 "ghosts need one encoding)", o, gs__encoding_name(d->here),
+                 gs__encoding_name(d->there));
+        break;
+    case GS__MISMATCH_SESSION:
+        snprintf(buf, cap, ": session %ld in the datagram, %ld here (gs_net_desc.session)",
+                 d->there, d->here);
+        break;
+    case GS__MISMATCH_SEALED:
+        snprintf(buf, cap, ": sealed under a key, and this net has none (gs_net_desc.key)");
+        break;
+    default:
+        buf[0] = '\0';
+    }
+}
+
+/* The window that says how the last full GS_PEER_QUIET s went at time t,
+   NULL when none does (nothing came in it). */
+GS__PRIVATE const gs__diag_win *gs__diag_last(const gs__peer_diag *d, double t) {
+    double since = t - d->win_at;
+    if (d->win_at < 0.0) return NULL;
+    if (since >= 2.0 * GS_PEER_QUIET) return NULL;
+    return since >= GS_PEER_QUIET ? &d->win[0] : &d->win[1];
+}
+
+GS__PRIVATE int gs__world_ghosts(const gs_world *w) {
+    int i, n = 0;
+    for (i = 0; i < w->agent_count; ++i) n += w->agents[i]->ghost != NULL;
+    return n;
+}
+
+/* The first health that holds (see gs_peer_health) and its text. */
+GS__PRIVATE gs_peer_health gs__peer_judge(const gs_net *net, int p, char *buf, size_t cap) {
+    const gs__peer_diag *d = &net->peers[p].diag;
+    const gs_world *w = net->world;
+    double t = net->clock_max, since_world = net->unsent_world;
+    double added = d->added_at >= 0.0 ? fmax(0.0, t - d->added_at) : 0.0;
+    double unsent = d->sent_at >= 0.0 ? fmax(0.0, t - d->sent_at) : added;
+    double unheard = d->taken_at >= 0.0 ? fmax(0.0, t - d->taken_at) : added;
+    const gs__diag_win *win = gs__diag_last(d, t);
+    char more[160];
+    if (since_world >= GS_PEER_QUIET) {
+        snprintf(buf, cap, "nothing sent: gs_net_update has not run for %.1f s of world time "
+                 "(%s; call it each frame after gs_world_advance, or gs_udp_poll in poll mode)",
+                 since_world, net->updated ? "since its last call" : "never called");
+        return GS_PEER_NO_UPDATE;
+    }
+    if (net->clock_backwards && (net->clock_behind ||
+                                 net->clock_max - net->clock_back_from < GS_PEER_QUIET)) {
+        snprintf(buf, cap, "the clock went back %.3f s (from %.3f s to %.3f s; %lu time%s so "
+                 "far): gs_net_update, gs_net_deliver and gs_udp_poll need one clock that only "
+                 "moves forward (gs_udp receives at gs_udp_now())",
+                 net->clock_back_from - net->clock_back_to, net->clock_back_from,
+                 net->clock_back_to, (unsigned long)net->clock_backwards,
+                 net->clock_backwards == 1 ? "" : "s");
+        return GS_PEER_CLOCK_BACK;
+    }
+    if (t - net->update_now >= GS_PEER_QUIET) {
+        snprintf(buf, cap, "nothing sent: gs_net_update has not run for %.1f s (%s; "
+                 "gs_net_deliver has; call it each frame, or gs_udp_poll in poll mode)",
+                 t - net->update_now, net->updated ? "since its last call" : "never called");
+        return GS_PEER_NO_UPDATE;
+    }
+    if (net->updated && unsent >= GS_PEER_QUIET) {
+        int ghosts = gs__world_ghosts(w);
+        if (ghosts == 0)
+            snprintf(buf, cap, "nothing sent to this peer for %.1f s: this world has no ghosts "
+                     "(gs_ghost_attach or gs_scene_attach_ghosts), so it has nothing to send",
+                     unsent);
+        else
+            snprintf(buf, cap, "nothing sent to this peer for %.1f s, though gs_net_update runs "
+                     "and %d ghosts are attached (a bandwidth below one datagram?)", unsent,
+                     ghosts);
+        return GS_PEER_NOT_SENDING;
+    }
+    if (win && win->refused > 0 && win->taken == 0) {
+        gs__detail_text(&win->detail, more, sizeof more);
+        snprintf(buf, cap, "all %lu datagrams from this peer in the last %g s refused%s: %s "
+                 "(%s)%s", (unsigned long)win->refused, GS_PEER_QUIET,
+                 win->reasons > 1 ? ", for more than one reason, the first" : "",
+                 gs__reject_name(win->reason), gs_reject_str(win->reason), more);
+        return GS_PEER_REFUSED;
+    }
+    if (unheard >= GS_PEER_QUIET) {
+        if (d->taken_at < 0.0)
+            snprintf(buf, cap, "nothing received from this peer in the %.1f s since it was "
+                     "added: does it run and call gs_net_update (or gs_udp_poll), has it added "
+                     "this host (%lu) as a peer, and does the link reach it?", unheard,
+                     (unsigned long)w->host_id);
+        else
+            snprintf(buf, cap, "nothing received from this peer for %.1f s: it stopped, or "
+                     "stopped updating, or the link is down", unheard);
+        return GS_PEER_SILENT;
+    }
+    if (win && win->mismatched > 0) {
+        gs__detail_text(&win->detail, more, sizeof more);
+        snprintf(buf, cap, "%lu of the %lu datagrams from this peer in the last %g s refused "
+                 "as %s%s", (unsigned long)win->mismatched,
+                 (unsigned long)(win->taken + win->refused), GS_PEER_QUIET,
+                 gs__reject_name(win->reason), more);
+        return GS_PEER_PARTLY_REFUSED;
+    }
+    if (d->taken_at < 0.0) {
+        snprintf(buf, cap, "added %.1f s ago; nothing received from it yet", added);
+        return GS_PEER_WAITING;
+    }
+    buf[0] = '\0';
+    return GS_PEER_OK;
+}
+
+GS_API gs_net_desc gs_net_desc_default(void) {
+    gs_net_desc d;
+    memset(&d, 0, sizeof d);
+    d.session = 1;
+    d.bandwidth = 1e7;
+    d.max_peers = GS__MAX_PEERS;
+    return d;
+}
+
 GS_API gs_result gs_net_create(gs_world *w, const gs_net_desc *desc,
                                gs_net **out) {
     gs__check c;
@@ -10385,9 +11033,9 @@ GS_API gs_result gs_net_create(gs_world *w, const gs_net_desc *desc,
     else if (w->net) gs__check_fail(&c, GS_ERR_INVALID_ARG, "the world has a net already");
     if (c.r != GS_OK) return c.r;
     d = *desc;
-    if (d.session == 0) d.session = 1;
-    if (d.bandwidth == 0.0) d.bandwidth = 1e7;
-    if (d.max_peers == 0) d.max_peers = GS__MAX_PEERS;
+    if (d.session == 0) d.session = gs_net_desc_default().session;
+    if (d.bandwidth == 0.0) d.bandwidth = gs_net_desc_default().bandwidth;
+    if (d.max_peers == 0) d.max_peers = gs_net_desc_default().max_peers;
     /* divided first: a bandwidth near DBL_MAX must not make it inf */
     if (d.max_rate == 0.0 && gs__finite(d.bandwidth))
         d.max_rate = fmax(20000.0, 2.0 * (d.bandwidth / GS_WIRE_MAX_DATAGRAM));
@@ -10410,6 +11058,8 @@ GS_API gs_result gs_net_create(gs_world *w, const gs_net_desc *desc,
     net->world = w;
     net->d = d;
     net->d.key = NULL; /* the copy below is the net's; the caller's may go */
+    net->clock_max = -1.0;
+    net->update_now = -1.0;
     net->run = gs__net_run(net);
     if (d.key) gs__net_keep_key(net, d.key);
     if (gs__net_order_room(net) != GS_OK) {
@@ -10532,6 +11182,8 @@ GS_API gs_result gs_net_add_peer(gs_net *net, uint32_t host) {
     net->peers[p].used = 1;
     net->peers[p].host = host;
     net->peers[p].tokens = -1.0; /* filled on first use */
+    gs__diag_added(&net->peers[p].diag);
+    net->peer_added = 1;
     gs__unlock(net);
     return GS_OK;
 }
@@ -10563,17 +11215,75 @@ GS_API gs_result gs_net_peer_stats(const gs_net *net, uint32_t host,
         const gs__ghost *g = gs__ghost_of(net->world->agents[i]);
         out->objects_resting += g && g->gp[p].resting;
     }
+    out->health = gs__peer_judge(net, p, out->reason, sizeof out->reason);
+    {
+        const gs__diag_win *win = gs__diag_last(&net->peers[p].diag, net->clock_max);
+        int told = out->health == GS_PEER_REFUSED || out->health == GS_PEER_PARTLY_REFUSED;
+        out->refused_reason = told && win ? win->reason : GS_REJECT_COUNT;
+    }
+    out->clock_backwards = net->clock_backwards;
+    out->clock_back_max = net->clock_back_max;
     gs__unlock((gs_net *)net);
     return GS_OK;
 }
 
-GS_API gs_result gs_net_unknown_stats(const gs_net *net,
-                                      uint64_t rejected[GS_REJECT_COUNT]) {
-    if (!net || !rejected) return GS_ERR_INVALID_ARG;
+GS_API gs_result gs_net_unknown_stats(const gs_net *net, gs_unknown_stats *out) {
+    int i;
+    if (!net || !out) return GS_ERR_INVALID_ARG;
     gs__lock((gs_net *)net);
-    memcpy(rejected, net->unknown_rejected, sizeof net->unknown_rejected);
+    memcpy(out->rejected, net->unknown_rejected, sizeof net->unknown_rejected);
     gs__unlock((gs_net *)net);
+    out->rejected_total = 0;
+    for (i = 0; i < GS_REJECT_COUNT; ++i) out->rejected_total += out->rejected[i];
     return GS_OK;
+}
+
+/* Appends a line to the world's diagnosis (cut where it is full). */
+GS__PRIVATE GS__PRINTF(2, 3) void gs__diag_line(gs_world *w, const char *fmt, ...) {
+    size_t used = strlen(w->diag);
+    va_list ap;
+    if (used + 2 >= sizeof w->diag) return;
+    if (used) w->diag[used++] = '\n';
+    va_start(ap, fmt);
+    vsnprintf(w->diag + used, sizeof w->diag - used, fmt, ap);
+    va_end(ap);
+}
+
+GS_API const char *gs_world_diagnose(gs_world *w) {
+    gs_net *net;
+    int ghosts, peers = 0, p;
+    if (!w) return "";
+    w->diag[0] = '\0';
+    net = w->net;
+    ghosts = gs__world_ghosts(w);
+    if (!net) {
+        if (ghosts)
+            gs__diag_line(w, "%d ghost%s and no net: nothing is sent or received "
+                          "(gs_net_create, gs_simnet_join or gs_udp_open)", ghosts,
+                          ghosts == 1 ? "" : "s");
+        return w->diag;
+    }
+    gs__lock(net);
+    for (p = 0; p < GS__MAX_PEERS; ++p) peers += net->peers[p].used;
+    gs__unlock(net);
+    if (!peers)
+        gs__diag_line(w, "a net and no peers: nothing is sent (gs_net_add_peer, gs_udp_add_peer, "
+                      "or gs_simnet_join the other worlds)");
+    if (!ghosts)
+        gs__diag_line(w, "a net and no ghosts: nothing is sent, and every snapshot is refused "
+                      "(GS_REJECT_OBJECT) (gs_ghost_attach or gs_scene_attach_ghosts)");
+    for (p = 0; p < GS__MAX_PEERS; ++p) {
+        gs_peer_stats st;
+        uint32_t host;
+        gs__lock(net);
+        host = net->peers[p].used ? net->peers[p].host : 0;
+        gs__unlock(net);
+        if (!host || gs_net_peer_stats(net, host, &st) != GS_OK) continue;
+        if (st.health != GS_PEER_OK && st.health != GS_PEER_WAITING)
+            gs__diag_line(w, "peer %lu: %s: %s", (unsigned long)host, gs_peer_health_str(st.health),
+                          st.reason);
+    }
+    return w->diag;
 }
 
 /* ---- sending ---- */
@@ -10643,6 +11353,7 @@ GS__PRIVATE const unsigned char *gs__datagram_to_peer(gs_net *net, const gs__pee
    are done per peer. */
 GS__PRIVATE void gs__datagram_flush(gs_net *net, double now, size_t *size) {
     size_t wire = *size + (net->guard.keyed ? GS_WIRE_SEAL_TRAILER : 4), n;
+    gs_result r;
     int p;
     if (gs__hdr_chunks(net->buf) == 0) return;
     for (p = 0; p < GS__MAX_PEERS; ++p) {
@@ -10650,10 +11361,19 @@ GS__PRIVATE void gs__datagram_flush(gs_net *net, double now, size_t *size) {
         const unsigned char *d;
         if (!pe->used || !gs__peer_budget(net, pe, wire, now)) continue;
         d = gs__datagram_to_peer(net, pe, now, *size, &n);
+        r = net->d.send(net->d.send_user, pe->host, d, n);
+        if (r != GS_OK) { /* not sent: the peer sees no gap in the sequence */
+            pe->st.send_failures++;
+            if (net->send_error == GS_OK) {
+                net->send_error = r;
+                net->send_error_host = pe->host;
+            }
+            continue;
+        }
         pe->send_seq++;
         pe->st.datagrams_sent++;
+        pe->diag.sent_at = now;
         pe->st.bytes_sent += n;
-        net->d.send(net->d.send_user, pe->host, d, n);
     }
     gs__datagram_begin(net, now, size);
 }
@@ -11142,6 +11862,11 @@ GS_API gs_result gs_net_update(gs_net *net, double now) {
     }
     net->inside++;
     net->now = now;
+    net->send_error = GS_OK;
+    gs__diag_clock(net, now);
+    net->updated = 1;
+    net->update_now = now;
+    net->unsent_world = 0.0;
     for (p = 0; p < GS__MAX_PEERS; ++p) peers += net->peers[p].used;
     if (peers) gs__datagram_begin(net, now, &size);
     for (i = 0; i < w->agent_count && n < net->order_cap; ++i) {
@@ -11171,6 +11896,15 @@ GS_API gs_result gs_net_update(gs_net *net, double now) {
     }
     net->inside--;
     gs__unlock(net);
+    if (net->send_error != GS_OK) {
+        gs_peer_stats ps;
+        gs_net_peer_stats(net, net->send_error_host, &ps);
+        return gs__fail(w, net->send_error,
+                        "gs_net_update: the send callback failed for host %lu (%s); %llu "
+                        "datagrams to it have failed, the rest went out",
+                        (unsigned long)net->send_error_host, gs_result_str(net->send_error),
+                        (unsigned long long)ps.send_failures);
+    }
     return GS_OK;
 }
 
@@ -11270,7 +12004,11 @@ GS__PRIVATE int gs__chunks_fit(gs_net *net, const gs_wire_view *v, double now,
         ghosts[i] = i > 0 && ghosts[i - 1] && c->object_id == v->chunks[i - 1].object_id
                         ? ghosts[i - 1] : gs__ghost_find(net->world, c->object_id);
         g = ghosts[i];
-        if (!g) { *why = GS_REJECT_OBJECT; return 0; }
+        if (!g) {
+            gs__mismatch_note(net, GS__MISMATCH_OBJECT, c->object_id, 0, 0, 0);
+            *why = GS_REJECT_OBJECT;
+            return 0;
+        }
         if (c->flags & GS_WIRE_CHUNK_REST) { /* a heartbeat: no values */
             if (c->count != g->nchunks || c->encoding != g->d.encoding) {
                 *why = GS_REJECT_RANGE;
@@ -11285,6 +12023,7 @@ GS__PRIVATE int gs__chunks_fit(gs_net *net, const gs_wire_view *v, double now,
            would leave part of its range unfilled but marked received */
         if (c->count != g->nchunks || c->encoding != g->d.encoding ||
             c->first != first || c->elements != want) {
+            gs__range_note(net, g, c);
             *why = GS_REJECT_RANGE;
             return 0;
         }
@@ -11561,7 +12300,13 @@ GS__PRIVATE void gs__replay_mark(gs__replay *rp, uint64_t epoch, uint64_t salt, 
 /* The session, then the sender: from here on a refusal is the peer's. */
 GS__PRIVATE int gs__receive_sender(gs_net *net, uint32_t session, uint32_t sender, int *p,
                                    gs_reject *why) {
-    if (session != net->d.session) { *why = GS_REJECT_SESSION; return 0; }
+    if (session != net->d.session) {
+        net->detail.what = GS__MISMATCH_SESSION;
+        net->detail.here = (long)net->d.session;
+        net->detail.there = (long)session;
+        *why = GS_REJECT_SESSION;
+        return 0;
+    }
     if ((*p = gs__peer_slot(net, sender)) < 0) { *why = GS_REJECT_SENDER; return 0; }
     return 1;
 }
@@ -11608,7 +12353,7 @@ GS__PRIVATE int gs__receive(gs_net *net, const unsigned char *buf, size_t size, 
                             gs_reject *why) {
     if (!gs__wire_front(buf, size, why)) return 0;
     if (net->guard.keyed) return gs__receive_sealed(net, buf, size, p, why);
-    if (!gs_wire_decode(buf, size, &net->view, why)) return 0;
+    if (!gs__wire_decode(buf, size, &net->view, why)) return 0;
     return gs__receive_sender(net, net->view.header.session, net->view.header.sender, p, why);
 }
 
@@ -11622,6 +12367,8 @@ GS__PRIVATE gs_result gs__deliver_locked(gs_net *net, const void *data, size_t s
     gs_reject r = GS_REJECT_SHORT;
     gs_result res = GS_OK;
     int p = -1, i, order;
+    net->detail.what = GS__MISMATCH_NONE;
+    gs__diag_clock(net, now);
     if (!gs__receive(net, (const unsigned char *)data, size, &p, &r)) {
         res = gs__reject(net, p, r, why);
     } else if (!gs__chunks_fit(net, v, now, ghosts, &r)) {
@@ -11646,7 +12393,9 @@ GS__PRIVATE gs_result gs__deliver_locked(gs_net *net, const void *data, size_t s
             else gs__take_acks(net, p, &v->chunks[i]);
         }
         gs__sync_heard(net, p, v, now);
+        gs__diag_taken(&pe->diag, now);
     }
+    if (res == GS_ERR_REJECTED) gs__diag_refused(net, p, r, (const unsigned char *)data, size, now);
     return res;
 }
 
@@ -11666,8 +12415,11 @@ GS_API gs_result gs_net_deliver(gs_net *net, const void *data, size_t size,
 
 /* A refusal decided by the transport (the UDP allow-list): counted on the
    peer named `host`, or among the unknown ones. Call under the net lock. */
-GS__PRIVATE void gs__net_refuse(gs_net *net, uint32_t host, gs_reject r) {
-    gs__reject(net, gs__peer_slot(net, host), r, NULL);
+GS__PRIVATE void gs__net_refuse(gs_net *net, uint32_t host, gs_reject r, double now) {
+    int p = gs__peer_slot(net, host);
+    gs__reject(net, p, r, NULL);
+    net->detail.what = GS__MISMATCH_NONE;
+    if (p >= 0) gs__diag_refused(net, p, r, NULL, 0, now);
 }
 
 /* ========================================================================
@@ -11705,7 +12457,20 @@ struct gs_simnet {
     int count, cap;
     uint64_t order, dropped, duplicated, delivered;
     int running;        /* inside gs_simnet_run: its hosts are in use */
+    char error[256];    /* gs_simnet_error */
 };
+
+/* Records a failure on the simnet and returns its code. */
+GS__PRIVATE GS__PRINTF(3, 4) gs_result gs__sim_fail(gs_simnet *s, gs_result r,
+                                                    const char *fmt, ...) {
+    va_list ap;
+    va_start(ap, fmt);
+    vsnprintf(s->error, sizeof s->error, fmt, ap);
+    va_end(ap);
+    return r;
+}
+
+GS_API const char *gs_simnet_error(const gs_simnet *s) { return s ? s->error : ""; }
 
 /* xorshift64*: one stream for the whole simnet, so a seed fixes the run. */
 GS__PRIVATE double gs__sim_rand(gs_simnet *s) {
@@ -11713,6 +12478,27 @@ GS__PRIVATE double gs__sim_rand(gs_simnet *s) {
     s->rng ^= s->rng << 25;
     s->rng ^= s->rng >> 27;
     return (double)((s->rng * 2685821657736338717ull) >> 11) / 9007199254740992.0;
+}
+
+GS_API gs_link_desc gs_link_desc_default(void) {
+    gs_link_desc d;
+    memset(&d, 0, sizeof d);
+    return d;
+}
+
+GS_API gs_simnet_desc gs_simnet_desc_default(void) {
+    gs_simnet_desc d;
+    memset(&d, 0, sizeof d);
+    d.seed = 1;
+    d.max_in_flight = 16384;
+    return d;
+}
+
+GS_API gs_sim_clock gs_sim_clock_default(void) {
+    gs_sim_clock c;
+    memset(&c, 0, sizeof c);
+    c.rate = 1.0;
+    return c;
 }
 
 GS_API gs_result gs_simnet_create(const gs_simnet_desc *desc, gs_simnet **out) {
@@ -11724,8 +12510,8 @@ GS_API gs_result gs_simnet_create(const gs_simnet_desc *desc, gs_simnet **out) {
     *out = NULL;
     memset(&d, 0, sizeof d);
     if (desc) d = *desc;
-    if (d.seed == 0) d.seed = 1;
-    if (d.max_in_flight == 0) d.max_in_flight = 16384;
+    if (d.seed == 0) d.seed = gs_simnet_desc_default().seed;
+    if (d.max_in_flight == 0) d.max_in_flight = gs_simnet_desc_default().max_in_flight;
     if (d.max_in_flight < 1 || d.max_in_flight > (1 << 22)) return GS_ERR_INVALID_ARG;
     if (!d.allocator.alloc != !d.allocator.free) return GS_ERR_INVALID_ARG;
     if (!d.allocator.alloc) { d.allocator.alloc = gs__default_alloc; d.allocator.free = gs__default_free; }
@@ -11843,15 +12629,27 @@ GS__PRIVATE gs_result gs__sim_send(void *user, uint32_t host, const void *data, 
 
 GS__PRIVATE double gs__sim_clock_fn(void *user);
 
+GS__PRIVATE gs_result gs__sim_join(gs_simnet *s, gs_world *w, const gs_net_desc *desc,
+                                   gs_net **out);
 GS_API gs_result gs_simnet_join(gs_simnet *s, gs_world *w, const gs_net_desc *desc,
                                 gs_net **out) {
+    gs_result r;
+    if (!s) return GS_ERR_INVALID_ARG;
+    if (!w || !out) return gs__sim_fail(s, GS_ERR_INVALID_ARG, "gs_simnet_join: w and out "
+                                        "are required");
+    *out = NULL;
+    r = gs__sim_join(s, w, desc, out);
+    if (r != GS_OK) gs__sim_fail(s, r, "%s", gs_world_error(w));
+    return r;
+}
+
+GS__PRIVATE gs_result gs__sim_join(gs_simnet *s, gs_world *w, const gs_net_desc *desc,
+                                   gs_net **out) {
     gs_net_desc d;
     gs__sim_host *h;
     gs_result r;
     uint32_t had = 0;
     int i, k;
-    if (!s || !w || !out) return GS_ERR_INVALID_ARG;
-    *out = NULL;
     if (s->running)
         return gs__fail(w, GS_ERR_BUSY, "gs_simnet_join: the simnet is running");
     if (s->hosts == GS__SIM_MAX_HOSTS || gs__sim_slot(s, w->host_id) >= 0)
@@ -11903,19 +12701,30 @@ GS_API gs_result gs_simnet_join(gs_simnet *s, gs_world *w, const gs_net_desc *de
 GS_API gs_result gs_simnet_link(gs_simnet *s, uint32_t a, uint32_t b,
                                 const gs_link_desc *desc) {
     int i, j, k;
-    if (!s || !desc) return GS_ERR_INVALID_ARG;
-    if (s->running) return GS_ERR_BUSY;
+    if (!s) return GS_ERR_INVALID_ARG;
+    if (!desc) return gs__sim_fail(s, GS_ERR_INVALID_ARG, "gs_simnet_link: desc is NULL");
+    if (s->running)
+        return gs__sim_fail(s, GS_ERR_BUSY, "gs_simnet_link: the simnet is running");
     i = gs__sim_slot(s, a);
     j = gs__sim_slot(s, b);
-    if (i < 0 || j < 0) return GS_ERR_INVALID_ARG;
+    if (i < 0 || j < 0)
+        return gs__sim_fail(s, GS_ERR_INVALID_ARG, "gs_simnet_link: host %lu has not joined "
+                            "this simnet (gs_simnet_join its world first; a link names two "
+                            "joined hosts)", (unsigned long)(i < 0 ? a : b));
     if (!(desc->latency >= 0.0) || !(desc->jitter >= 0.0) || !(desc->loss >= 0.0) ||
         !(desc->loss <= 1.0) || !(desc->duplicate >= 0.0) || !(desc->duplicate <= 1.0) ||
         !(desc->reorder >= 0.0) || !(desc->reorder <= 1.0) || !(desc->bandwidth >= 0.0) ||
         !gs__finite(desc->latency + desc->jitter + desc->bandwidth))
-        return GS_ERR_INVALID_ARG;
+        return gs__sim_fail(s, GS_ERR_INVALID_ARG, "gs_simnet_link %lu -> %lu: latency %g, "
+                            "jitter %g and bandwidth %g must be finite and >= 0; loss %g, "
+                            "duplicate %g and reorder %g in [0, 1]", (unsigned long)a,
+                            (unsigned long)b, desc->latency, desc->jitter, desc->bandwidth,
+                            desc->loss, desc->duplicate, desc->reorder);
     for (k = 0; k < GS_MAX_OUTAGES; ++k)
         if (!gs__finite(desc->outage_start[k]) || !gs__finite(desc->outage_end[k]))
-            return GS_ERR_NOT_FINITE;
+            return gs__sim_fail(s, GS_ERR_NOT_FINITE, "gs_simnet_link %lu -> %lu: outage %d "
+                                "is [%g, %g), must be finite", (unsigned long)a,
+                                (unsigned long)b, k, desc->outage_start[k], desc->outage_end[k]);
     s->link[i][j] = *desc;
     return GS_OK;
 }
@@ -11934,15 +12743,21 @@ GS__PRIVATE double gs__sim_clock_fn(void *user) {
 GS_API gs_result gs_simnet_set_clock(gs_simnet *s, uint32_t host, const gs_sim_clock *clock) {
     gs_sim_clock c;
     int i;
-    if (!s || !clock) return GS_ERR_INVALID_ARG;
+    if (!s) return GS_ERR_INVALID_ARG;
+    if (!clock) return gs__sim_fail(s, GS_ERR_INVALID_ARG, "gs_simnet_set_clock: clock is NULL");
     i = gs__sim_slot(s, host);
-    if (i < 0) return GS_ERR_INVALID_ARG;
+    if (i < 0)
+        return gs__sim_fail(s, GS_ERR_INVALID_ARG, "gs_simnet_set_clock: host %lu has not "
+                            "joined this simnet", (unsigned long)host);
     c = *clock;
     if (c.rate == 0.0) c.rate = 1.0;
     if (!gs__finite(c.offset) || !gs__finite(c.rate) || !gs__finite(c.step_at) ||
         !gs__finite(c.step_by))
-        return GS_ERR_NOT_FINITE;
-    if (c.rate < 0.0) return GS_ERR_INVALID_ARG;
+        return gs__sim_fail(s, GS_ERR_NOT_FINITE, "gs_simnet_set_clock: a field is NaN or "
+                            "infinite");
+    if (c.rate < 0.0)
+        return gs__sim_fail(s, GS_ERR_INVALID_ARG, "gs_simnet_set_clock: rate %g, must be > 0",
+                            c.rate);
     s->host[i].clock = c;
     return GS_OK;
 }
@@ -11962,10 +12777,14 @@ GS_API gs_result gs_simnet_run(gs_simnet *s, double seconds, double frame) {
     gs_result first = GS_OK;
     int i;
     /* a frame under GS_MIN_DT could leave now + frame == now (no progress) */
-    if (!s || !gs__finite(seconds) || seconds < 0.0 || !gs__finite(frame) ||
+    if (!s) return GS_ERR_INVALID_ARG;
+    if (!gs__finite(seconds) || seconds < 0.0 || !gs__finite(frame) ||
         !(frame >= GS_MIN_DT) || seconds > GS_WIRE_MAX_TIME - s->now)
-        return GS_ERR_INVALID_ARG;
-    if (s->running) return GS_ERR_BUSY; /* from a callback of one of its worlds */
+        return gs__sim_fail(s, GS_ERR_INVALID_ARG, "gs_simnet_run: seconds %g must be finite, "
+                            ">= 0 and end by GS_WIRE_MAX_TIME, frame %g finite and >= "
+                            "GS_MIN_DT", seconds, frame);
+    if (s->running) /* from a callback of one of its worlds */
+        return gs__sim_fail(s, GS_ERR_BUSY, "gs_simnet_run: called from inside its own run");
     s->running = 1;
     for (i = 0; i < s->hosts; ++i) s->host[i].net->held = 1;
     end = s->now + seconds;
@@ -11973,7 +12792,12 @@ GS_API gs_result gs_simnet_run(gs_simnet *s, double seconds, double frame) {
         s->now += frame;
         for (i = 0; i < s->hosts; ++i) {
             gs_result r = gs_world_advance(s->host[i].world, frame, NULL);
-            if (r != GS_OK && first == GS_OK) first = r;
+            if (r != GS_OK && first == GS_OK) {
+                first = r;
+                gs__sim_fail(s, r, "gs_simnet_run: host %lu at %.6g s: %s",
+                             (unsigned long)s->host[i].host, s->now,
+                             gs_world_error(s->host[i].world));
+            }
             gs_net_update(s->host[i].net, gs__sim_host_now(&s->host[i]));
         }
         gs__sim_deliver_due(s);
@@ -11985,11 +12809,12 @@ GS_API gs_result gs_simnet_run(gs_simnet *s, double seconds, double frame) {
 
 GS_API double gs_simnet_time(const gs_simnet *s) { return s->now; }
 
-GS_API void gs_simnet_counts(const gs_simnet *s, uint64_t *dropped,
-                             uint64_t *duplicated, uint64_t *delivered) {
-    if (dropped) *dropped = s->dropped;
-    if (duplicated) *duplicated = s->duplicated;
-    if (delivered) *delivered = s->delivered;
+GS_API gs_result gs_simnet_get_stats(const gs_simnet *s, gs_simnet_stats *out) {
+    if (!s || !out) return GS_ERR_INVALID_ARG;
+    out->dropped = s->dropped;
+    out->duplicated = s->duplicated;
+    out->delivered = s->delivered;
+    return GS_OK;
 }
 
 /* ========================================================================
@@ -12225,7 +13050,7 @@ GS__PRIVATE int gs__udp_from_ok(gs_udp *u, size_t n, const struct sockaddr_stora
             ok = gs__udp_same_addr(&u->peers[p].addr, from);
         }
     if (!found) ok = gs__peer_slot(u->net, host) < 0;
-    if (!ok) gs__net_refuse(u->net, host, GS_REJECT_ADDRESS);
+    if (!ok) gs__net_refuse(u->net, host, GS_REJECT_ADDRESS, gs_udp_now());
     return ok;
 }
 
@@ -12323,7 +13148,7 @@ GS__PRIVATE void *gs__udp_scatter(void *arg) {
 GS__PRIVATE gs_result gs__udp_socket(gs_udp *u, const gs_udp_desc *d) {
     struct sockaddr_storage addr;
     socklen_t len;
-    int rcv = d->rcvbuf ? d->rcvbuf : 4 << 20;
+    int rcv = d->rcvbuf ? d->rcvbuf : gs_udp_desc_default().rcvbuf;
     if (!gs__udp_resolve(d->bind, &addr, &len))
         return gs__fail(u->world, GS_ERR_INVALID_ARG, "gs_udp_open: bind address \"%s\" is "
                         "not HOST:PORT or [IPV6]:PORT", d->bind ? d->bind : "(null)");
@@ -12363,6 +13188,14 @@ GS__PRIVATE gs_result gs__udp_start(gs_udp *u) {
         return gs__fail(u->world, GS_ERR_SYSTEM, "gs_udp_open: cannot start the scatter thread");
     }
     return GS_OK;
+}
+
+GS_API gs_udp_desc gs_udp_desc_default(void) {
+    gs_udp_desc d;
+    memset(&d, 0, sizeof d);
+    d.rcvbuf = 4 << 20;
+    d.net = gs_net_desc_default();
+    return d;
 }
 
 GS_API gs_result gs_udp_open(gs_world *w, const gs_udp_desc *desc, gs_udp **out) {

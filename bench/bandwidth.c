@@ -102,7 +102,7 @@ static int host_scene(host *h, uint32_t id, int scene, int enc) {
         sd.probe_count = 2;
         if (scene == SC_CLOTH64) {
             sd.cloth_n = 64;
-            sd.sphere_count = 0;
+            sd.sphere_count = GS_NONE;
         }
         if (gs_scene_create(h->w, &sd, &h->sc) != GS_OK) return -1;
         if (gs_scene_attach_ghosts(&h->sc, &gd) != GS_OK) return -1;

@@ -113,6 +113,7 @@ static void side_make(side *s, uint32_t id, size_t n, double send_rate, outbox *
     gd.object_id = 1;
     gd.send_rate = send_rate;
     gd.queue_size = 1;
+    gd.weight = gs_weight_exp; /* the rule of the figures recorded so far */
     if ((r = gs_ghost_attach(s->a, &gd)) != GS_OK) die("gs_ghost_attach", s->w, r);
 }
 

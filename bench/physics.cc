@@ -62,6 +62,16 @@
 #include <string>
 #include <vector>
 
+#include <string.h>
+
+/* An agent's counters by value (gs_agent_get_stats fills an out-pointer). */
+static gs_agent_stats agent_stats(const gs_agent *a) {
+    gs_agent_stats st;
+    memset(&st, 0, sizeof st);
+    gs_agent_get_stats(a, &st);
+    return st;
+}
+
 static const double DT = 0.001;          /* s, every engine */
 static const double K_STRETCH = 1000.0;  /* N/m, structural and shear */
 static const double K_BEND = 10.0;       /* N/m */
@@ -148,7 +158,7 @@ struct gs_cloth_engine : cloth_engine {
     void step() { gs_world_advance(w, DT, NULL); }
     gs_vec3 pos(int i) const { return gs_mesh_positions(cloth)[i]; }
     double substeps_per_step() const {
-        gs_agent_stats st = gs_agent_get_stats(cloth);
+        gs_agent_stats st = agent_stats(cloth);
         return st.steps ? (double)st.substeps / (double)st.steps : 0.0;
     }
     int springs() const { return gs_mesh_spring_count(cloth); }
@@ -462,7 +472,7 @@ struct gs_pile_engine : pile_engine {
     double substeps_per_step() const {
         double s = 0.0, n = 0.0;
         for (size_t i = 0; i < balls.size(); ++i) {
-            gs_agent_stats st = gs_agent_get_stats(balls[i]);
+            gs_agent_stats st = agent_stats(balls[i]);
             s += (double)st.substeps;
             n += (double)st.steps;
         }
@@ -606,14 +616,14 @@ static double ns_per_spring_substep(int n, gs_integrator integ) {
     gs_cloth_engine e(n, integ);
     std::vector<double> b;
     for (int i = 0; i < 20; ++i) e.step();
-    gs_agent_stats s0 = gs_agent_get_stats(e.cloth);
+    gs_agent_stats s0 = agent_stats(e.cloth);
     int per = 1;
     for (double t0 = bu_cpu_now(); bu_cpu_now() - t0 < 0.02; ++per) e.step();
     for (int k = 0; k < 7; ++k) {
-        gs_agent_stats a = gs_agent_get_stats(e.cloth);
+        gs_agent_stats a = agent_stats(e.cloth);
         double t0 = bu_cpu_now();
         for (int i = 0; i < per; ++i) e.step();
-        gs_agent_stats z = gs_agent_get_stats(e.cloth);
+        gs_agent_stats z = agent_stats(e.cloth);
         b.push_back(1e9 * (bu_cpu_now() - t0) / (double)(z.substeps - a.substeps) / e.springs());
     }
     (void)s0;

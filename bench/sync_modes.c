@@ -29,6 +29,16 @@
 #define GHOSTSIM_IMPLEMENTATION
 #include "../ghostsim.h"
 
+#include <string.h>
+
+/* An agent's counters by value (gs_agent_get_stats fills an out-pointer). */
+static gs_agent_stats agent_stats(const gs_agent *a) {
+    gs_agent_stats st;
+    memset(&st, 0, sizeof st);
+    gs_agent_get_stats(a, &st);
+    return st;
+}
+
 #define FRAME (1.0 / 60.0)
 #define SETTLE 1.0
 #define PARK_HEIGHT 0.4
@@ -217,7 +227,7 @@ static int run(const profile *pr, int mode, int nhosts, double push, double afte
         r->replays += st.replays;
         r->fallbacks += st.fallbacks;
         for (a = 0; a < gs_world_agent_count(h[k].w); ++a)
-            steps += gs_agent_get_stats(gs_world_agent(h[k].w, a)).steps;
+            steps += agent_stats(gs_world_agent(h[k].w, a)).steps;
     }
     r->replay_share = steps ? (double)rsteps / (double)steps : 0.0;
     r->frame_cpu = cpu / frames / nhosts;

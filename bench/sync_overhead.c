@@ -39,6 +39,16 @@
 #include "ghostsim.h"
 #include "bench_util.h"
 
+#include <string.h>
+
+/* An agent's counters by value (gs_agent_get_stats fills an out-pointer). */
+static gs_agent_stats agent_stats(const gs_agent *a) {
+    gs_agent_stats st;
+    memset(&st, 0, sizeof st);
+    gs_agent_get_stats(a, &st);
+    return st;
+}
+
 #define MAX_HOSTS 8
 #define FRAME (1.0 / 60.0)
 #define DT 0.001
@@ -104,6 +114,7 @@ static void host_make(host *h, uint32_t id, int n, gs_encoding enc)
         gs_ghost_desc gd = gs_ghost_desc_default();
         gd.object_id = 1;
         gd.encoding = enc;
+        gd.weight = gs_weight_exp; /* the rule of the figures recorded so far */
         if ((r = gs_ghost_attach(h->cloth, &gd)) != GS_OK) die("gs_ghost_attach", h->w, r);
     }
 }
@@ -190,8 +201,8 @@ static phase_result run_phases(int n, int H, gs_encoding enc, int frames)
         now += FRAME;
         if (f == 0) {
             sent0 = sent_snapshots(&hs[0], 2);
-            st0 = gs_agent_get_stats(hs[0].cloth).steps;
-            substeps0 = gs_agent_get_stats(hs[0].cloth).substeps;
+            st0 = agent_stats(hs[0].cloth).steps;
+            substeps0 = agent_stats(hs[0].cloth).substeps;
         }
         for (i = 0; i < H; ++i) {
             long long target = (long long)(now / DT + 0.5);
@@ -238,8 +249,8 @@ static phase_result run_phases(int n, int H, gs_encoding enc, int frames)
                 if (dcount[i]) push(&deliv, dtime[i]);
     }
     sent1 = sent_snapshots(&hs[0], 2);
-    st1 = gs_agent_get_stats(hs[0].cloth).steps;
-    substeps1 = gs_agent_get_stats(hs[0].cloth).substeps;
+    st1 = agent_stats(hs[0].cloth).steps;
+    substeps1 = agent_stats(hs[0].cloth).substeps;
     {
         double sim = frames * FRAME, hsim = sim * H; /* host-seconds */
         pr.step = bu_median(plain.v, plain.n);

@@ -683,7 +683,7 @@ static void run_session(const session_cfg *c, session_result *r) {
         gs_scene_desc sd = gs_scene_desc_default();
         wd.host_id = (uint32_t)k + 1;
         sd.probe_count = HOSTS;
-        if (c->no_spheres) sd.sphere_count = 0;
+        if (c->no_spheres) sd.sphere_count = GS_NONE;
         if (gs_world_create(&wd, &h[k].w) != GS_OK ||
             gs_scene_create(h[k].w, &sd, &h[k].sc) != GS_OK || !attach(&h[k], c)) {
             fprintf(stderr, "tradeoff: session setup: %s\n", h[k].w ? gs_world_error(h[k].w) : "");

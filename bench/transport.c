@@ -268,6 +268,7 @@ static int gs_side_open(gs_side *s, uint32_t host, int values, int port, int thr
     if (gs_custom_create(s->w, &cd, &s->a) != GS_OK) return 0;
     gd.object_id = 1;
     gd.send_rate = 1e9; /* every step publishes and every update sends */
+    gd.weight = gs_weight_exp; /* the rule of the figures recorded so far */
     if (gs_ghost_attach(s->a, &gd) != GS_OK) return 0;
     snprintf(bind, sizeof bind, "127.0.0.1:%d", port);
     ud.bind = bind;
@@ -503,6 +504,7 @@ static int lib_open(lib_pair *lp, int values) {
         if (gs_custom_create(lp->w[h], &cd, &lp->a[h]) != GS_OK) return 0;
         gd.object_id = 1;
         gd.send_rate = 1e9;
+        gd.weight = gs_weight_exp; /* the rule of the figures recorded so far */
         if (gs_ghost_attach(lp->a[h], &gd) != GS_OK) return 0;
         nd.send = lib_send;
         nd.send_user = lp;

@@ -35,7 +35,7 @@ int main(void) {
     gs_scene scene[HOSTS];
     gs_simnet *sim;
     gs_net *net;
-    gs_link_desc wan = {0};
+    gs_link_desc wan = gs_link_desc_default();
     gs_scene_desc sd = gs_scene_desc_default();
     gs_ghost_desc gd = gs_ghost_desc_default();
     int h, step;

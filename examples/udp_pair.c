@@ -7,7 +7,6 @@
 
 #include <math.h>
 #include <stdio.h>
-#include <string.h>
 #include <time.h>
 
 static double max_gap(gs_agent *a, gs_agent *b) {
@@ -32,7 +31,7 @@ int main(void) {
         gs_world_desc wd = gs_world_desc_default();
         gs_cloth_desc cd = gs_cloth_desc_default();
         gs_ghost_desc gd = gs_ghost_desc_default();
-        gs_udp_desc ud;
+        gs_udp_desc ud = gs_udp_desc_default();
         wd.host_id = (uint32_t)h + 1;
         if (gs_world_create(&wd, &w[h]) != GS_OK) return 1;
         cd.nx = cd.ny = 12;
@@ -42,7 +41,6 @@ int main(void) {
         cd.solver.integrator = GS_INTEGRATOR_IMPLICIT_EULER;
         cd.solver.dt = 0.002;
         gd.object_id = 1;
-        memset(&ud, 0, sizeof ud);
         ud.bind = addr[h];
         ud.threads = 1;
         if (gs_cloth_create(w[h], &cd, &cloth[h]) != GS_OK ||

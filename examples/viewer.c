@@ -465,10 +465,9 @@ static void peer_close(vw_peer *p) {
 /* Returns 0, or the exit status: 1 (the system refused, e.g. the port is in
    use), 2 (a bad address on the command line). */
 static int peer_open_udp(vw_peer *p, const vw_options *o) {
-    gs_udp_desc ud;
+    gs_udp_desc ud = gs_udp_desc_default();
     gs_result r;
     int i;
-    memset(&ud, 0, sizeof ud);
     ud.bind = o->listen;
     ud.threads = 1;
     r = gs_udp_open(p->world, &ud, &p->udp);
@@ -503,8 +502,8 @@ static int peer_open(vw_peer *p, const vw_options *o) {
         return 1;
     }
     sd.cloth_n = o->cloth_n;
-    sd.sphere_count = o->spheres;
-    sd.probe_count = o->probes;
+    sd.sphere_count = o->spheres ? o->spheres : GS_NONE;
+    sd.probe_count = o->probes ? o->probes : GS_NONE;
     sd.dt = o->dt;
     sd.seed = o->seed;
     p->local = (int)o->id - 1;

@@ -16,7 +16,10 @@
    since its last snapshot as a heartbeat only, at --heartbeat-rate Hz
    (default 4). Each JSON line gives per peer "bytes_sent" and "bytes_rx"
    (datagram bytes so far), "heartbeats_rx", "resting" (objects the peer
-   says are at rest) and "heard" (s since its last datagram, -1 never).
+   says are at rest), "heard" (s since its last datagram, -1 never), and
+   the peer's diagnosis: "health" (gs_peer_health_str), "reason" (a
+   sentence for a user, "" when all is well) and "clock_back" (times the
+   clock went back, gs_peer_stats.clock_backwards).
 
    Every host builds the same scene (gs_scene_create: a cloth pinned by its
    corners, K spheres above it, one probe per host of the session) and runs
@@ -395,7 +398,7 @@ static int build(peer_host *h) {
     }
     if (gs_world_create(&wd, &h->w) != GS_OK) return fail(h, "world");
     sd.cloth_n = o->cloth;
-    sd.sphere_count = o->spheres;
+    sd.sphere_count = o->spheres ? o->spheres : GS_NONE;
     sd.probe_count = probe_count(o);
     sd.seed = o->seed;
     sd.cloth_integrator = o->integrator;
@@ -409,7 +412,7 @@ static int build(peer_host *h) {
     gd.delta = o->delta;
     gd.heartbeat_rate = o->heartbeat_rate;
     if (gs_scene_attach_ghosts(&h->sc, &gd) != GS_OK) return fail(h, "ghost");
-    memset(&ud, 0, sizeof ud);
+    ud = gs_udp_desc_default(); /* its rcvbuf and net are what zero gave */
     ud.bind = o->listen;
     ud.threads = 1;
     ud.net.key = o->has_key ? o->key : NULL;
@@ -473,11 +476,25 @@ static int digest(const peer_host *h, double *d) {
 
 static double sim_time(const peer_host *h) { return gs_agent_time(h->sc.cloth); }
 
+/* A string as a JSON string: quotes, backslashes and control characters
+   escaped. */
+static void print_json_string(const char *s) {
+    putchar('"');
+    for (; *s; ++s) {
+        unsigned char c = (unsigned char)*s;
+        if (c == '"' || c == '\\') printf("\\%c", c);
+        else if (c < 0x20) printf("\\u%04x", c);
+        else putchar(c);
+    }
+    putchar('"');
+}
+
 static void print_line(peer_host *h, int final) {
     gs_net *net = gs_udp_net(h->udp);
     double d[6 + 3 * GS_SCENE_MAX_SPHERES];
     int nd = digest(h, d), i;
-    uint64_t unknown[GS_REJECT_COUNT], unknown_total = 0, rejected = 0, rx = 0, sent = 0;
+    gs_unknown_stats unknown;
+    uint64_t unknown_total = 0, rejected = 0, rx = 0, sent = 0;
     printf("{\"wall\": %.6f, \"host\": %u, \"t\": %.6f, \"digest\": [", wall_now(),
            (unsigned)h->o.id, sim_time(h));
     for (i = 0; i < nd; ++i) printf("%s%.9g", i ? ", " : "", d[i]);
@@ -488,7 +505,7 @@ static void print_line(peer_host *h, int final) {
         gs_net_peer_stats(net, h->o.peers[i].id, &ps);
         printf("%s\"%u\": {\"gap\": %.6f, \"div\": %.9g, \"rtt\": %.6f, \"rx\": %llu, "
                "\"lost\": %llu, \"rejected\": %llu, \"bytes_sent\": %llu, \"bytes_rx\": %llu, "
-               "\"heartbeats_rx\": %llu, \"resting\": %d, \"heard\": %.3f}",
+               "\"heartbeats_rx\": %llu, \"resting\": %d, \"heard\": %.3f",
                i ? ", " : "", (unsigned)h->o.peers[i].id,
                ps.snapshots_received ? ps.gap : 0.0, ps.divergence, ps.rtt,
                (unsigned long long)ps.snapshots_received, (unsigned long long)ps.lost,
@@ -496,6 +513,10 @@ static void print_line(peer_host *h, int final) {
                (unsigned long long)ps.bytes_received, (unsigned long long)ps.heartbeats_received,
                ps.objects_resting,
                ps.datagrams_received ? gs_udp_now() - ps.last_heard : -1.0);
+        /* keys added after "heard" (the JSON changes only by adding) */
+        printf(", \"health\": \"%s\", \"reason\": ", gs_peer_health_str(ps.health));
+        print_json_string(ps.reason);
+        printf(", \"clock_back\": %llu}", (unsigned long long)ps.clock_backwards);
         rejected += ps.rejected_total;
         rx += ps.snapshots_received;
         sent += ps.snapshots_sent;
@@ -513,8 +534,7 @@ static void print_line(peer_host *h, int final) {
                (unsigned long long)st.fallbacks, st.lag, (unsigned)st.timekeeper);
     }
     if (final) {
-        gs_net_unknown_stats(net, unknown);
-        for (i = 0; i < GS_REJECT_COUNT; ++i) unknown_total += unknown[i];
+        if (gs_net_unknown_stats(net, &unknown) == GS_OK) unknown_total = unknown.rejected_total;
         printf(", \"final\": true, \"totals\": {\"wall_seconds\": %.3f, \"snapshots_sent\": %llu, "
                "\"snapshots_received\": %llu, \"rejected\": %llu, \"rejected_unknown\": %llu}",
                gs_udp_now() - h->mono0, (unsigned long long)sent, (unsigned long long)rx,

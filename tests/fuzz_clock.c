@@ -73,7 +73,7 @@ static gs_result fc_send(void *user, uint32_t host, const void *data, size_t siz
     gs_wire_view v;
     gs_reject why;
     FUZZ_CHECK(host == FUZZ_PEER_A || host == FUZZ_PEER_B);
-    FUZZ_CHECK(gs_wire_decode((const unsigned char *)data, size, &v, &why) == 1);
+    FUZZ_CHECK(gs_wire_decode((const unsigned char *)data, size, &v, &why) == GS_OK);
     FUZZ_CHECK(v.header.send_time >= 0.0 && v.header.send_time <= GS_WIRE_MAX_TIME);
     s->host_sent = v.header.send_time;
     return GS_OK;
@@ -180,7 +180,7 @@ static void fc_advance(fc_state *s, double seconds) {
     int i;
     for (i = 0; i < FUZZ_OBJECTS; ++i) {
         t_before[i] = gs_agent_time(s->f.agent[i]);
-        steps_before[i] = gs_agent_get_stats(s->f.agent[i]).steps;
+        steps_before[i] = agent_stats(s->f.agent[i]).steps;
     }
     r = gs_world_advance(s->f.w, seconds, NULL);
     w_after = gs_world_time(s->f.w);
@@ -198,7 +198,7 @@ static void fc_advance(fc_state *s, double seconds) {
     for (i = 0; i < FUZZ_OBJECTS; ++i) {
         const gs_agent *a = s->f.agent[i];
         double t = gs_agent_time(a);
-        double stepped = (double)(gs_agent_get_stats(a).steps - steps_before[i]) * gs_agent_dt(a);
+        double stepped = (double)(agent_stats(a).steps - steps_before[i]) * gs_agent_dt(a);
         double moved = t - t_before[i] - stepped;
         double follow = w_after - seconds - t_before[i];
         /* t = steps * dt + offset: a sum of numbers up to 1e9 rounds */

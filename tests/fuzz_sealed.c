@@ -135,7 +135,7 @@ static gs_result fuzz_sealed_send(void *user, uint32_t host, const void *data, s
     FUZZ_CHECK(size <= GS_WIRE_MAX_DATAGRAM && size >= GS_WIRE_HEADER + GS_WIRE_SEAL_TRAILER);
     FUZZ_CHECK(b[5] == GS_WIRE_FLAG_SEALED);
     FUZZ_CHECK(fuzz_open(&k->s, b, size, clear, &n));
-    FUZZ_CHECK(gs_wire_decode(clear, n, &v, &why) == 1);
+    FUZZ_CHECK(gs_wire_decode(clear, n, &v, &why) == GS_OK);
     FUZZ_CHECK(v.header.session == FUZZ_SESSION && v.header.sender == FUZZ_HOST);
     k->t.sent++;
     return GS_OK;

@@ -97,7 +97,7 @@ static void fuzz_requant(const gs_wire_chunk *c, const double *values) {
     FUZZ_CHECK(gs_wire_begin(out, sizeof out, &h, &n) == GS_OK);
     FUZZ_CHECK(gs_wire_add(out, sizeof out, &n, c, values) == GS_OK);
     n = gs_wire_end(out, n);
-    FUZZ_CHECK(gs_wire_decode(out, n, &w, &why) == 1);
+    FUZZ_CHECK(gs_wire_decode(out, n, &w, &why) == GS_OK);
     for (k = 0; k < c->elements; ++k) FUZZ_CHECK(gs_wire_value(&w.chunks[0], k) == values[k]);
 }
 
@@ -133,7 +133,7 @@ static int fuzz_decode(const unsigned char *buf, size_t size, gs_reject *why) {
     size_t used = GS_WIRE_HEADER + 4;
     int ok, i, k;
     *why = GS_REJECT_COUNT;
-    ok = gs_wire_decode(buf, size, &v, why);
+    ok = gs_wire_decode(buf, size, &v, why) == GS_OK;
     if (!ok) {
         FUZZ_CHECK(*why >= 0 && *why < GS_REJECT_COUNT && fuzz_decode_reason(*why));
         return 0;
@@ -169,7 +169,7 @@ static gs_result fuzz_send(void *user, uint32_t host, const void *data, size_t s
     int i;
     FUZZ_CHECK(host == FUZZ_PEER_A || host == FUZZ_PEER_B);
     FUZZ_CHECK(size <= GS_WIRE_MAX_DATAGRAM);
-    FUZZ_CHECK(gs_wire_decode((const unsigned char *)data, size, &v, &why) == 1);
+    FUZZ_CHECK(gs_wire_decode((const unsigned char *)data, size, &v, &why) == GS_OK);
     FUZZ_CHECK(v.header.session == FUZZ_SESSION && v.header.sender == FUZZ_HOST);
     for (i = 0; i < v.chunk_count; ++i)
         FUZZ_CHECK(v.chunks[i].object_id >= 10 && v.chunks[i].object_id < 10 + FUZZ_OBJECTS);
@@ -254,7 +254,7 @@ static void fuzz_advance(fuzz_world *f, double seconds) {
     int i;
     for (i = 0; i < FUZZ_OBJECTS; ++i) {
         t0[i] = gs_agent_time(f->agent[i]);
-        n0[i] = gs_agent_get_stats(f->agent[i]).steps;
+        n0[i] = agent_stats(f->agent[i]).steps;
     }
     r = gs_world_advance(f->w, seconds, NULL);
     w1 = gs_world_time(f->w);
@@ -262,7 +262,7 @@ static void fuzz_advance(fuzz_world *f, double seconds) {
     for (i = 0; i < FUZZ_OBJECTS; ++i) {
         const gs_agent *a = f->agent[i];
         double t = gs_agent_time(a), follow = w1 - seconds - t0[i];
-        double stepped = (double)(gs_agent_get_stats(a).steps - n0[i]) * gs_agent_dt(a);
+        double stepped = (double)(agent_stats(a).steps - n0[i]) * gs_agent_dt(a);
         /* t = steps * dt + offset: sums of numbers up to 1e9 round */
         double eps = 1e-12 * (fabs(t) + fabs(t0[i]) + stepped) + 1e-9;
         FUZZ_CHECK(fabs(t - t0[i] - stepped) <=
@@ -273,12 +273,14 @@ static void fuzz_advance(fuzz_world *f, double seconds) {
 /* The library's counters against the harness's tally. */
 static void fuzz_check_counters(const fuzz_world *f, const fuzz_tally *t) {
     static const uint32_t peers[2] = {FUZZ_PEER_A, FUZZ_PEER_B};
-    uint64_t unknown[GS_REJECT_COUNT], why[GS_REJECT_COUNT];
+    gs_unknown_stats unknown;
+    uint64_t why[GS_REJECT_COUNT];
     uint64_t received = 0, bytes = 0, chunks = 0, rejected = 0;
     int p, r;
-    FUZZ_CHECK(gs_net_unknown_stats(f->net, unknown) == GS_OK);
-    memcpy(why, unknown, sizeof why);
-    for (r = 0; r < GS_REJECT_COUNT; ++r) rejected += unknown[r];
+    FUZZ_CHECK(gs_net_unknown_stats(f->net, &unknown) == GS_OK);
+    memcpy(why, unknown.rejected, sizeof why);
+    for (r = 0; r < GS_REJECT_COUNT; ++r) rejected += unknown.rejected[r];
+    FUZZ_CHECK(rejected == unknown.rejected_total);
     for (p = 0; p < 2; ++p) {
         gs_peer_stats st;
         uint64_t sum = 0;

@@ -152,7 +152,7 @@ static void deltas(harness *h, int keys) {
     size_t n;
     for (i = 0; i < FUZZ_OBJECTS; ++i) seq[i] = 1;
     for (t = 0; t < keys; ++t) {
-        CHECK(gs_wire_decode(h->tpl[t], h->tpl_size[t], &v, NULL));
+        CHECK(gs_wire_decode(h->tpl[t], h->tpl_size[t], &v, NULL) == GS_OK);
         for (i = 0; i < v.chunk_count; ++i)
             if (v.chunks[i].object_id >= 10 && v.chunks[i].object_id < 10 + FUZZ_OBJECTS)
                 seq[v.chunks[i].object_id - 10] = v.chunks[i].sequence;
@@ -214,7 +214,7 @@ static void requant_same(harness *h, const gs_wire_chunk *c) {
     CHECK(gs_wire_begin(out, sizeof out, &hd, &n) == GS_OK);
     CHECK(gs_wire_add(out, sizeof out, &n, c, v) == GS_OK);
     n = gs_wire_end(out, n);
-    CHECK(gs_wire_decode(out, n, &h->again, &why) == 1);
+    CHECK(gs_wire_decode(out, n, &h->again, &why) == GS_OK);
     gs_wire_values(&h->again.chunks[0], w);
     for (g = 0, k = 0; g < c->segment_count; ++g) {
         int end = k + c->segments[g].count;
@@ -241,7 +241,7 @@ static void recode_same(harness *h, const gs_wire_chunk *c) {
         gs_wire_deltas(c, d);
         CHECK(gs_wire_add_delta(out, sizeof out, &n, c, d) == GS_OK);
         n = gs_wire_end(out, n);
-        CHECK(gs_wire_decode(out, n, &h->again, NULL) == 1);
+        CHECK(gs_wire_decode(out, n, &h->again, NULL) == GS_OK);
         CHECK(h->again.chunks[0].baseline == c->baseline);
         gs_wire_deltas(&h->again.chunks[0], e);
         for (k = 0; k < c->elements; ++k) CHECK(d[k] == e[k]);
@@ -251,7 +251,7 @@ static void recode_same(harness *h, const gs_wire_chunk *c) {
     CHECK(na == c->elements);
     CHECK(gs_wire_add_ack(out, sizeof out, &n, c->object_id, a, na) == GS_OK);
     n = gs_wire_end(out, n);
-    CHECK(gs_wire_decode(out, n, &h->again, NULL) == 1);
+    CHECK(gs_wire_decode(out, n, &h->again, NULL) == GS_OK);
     CHECK(gs_wire_acks(&h->again.chunks[0], b, GS_WIRE_MAX_ACKS) == na);
     for (k = 0; k < na; ++k)
         CHECK(a[k].object_id == b[k].object_id && a[k].sequence == b[k].sequence &&
@@ -265,7 +265,7 @@ static void one_datagram(harness *h, const unsigned char *src, size_t size) {
     int ok, i, k;
     CHECK(buf != NULL);
     if (size) memcpy(buf, src, size);
-    ok = gs_wire_decode(buf, size, &h->view, &dwhy);
+    ok = gs_wire_decode(buf, size, &h->view, &dwhy) == GS_OK;
     if (!ok) {
         CHECK(decode_reason(dwhy));
     } else {

@@ -32,6 +32,15 @@
 #define FUZZ_PEER_B 3u
 #define FUZZ_OBJECTS 6
 
+/* An agent's counters by value (gs_agent_get_stats fills an out-pointer);
+   inline: not every harness reads them. */
+static inline gs_agent_stats agent_stats(const gs_agent *a) {
+    gs_agent_stats st;
+    memset(&st, 0, sizeof st);
+    gs_agent_get_stats(a, &st);
+    return st;
+}
+
 typedef struct fuzz_world {
     gs_world *w;
     gs_net *net;

@@ -784,6 +784,17 @@ def test_key(exe):
             raise TestFailure("peer %d from peer 3 (another key): %s" % (a, st))
     if fin[3]["totals"]["snapshots_received"] != 0:
         raise TestFailure("peer 3 (another key) received %d snapshots" % fin[3]["totals"]["snapshots_received"])
+    # the diagnosis (gs_peer_stats.health/reason): 1 and 2 meet; peer 3's
+    # datagrams are all refused, and the reason says why (at some line: peer
+    # 3 may stop first, then it is silent at the end)
+    for a, b in ((1, 2), (2, 1)):
+        if last[a]["peers"][str(b)].get("health") != "ok":
+            raise TestFailure("peer %d of peer %d (same key): health %s" % (a, b, last[a]["peers"][str(b)]))
+    told = [o["peers"]["3"] for o in peers[0].lines if not o.get("final")
+            and o["peers"]["3"].get("health") == "refused"]
+    if not told or "GS_REJECT_AUTH" not in told[-1].get("reason", ""):
+        raise TestFailure("peer 1 never said peer 3's datagrams were refused (GS_REJECT_AUTH): %s"
+                          % last[1]["peers"]["3"])
     return "peers 1-2 rx %d/%d, peer 3 refused %d/%d times, bad key file: status 2" % (
         last[1]["peers"]["2"]["rx"], last[2]["peers"]["1"]["rx"],
         last[1]["peers"]["3"]["rejected"], last[2]["peers"]["3"]["rejected"])

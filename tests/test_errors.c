@@ -16,6 +16,14 @@
 
 #include "ghostsim.h"
 
+/* An agent's counters by value (gs_agent_get_stats fills an out-pointer). */
+static gs_agent_stats agent_stats(const gs_agent *a) {
+    gs_agent_stats st;
+    memset(&st, 0, sizeof st);
+    gs_agent_get_stats(a, &st);
+    return st;
+}
+
 /* ---- a counting allocator: a failed call must not leak or allocate ---- */
 
 typedef union block_head {
@@ -256,8 +264,6 @@ static void test_errors_cloth_create(void **state) {
 
     /* sizes */
     d = good_cloth(); d.nx = 1;
-    assert_true(cloth_fails(w, &d, GS_ERR_INVALID_ARG, "nx"));
-    d = good_cloth(); d.nx = 0;
     assert_true(cloth_fails(w, &d, GS_ERR_INVALID_ARG, "nx"));
     d = good_cloth(); d.nx = -3;
     assert_true(cloth_fails(w, &d, GS_ERR_INVALID_ARG, "nx"));
@@ -537,7 +543,7 @@ static void test_errors_custom_create(void **state) {
     assert_int_equal(gs_custom_create(NULL, &d, &out), GS_ERR_INVALID_ARG);
     assert_int_equal(gs_world_agent_count(w), 0);
 
-    d = good_custom(&c); d.dt = 0.0; /* required: no default */
+    d = good_custom(&c); d.dt = 0.5 * GS_MIN_DT; /* 0 is the default (test_api) */
     assert_true(custom_fails(w, &d, GS_ERR_INVALID_ARG, "dt"));
     d = good_custom(&c); d.dt = -0.01;
     assert_true(custom_fails(w, &d, GS_ERR_INVALID_ARG, "dt"));
@@ -741,7 +747,7 @@ static void test_errors_busy(void **state) {
     assert_ptr_equal(gs_world_agent(w, 0), p.other);
     assert_int_equal(g_count.allocs - g_count.frees, live);
     assert_true(fabs(gs_world_time(w) - 0.05) < 1e-12);
-    st = gs_agent_get_stats(p.other);
+    st = agent_stats(p.other);
     assert_int_equal(st.steps, (uint64_t)g_other.steps);
     assert_int_equal(st.activations, (uint64_t)g_other.steps);
     assert_int_equal(g_other.steps, 5);

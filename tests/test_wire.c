@@ -90,7 +90,7 @@ static int decode_copy(const unsigned char *buf, size_t size, gs_wire_view *v,
     int ok;
     assert_non_null(copy);
     if (size) memcpy(copy, buf, size);
-    ok = gs_wire_decode(copy, size, v, why);
+    ok = gs_wire_decode(copy, size, v, why) == GS_OK;
     free(copy);
     return ok;
 }
@@ -208,7 +208,7 @@ static void test_roundtrip_fields(void **state) {
     assert_int_equal(get32(buf + total - 4), crc32_ref(buf, total - 4));
 
     copy = dup_exact(buf, total);
-    assert_int_equal(gs_wire_decode(copy, total, v, &why), 1);
+    assert_int_equal(gs_wire_decode(copy, total, v, &why), GS_OK);
     assert_int_equal(v->header.session, h.session);
     assert_int_equal(v->header.sender, h.sender);
     assert_int_equal(v->header.sequence, h.sequence);
@@ -304,7 +304,7 @@ static void test_pack_until_full(void **state) {
     total = gs_wire_end(buf, size);
     assert_true(total <= GS_WIRE_MAX_DATAGRAM);
     copy = dup_exact(buf, total);
-    assert_int_equal(gs_wire_decode(copy, total, v, &why), 1);
+    assert_int_equal(gs_wire_decode(copy, total, v, &why), GS_OK);
     assert_int_equal(v->chunk_count, added);
     for (k = 0; k < added; ++k) {
         assert_int_equal(v->chunks[k].object_id, 100 + (uint32_t)k);
@@ -426,10 +426,10 @@ static void test_reject_short(void **state) {
     (void)state;
     assert_non_null(v);
     for (k = 0; k < GS_WIRE_HEADER + 4; ++k) expect_reject(buf, k, GS_REJECT_SHORT);
-    assert_int_equal(gs_wire_decode(NULL, n, v, &why), 0);
+    assert_int_equal(gs_wire_decode(NULL, n, v, &why), GS_ERR_INVALID_ARG);
     assert_int_equal(why, GS_REJECT_SHORT);
     /* why may be NULL */
-    assert_int_equal(gs_wire_decode(buf, 3, v, NULL), 0);
+    assert_int_equal(gs_wire_decode(buf, 3, v, NULL), GS_ERR_REJECTED);
     /* the whole valid datagram decodes */
     assert_int_equal(decode_copy(buf, n, v, &why), 1);
     free(v);
@@ -776,7 +776,7 @@ static void test_random_garbage(void **state) {
         }
         if (fam == 2 && n >= GS_WIRE_HEADER + 4) recrc(buf, n);
         tries[fam]++;
-        if (gs_wire_decode(buf, n, v, &why)) {
+        if (gs_wire_decode(buf, n, v, &why) == GS_OK) {
             decoded[fam]++;
             check_decoded(buf, n, v);
         } else {
@@ -822,7 +822,7 @@ static void test_mutated_datagrams(void **state) {
         for (m = 0; m < edits; ++m) /* anywhere after the magic and version */
             buf[5 + lcg() % (n - 9)] = (unsigned char)lcg();
         recrc(buf, n);
-        if (gs_wire_decode(buf, n, v, &why)) {
+        if (gs_wire_decode(buf, n, v, &why) == GS_OK) {
             ok++;
             check_decoded(buf, n, v);
         }

@@ -90,7 +90,7 @@ static size_t quant_roundtrip(const double *v, int n, double step, int quat, int
     assert_int_equal(gs_wire_begin(buf, GS_WIRE_MAX_DATAGRAM, &h, &size), GS_OK);
     assert_int_equal(gs_wire_add(buf, GS_WIRE_MAX_DATAGRAM, &size, &c, v), GS_OK);
     size = gs_wire_end(buf, size);
-    assert_int_equal(gs_wire_decode(buf, size, view, &why), 1);
+    assert_int_equal(gs_wire_decode(buf, size, view, &why), GS_OK);
     assert_int_equal(view->chunk_count, 1);
     *dec = view->chunks[0];
     assert_int_equal(dec->encoding, GS_ENCODING_QUANT);
@@ -235,7 +235,7 @@ static void expect_reject(const unsigned char *buf, size_t n, gs_reject want) {
     assert_non_null(v);
     assert_non_null(copy);
     memcpy(copy, buf, n); /* exactly n bytes: ASan sees a read past them */
-    assert_int_equal(gs_wire_decode(copy, n, v, &why), 0);
+    assert_int_equal(gs_wire_decode(copy, n, v, &why), GS_ERR_REJECTED);
     if (why != want) fail_msg("refused as %s, not %s", gs_reject_str(why), gs_reject_str(want));
     free(copy);
     free(v);
@@ -283,7 +283,7 @@ static void test_quant_rejects(void **state) {
         memcpy(m, buf, n);
         m[at] = (unsigned char)(rnd() * 256.0);
         recrc(m, n);
-        if (gs_wire_decode(m, n, view, &why)) {
+        if (gs_wire_decode(m, n, view, &why) == GS_OK) {
             int i;
             for (i = 0; i < view->chunks[0].elements; ++i)
                 assert_true(isfinite(gs_wire_value(&view->chunks[0], i)));
@@ -537,7 +537,7 @@ static gs_result count_send(void *user, uint32_t to, const void *data, size_t si
     int i;
     (void)to;
     c->bytes += size;
-    assert_int_equal(gs_wire_decode((const unsigned char *)data, size, &c->v, &why), 1);
+    assert_int_equal(gs_wire_decode((const unsigned char *)data, size, &c->v, &why), GS_OK);
     for (i = 0; i < c->v.chunk_count; ++i) c->chunks[c->v.chunks[i].object_id - 1]++;
     return GS_OK;
 }

@@ -18,6 +18,14 @@
 
 #include "ghostsim.h"
 
+/* An agent's counters by value (gs_agent_get_stats fills an out-pointer). */
+static gs_agent_stats agent_stats(const gs_agent *a) {
+    gs_agent_stats st;
+    memset(&st, 0, sizeof st);
+    gs_agent_get_stats(a, &st);
+    return st;
+}
+
 /* ---- a custom agent that records what the scheduler does with it ---- */
 
 #define TRACE_MAX 8192
@@ -247,13 +255,13 @@ static void test_world_no_starvation(void **state) {
     assert_true(low_before_last_high >= (HIGH * 100) / (AGING + N) - 1);
     assert_true(gs_agent_time(r[0].self) > 0.0);
     for (i = 0; i < N; ++i) {
-        gs_agent_stats st = gs_agent_get_stats(r[i].self);
+        gs_agent_stats st = agent_stats(r[i].self);
         assert_true(st.max_wait <= (uint64_t)(AGING + N));
         assert_int_equal(st.steps, 100);
     }
     /* it ran because it aged, so it had waited more than aging_limit */
-    assert_true(gs_agent_get_stats(r[0].self).aged > 0);
-    assert_true(gs_agent_get_stats(r[0].self).max_wait > (uint64_t)AGING);
+    assert_true(agent_stats(r[0].self).aged > 0);
+    assert_true(agent_stats(r[0].self).max_wait > (uint64_t)AGING);
     gs_world_destroy(w);
 }
 
@@ -364,7 +372,7 @@ static void test_world_behaviour_in_and_clamp(void **state) {
     for (i = 0; i < 2; ++i) {
         assert_true(s[i].calls > 0);
         assert_int_equal(s[i].bad, 0);
-        assert_int_equal(gs_agent_get_stats(r[i].self).activations,
+        assert_int_equal(agent_stats(r[i].self).activations,
                          (uint64_t)s[i].calls);
     }
     assert_int_equal(gs_agent_priority(r[0].self), 0);
@@ -377,10 +385,10 @@ static void test_world_behaviour_in_and_clamp(void **state) {
     gs_agent_set_behaviour(r[1].self, NULL, NULL);
     {
         long before = s[1].calls;
-        uint64_t act = gs_agent_get_stats(r[1].self).activations;
+        uint64_t act = agent_stats(r[1].self).activations;
         assert_int_equal(gs_world_advance(w, 0.1, NULL), GS_OK);
         assert_int_equal(s[1].calls, before); /* the default rule ran */
-        assert_true(gs_agent_get_stats(r[1].self).activations > act);
+        assert_true(agent_stats(r[1].self).activations > act);
         assert_true(gs_agent_priority(r[1].self) >= 0 &&
                     gs_agent_priority(r[1].self) <= 4);
     }
@@ -429,7 +437,7 @@ static void test_world_spread(void **state) {
         print_error("spread %.9g s > bound %.9g s\n", sp.max_spread, bound);
     assert_true(sp.max_spread <= bound);
     assert_true(fabs(gs_world_time(w) - 1.0) < 1e-9);
-    for (i = 0; i < 3; ++i) held += gs_agent_get_stats(r[i].self).held;
+    for (i = 0; i < 3; ++i) held += agent_stats(r[i].self).held;
     assert_true(held > 0); /* the rule that keeps the spread was exercised */
     gs_world_destroy(w);
 }
@@ -457,7 +465,7 @@ static void test_world_advance_target(void **state) {
     assert_true(fabs(rep.target - 1.0) < 1e-12);
     assert_true(fabs(gs_agent_time(r[0].self) - 1.0) < 1e-9);
     assert_int_equal(r[0].calls, 100);
-    assert_int_equal(gs_agent_get_stats(r[0].self).steps, 100);
+    assert_int_equal(agent_stats(r[0].self).steps, 100);
     /* advancing by 0 does nothing */
     assert_int_equal(gs_world_advance(w, 0.0, &rep), GS_OK);
     assert_int_equal(rep.reached, 1);
@@ -473,7 +481,7 @@ static void test_world_advance_target(void **state) {
     }
     for (k = 0; k < 4; ++k) {
         uint64_t before = 0, after = 0;
-        for (i = 0; i < 3; ++i) before += gs_agent_get_stats(r[i].self).steps;
+        for (i = 0; i < 3; ++i) before += agent_stats(r[i].self).steps;
         assert_int_equal(gs_world_advance(w, steps[k], &rep), GS_OK);
         sum += steps[k];
         assert_true(fabs(gs_world_time(w) - sum) < 1e-12);
@@ -483,7 +491,7 @@ static void test_world_advance_target(void **state) {
             double t = gs_agent_time(r[i].self);
             assert_true(fabs(t - sum) <= 0.5 * dts[i] + 1e-12);
             assert_true(t >= rep.t_min && t <= rep.t_max);
-            after += gs_agent_get_stats(r[i].self).steps;
+            after += agent_stats(r[i].self).steps;
         }
         assert_int_equal(rep.steps, after - before);
     }
@@ -539,7 +547,7 @@ static void test_world_budget(void **state) {
     assert_int_equal(gs_world_advance(w, 0.0, &rep), GS_OK);
     assert_int_equal(rep.reached, 1);
     assert_true(fabs(gs_agent_time(r.self) - 10.0) <= 0.0005 + 1e-9);
-    assert_int_equal(gs_agent_get_stats(r.self).steps, 10000);
+    assert_int_equal(agent_stats(r.self).steps, 10000);
     /* and a budget can be set again */
     assert_int_equal(gs_world_set_budget(w, 0.01), GS_OK);
     assert_int_equal(gs_world_advance(w, 1.0, &rep), GS_OK);
@@ -635,7 +643,7 @@ static void test_world_failing_agent(void **state) {
     /* it stopped after its first failure, its time where it failed */
     assert_int_equal(bad.calls, 6);
     assert_true(fabs(gs_agent_time(bad.self) - 0.05) < 1e-12);
-    assert_int_equal(gs_agent_get_stats(bad.self).steps, 5);
+    assert_int_equal(agent_stats(bad.self).steps, 5);
     /* the others reached the target */
     assert_true(fabs(gs_agent_time(ok1.self) - 0.2) <= 0.001 + 1e-12);
     assert_true(fabs(gs_agent_time(ok2.self) - 0.2) <= 0.0025 + 1e-12);
