@@ -3628,6 +3628,9 @@ typedef struct gs__spring {
     double rest, k, c; /* m, N/m, N s/m */
 } gs__spring;
 
+/* Particles per box of the particle-vs-body broad phase: a sixteenth of
+   a 128 x 128 cloth's row, about the size of the scene's spheres. */
+#define GS__CHUNK 16
 #define GS__MESH_BATCHES 65 /* 64 conflict-free colours, then the rest */
 #if defined(__SSE2__) && !defined(GHOSTSIM_NO_SIMD)
 #define GS__MESH_SSE2 1
@@ -3653,6 +3656,14 @@ typedef struct gs__run {
     int s0, a0, off, len; /* springs s0.., particles a0.. and a0 + off.. */
 } gs__run;
 
+/* One block of the XPBD pass: four springs, or one (GS__XB_ONE), whose
+   ends lie in the transposed copy as `kind` says (gs__xblk_lane). */
+enum { GS__XB_SPAN, GS__XB_PAIRS, GS__XB_DUOS, GS__XB_ONE };
+struct gs__xblk {
+    int kind, a, b, s; /* first end a, first end b, first k/c/rest in xsp */
+    int count;         /* blocks of four in a row, each next to the last */
+};
+
 typedef struct gs__mesh {
     gs_agent base;
     int n, ns, npins;
@@ -3676,6 +3687,13 @@ typedef struct gs__mesh {
     int checked;      /* the integrator ran gs__mesh_sane's checks itself */
     int check_ok;     /* and their outcome (lo, hi already set if 1) */
     double *soa, *sp_soa;
+    /* XPBD on a mesh with runs: the pass goes block by block over a
+       transposed copy (soa: x y z, then the substep's start x y z), each
+       block four springs that share no particle, their k, c, rest in xsp
+       in block order (see gs__xpbd_schedule). */
+    struct gs__xblk *xblk;
+    int nxblk;
+    double *xsp;
     int nbatch;
     int batch[GS__MESH_BATCHES + 1]; /* first spring of each batch, then ns */
     uint64_t *colours; /* per particle, the colours of its springs (build) */
@@ -3698,6 +3716,10 @@ typedef struct gs__mesh {
     double *ck, *cc;  /* its stiffness (N/m) and damping (N s/m), 0 = none */
     double *cdepth;   /* XPBD: the deepest contact's depth (m) at x, */
     gs_vec3 *cvel;    /* and the velocity of what it touches (m/s) */
+    gs_vec3 *clo, *chi; /* m; boxes of GS__CHUNK particles each, of x */
+    double *cvm;      /* m/s; the largest velocity component in each box */
+    int chunks_ok;    /* the boxes are those of x and v (gs__mesh_chunks) */
+    int chunks_next;  /* the integrator left the boxes of xn and vn there */
     int ext_active;   /* ext holds a non-zero force */
     int probe_touch;  /* in this step a probe that moves touched it: it
                          does not rest (gs__mesh_rest) */
@@ -3743,6 +3765,12 @@ GS__PRIVATE void gs__mesh_layout(gs__mesh *m, gs__carver *cv) {
     m->acc = (gs_vec3 *)gs__carve(cv, v3);
     m->sf = (double *)gs__carve(cv, (size_t)m->ns * 3 * sizeof(double));
     m->colours = (uint64_t *)gs__carve(cv, n * sizeof(uint64_t));
+    if (it == GS_INTEGRATOR_XPBD) {
+        m->runs = (gs__run *)gs__carve(cv, (size_t)m->ns * sizeof(gs__run));
+        m->soa = (double *)gs__carve(cv, 6 * gs__soa_stride(n) * sizeof(double));
+        m->xblk = (struct gs__xblk *)gs__carve(cv, gs__mul_sat((size_t)m->ns, sizeof(struct gs__xblk)));
+        m->xsp = (double *)gs__carve(cv, gs__mul_sat(gs__soa_stride((size_t)m->ns), 3 * sizeof(double)));
+    }
     if (it == GS_INTEGRATOR_SYMPLECTIC_EULER) {
         m->runs = (gs__run *)gs__carve(cv, (size_t)m->ns * sizeof(gs__run));
         m->soa = (double *)gs__carve(cv, 9 * gs__soa_stride(n) * sizeof(double));
@@ -3750,6 +3778,9 @@ GS__PRIVATE void gs__mesh_layout(gs__mesh *m, gs__carver *cv) {
     }
     m->perm = (int *)gs__carve(cv, (size_t)m->ns * sizeof(int));
     m->ext = (gs_vec3 *)gs__carve(cv, v3);
+    m->clo = (gs_vec3 *)gs__carve(cv, (n / GS__CHUNK + 1) * sizeof(gs_vec3));
+    m->chi = (gs_vec3 *)gs__carve(cv, (n / GS__CHUNK + 1) * sizeof(gs_vec3));
+    m->cvm = (double *)gs__carve(cv, (n / GS__CHUNK + 1) * sizeof(double));
     m->mass = (double *)gs__carve(cv, n * sizeof(double));
     m->inv_mass = (double *)gs__carve(cv, n * sizeof(double));
     m->springs = (gs__spring *)gs__carve(cv, gs__mul_sat((size_t)m->ns, sizeof(gs__spring)));
@@ -4105,6 +4136,7 @@ GS__PRIVATE void gs__mesh_find_runs(gs__mesh *m) {
 #ifdef GS__MESH_AVX
     m->avx = __builtin_cpu_supports("avx") ? 1 : 0;
 #endif
+    if (!m->sp_soa) return;
     for (i = 0; i < m->ns; ++i) {
         m->sp_soa[i] = m->springs[i].k;
         m->sp_soa[ns + (size_t)i] = m->springs[i].c;
@@ -4398,24 +4430,343 @@ GS__PRIVATE void gs__xpbd_pass(gs__mesh *m, double h) {
     }
 }
 
+/* ---- XPBD over runs (see gs__mesh.xblk) ----
+   The pass takes the springs run by run in creation order, and within a
+   run as two colours: a run of offset `off` (spring j joins a0 + j and a0
+   + j + off) shares no particle among any `off` springs in a row, so it
+   goes in segments of `off` springs, four at a time (GS__XB_SPAN), even
+   segments first, then odd ones. (A sweep of the segments in order, as
+   valid a Gauss-Seidel order on paper, carries one pass's correction from
+   the pinned edge through the whole cloth: a 128 x 128 cloth gains energy
+   under it and fails the sanity check within 200 steps.) Runs of
+   offset 1 and 2 (a row's neighbours and bend springs) would be serial:
+   they go even springs then odd ones (GS__XB_PAIRS: ends a + 2q and a +
+   2q + 1 for q = 0..3), and pairs of pairs (GS__XB_DUOS: ends a, a + 1, a
+   + 4, a + 5 and two further), so a block still shares nothing. Every lane
+   does gs__xpbd_spring's operations in its order, so the AVX and scalar
+   kernels give the same bits. */
+
+/* Where lane q of block t of entry k has its ends: blocks of a SPAN
+   follow each other by four particles, of PAIRS and DUOS by eight. */
+GS__PRIVATE void gs__xblk_lane(const struct gs__xblk *k, int t, int q, int *a, int *b) {
+    static const int pairs[4] = {0, 4, 2, 6}, duos[4] = {0, 1, 4, 5};
+    switch (k->kind) {
+    case GS__XB_PAIRS: *a = k->a + 8 * t + pairs[q]; *b = *a + 1; break;
+    case GS__XB_DUOS: *a = k->a + 8 * t + duos[q]; *b = *a + 2; break;
+    default: *a = k->a + 4 * t + q; *b = k->b + 4 * t + q; break;
+    }
+}
+
+/* Appends a block whose lanes are springs s[0..3] (one for GS__XB_ONE). */
+GS__PRIVATE void gs__xpbd_block(gs__mesh *m, int kind, int a, int b, const int *s) {
+    size_t ns = gs__soa_stride((size_t)m->ns);
+    struct gs__xblk *k = &m->xblk[m->nxblk++];
+    int q, lanes = kind == GS__XB_ONE ? 1 : 4, at = k == m->xblk ? 0 : k[-1].s +
+                                              (k[-1].kind == GS__XB_ONE ? 1 : 4);
+    k->kind = kind; k->a = a; k->b = b; k->s = at; k->count = 1;
+    for (q = 0; q < lanes; ++q) {
+        const gs__spring *sp = &m->springs[s[q]];
+        m->xsp[at + q] = sp->k;
+        m->xsp[ns + (size_t)(at + q)] = sp->c;
+        m->xsp[2 * ns + (size_t)(at + q)] = sp->rest;
+    }
+}
+
+/* Springs s0 + j, j = j0, j0 + step.., of run u: in fours with ends
+   contiguous (SPAN, step 1), then the rest one by one. */
+GS__PRIVATE void gs__xpbd_span(gs__mesh *m, const gs__run *u, int j0, int j1) {
+    int j = j0, s[4], q;
+    for (; j + 3 < j1; j += 4) {
+        for (q = 0; q < 4; ++q) s[q] = u->s0 + j + q;
+        gs__xpbd_block(m, GS__XB_SPAN, u->a0 + j, u->a0 + u->off + j, s);
+    }
+    for (; j < j1; ++j) {
+        s[0] = u->s0 + j;
+        gs__xpbd_block(m, GS__XB_ONE, u->a0 + j, u->a0 + u->off + j, s);
+    }
+}
+
+/* Offset 1 or 2: the springs of one parity class (cls = 0, 1) of run u. */
+GS__PRIVATE void gs__xpbd_parity(gs__mesh *m, const gs__run *u, int cls) {
+    int off = u->off, per = 2 * off, last = off == 1 ? 6 : 5, j, q, s[4], a, b;
+    for (j = cls * off; j + last < u->len; j += 8) { /* eight particles a block */
+        struct gs__xblk probe;
+        probe.kind = off == 1 ? GS__XB_PAIRS : GS__XB_DUOS;
+        probe.a = u->a0 + j;
+        probe.b = 0;
+        for (q = 0; q < 4; ++q) {
+            gs__xblk_lane(&probe, 0, q, &a, &b);
+            s[q] = u->s0 + (a - u->a0);
+        }
+        gs__xpbd_block(m, probe.kind, probe.a, 0, s);
+    }
+    for (; j < u->len; j += per)
+        for (q = 0; q < off && j + q < u->len; ++q) {
+            s[0] = u->s0 + j + q;
+            gs__xpbd_block(m, GS__XB_ONE, u->a0 + j + q, u->a0 + j + q + off, s);
+        }
+}
+
+/* Blocks that follow one another in memory become one entry: the pass
+   then runs them in a loop of one kind, in the same order. */
+GS__PRIVATE void gs__xpbd_merge(gs__mesh *m) {
+    int i, o = 0;
+    for (i = 1; i < m->nxblk; ++i) {
+        struct gs__xblk *p = &m->xblk[o];
+        const struct gs__xblk *k = &m->xblk[i];
+        int step = k->kind == GS__XB_SPAN ? 4 : 8;
+        if (k->kind != GS__XB_ONE && k->kind == p->kind && k->a == p->a + step * p->count &&
+            (k->kind != GS__XB_SPAN || k->b == p->b + 4 * p->count) &&
+            k->s == p->s + 4 * p->count)
+            p->count++;
+        else
+            m->xblk[++o] = *k;
+    }
+    if (m->nxblk > 0) m->nxblk = o + 1;
+}
+
+/* The blocks, from the runs (gs__mesh_find_runs). */
+GS__PRIVATE void gs__xpbd_schedule(gs__mesh *m) {
+    int r, j;
+    m->nxblk = 0;
+    for (r = 0; r < m->nruns; ++r) {
+        const gs__run *u = &m->runs[r];
+        if (u->off == 1 || u->off == 2) {
+            gs__xpbd_parity(m, u, 0);
+            gs__xpbd_parity(m, u, 1);
+        } else if (u->off >= 4) {
+            int cls;
+            for (cls = 0; cls < 2; ++cls)
+                for (j = cls * u->off; j < u->len; j += 2 * u->off)
+                    gs__xpbd_span(m, u, j, j + u->off < u->len ? j + u->off : u->len);
+        } else {
+            for (j = 0; j < u->len; ++j) gs__xpbd_span(m, u, j, j + 1);
+        }
+    }
+    gs__xpbd_merge(m);
+}
+
+/* One spring of the transposed copy (X = the substep's positions so far,
+   P = its start, stride st), as gs__xpbd_spring does it. */
+GS__PRIVATE void gs__xpbd_one(double *X, const double *P, size_t st, const double *im,
+                              const double *sp, size_t ns, int a, int b, double h) {
+    double *Y = X + st, *Z = Y + st;
+    const double *PY = P + st, *PZ = PY + st;
+    double dx = X[b] - X[a], dy = Y[b] - Y[a], dz = Z[b] - Z[a];
+    double l2 = dx * dx + dy * dy + dz * dz, l = sqrt(l2);
+    double kh = sp[0] * h * h, ch = sp[ns] * h, wa = im[a], wb = im[b];
+    double mx = (X[b] - P[b]) - (X[a] - P[a]), my = (Y[b] - PY[b]) - (Y[a] - PY[a]),
+           mz = (Z[b] - PZ[b]) - (Z[a] - PZ[a]);
+    double num = kh * (l2 - sp[2 * ns] * l) + ch * (dx * mx + dy * my + dz * mz);
+    double den = l2 * ((kh + ch) * (wa + wb) + 1.0);
+    double s = den > 0.0 ? (0.0 - num) / den : 0.0, sa = wa * s, sb = wb * s;
+    X[a] -= sa * dx; Y[a] -= sa * dy; Z[a] -= sa * dz;
+    X[b] += sb * dx; Y[b] += sb * dy; Z[b] += sb * dz;
+}
+
+#ifdef GS__MESH_AVX
+/* Inlined whatever the optimizer thinks: out of line, each block's
+   sixteen vectors go through memory (a third of the pass, measured). */
+#define GS__XINLINE __attribute__((target("avx"), always_inline, unused)) static inline
+/* A block's lanes of array p, and back (gs__xblk_lane's layouts). */
+GS__XINLINE void gs__xld4(const double *p, int kind, int a,
+                                                         int b, __m256d *va, __m256d *vb) {
+    __m256d v0, v1;
+    if (kind == GS__XB_SPAN) {
+        *va = _mm256_loadu_pd(p + a);
+        *vb = _mm256_loadu_pd(p + b);
+        return;
+    }
+    v0 = _mm256_loadu_pd(p + a);
+    v1 = _mm256_loadu_pd(p + a + 4);
+    if (kind == GS__XB_PAIRS) {
+        *va = _mm256_unpacklo_pd(v0, v1);
+        *vb = _mm256_unpackhi_pd(v0, v1);
+    } else {
+        *va = _mm256_permute2f128_pd(v0, v1, 0x20);
+        *vb = _mm256_permute2f128_pd(v0, v1, 0x31);
+    }
+}
+
+GS__XINLINE void gs__xst4(double *p, int kind, int a, int b,
+                                                         __m256d va, __m256d vb) {
+    if (kind == GS__XB_SPAN) {
+        _mm256_storeu_pd(p + a, va);
+        _mm256_storeu_pd(p + b, vb);
+    } else if (kind == GS__XB_PAIRS) {
+        _mm256_storeu_pd(p + a, _mm256_unpacklo_pd(va, vb));
+        _mm256_storeu_pd(p + a + 4, _mm256_unpackhi_pd(va, vb));
+    } else {
+        _mm256_storeu_pd(p + a, _mm256_permute2f128_pd(va, vb, 0x20));
+        _mm256_storeu_pd(p + a + 4, _mm256_permute2f128_pd(va, vb, 0x31));
+    }
+}
+
+/* gs__xpbd_one for the four lanes of block k. */
+GS__XINLINE void gs__xpbd_four(double *X, const double *P,
+                                                              size_t st, const double *im,
+                                                              const double *sp, size_t ns,
+                                                              int kind, int a, int b, int at,
+                                                              double h) {
+    __m256d ax, ay, az, bx, by, bz, pax, pay, paz, pbx, pby, pbz, wa, wb;
+    __m256d dx, dy, dz, l2, l, kh, ch, num, den, s, sa, sb, hv = _mm256_set1_pd(h);
+    gs__xld4(X, kind, a, b, &ax, &bx);
+    gs__xld4(X + st, kind, a, b, &ay, &by);
+    gs__xld4(X + 2 * st, kind, a, b, &az, &bz);
+    gs__xld4(P, kind, a, b, &pax, &pbx);
+    gs__xld4(P + st, kind, a, b, &pay, &pby);
+    gs__xld4(P + 2 * st, kind, a, b, &paz, &pbz);
+    gs__xld4(im, kind, a, b, &wa, &wb);
+    dx = _mm256_sub_pd(bx, ax); dy = _mm256_sub_pd(by, ay); dz = _mm256_sub_pd(bz, az);
+    l2 = _mm256_add_pd(_mm256_add_pd(_mm256_mul_pd(dx, dx), _mm256_mul_pd(dy, dy)),
+                       _mm256_mul_pd(dz, dz));
+    l = _mm256_sqrt_pd(l2);
+    kh = _mm256_mul_pd(_mm256_mul_pd(_mm256_loadu_pd(sp + at), hv), hv);
+    ch = _mm256_mul_pd(_mm256_loadu_pd(sp + ns + at), hv);
+    num = _mm256_add_pd(
+        _mm256_mul_pd(kh, _mm256_sub_pd(l2, _mm256_mul_pd(_mm256_loadu_pd(sp + 2 * ns + at), l))),
+        _mm256_mul_pd(ch, _mm256_add_pd(
+            _mm256_add_pd(_mm256_mul_pd(dx, _mm256_sub_pd(_mm256_sub_pd(bx, pbx), _mm256_sub_pd(ax, pax))),
+                          _mm256_mul_pd(dy, _mm256_sub_pd(_mm256_sub_pd(by, pby), _mm256_sub_pd(ay, pay)))),
+            _mm256_mul_pd(dz, _mm256_sub_pd(_mm256_sub_pd(bz, pbz), _mm256_sub_pd(az, paz))))));
+    den = _mm256_mul_pd(l2, _mm256_add_pd(_mm256_mul_pd(_mm256_add_pd(kh, ch), _mm256_add_pd(wa, wb)),
+                                          _mm256_set1_pd(1.0)));
+    s = _mm256_and_pd(_mm256_cmp_pd(den, _mm256_setzero_pd(), _CMP_GT_OQ),
+                      _mm256_div_pd(_mm256_sub_pd(_mm256_setzero_pd(), num), den));
+    sa = _mm256_mul_pd(wa, s);
+    sb = _mm256_mul_pd(wb, s);
+    gs__xst4(X, kind, a, b, _mm256_sub_pd(ax, _mm256_mul_pd(sa, dx)), _mm256_add_pd(bx, _mm256_mul_pd(sb, dx)));
+    gs__xst4(X + st, kind, a, b, _mm256_sub_pd(ay, _mm256_mul_pd(sa, dy)), _mm256_add_pd(by, _mm256_mul_pd(sb, dy)));
+    gs__xst4(X + 2 * st, kind, a, b, _mm256_sub_pd(az, _mm256_mul_pd(sa, dz)), _mm256_add_pd(bz, _mm256_mul_pd(sb, dz)));
+}
+
+__attribute__((target("avx"))) GS__PRIVATE void gs__xpbd_blocks_avx(gs__mesh *m, double h) {
+    size_t st = gs__soa_stride((size_t)m->n), ns = gs__soa_stride((size_t)m->ns);
+    double *X = m->soa;
+    const double *P = X + 3 * st;
+    const double *im = m->inv_mass, *sp = m->xsp;
+    int i, t;
+    for (i = 0; i < m->nxblk; ++i) {
+        const struct gs__xblk *k = &m->xblk[i];
+        int a = k->a, b = k->b, s = k->s, c = k->count;
+        switch (k->kind) { /* one loop per kind, the kind a constant in it */
+        case GS__XB_SPAN:
+            for (t = 0; t < c; ++t)
+                gs__xpbd_four(X, P, st, im, sp, ns, GS__XB_SPAN, a + 4 * t, b + 4 * t, s + 4 * t, h);
+            break;
+        case GS__XB_PAIRS:
+            for (t = 0; t < c; ++t)
+                gs__xpbd_four(X, P, st, im, sp, ns, GS__XB_PAIRS, a + 8 * t, 0, s + 4 * t, h);
+            break;
+        case GS__XB_DUOS:
+            for (t = 0; t < c; ++t)
+                gs__xpbd_four(X, P, st, im, sp, ns, GS__XB_DUOS, a + 8 * t, 0, s + 4 * t, h);
+            break;
+        default: gs__xpbd_one(X, P, st, im, sp + s, ns, a, b, h); break;
+        }
+    }
+}
+#endif
+
+/* The pass over the blocks, lane by lane where the CPU has no AVX. */
+GS__PRIVATE void gs__xpbd_blocks(gs__mesh *m, double h) {
+    size_t st = gs__soa_stride((size_t)m->n), ns = gs__soa_stride((size_t)m->ns);
+    double *X = m->soa;
+    const double *P = X + 3 * st;
+    int i, t, q, a, b;
+#ifdef GS__MESH_AVX
+    if (m->avx) {
+        gs__xpbd_blocks_avx(m, h);
+        return;
+    }
+#endif
+    for (i = 0; i < m->nxblk; ++i) {
+        const struct gs__xblk *k = &m->xblk[i];
+        for (t = 0; t < k->count; ++t)
+            for (q = 0; q < (k->kind == GS__XB_ONE ? 1 : 4); ++q) {
+                gs__xblk_lane(k, t, q, &a, &b);
+                gs__xpbd_one(X, P, st, m->inv_mass, m->xsp + k->s + 4 * t + q, ns, a, b, h);
+            }
+    }
+}
+
 /* Contacts as XPBD constraints: the deepest contact of each particle is a
    penalty spring of its stiffness and damping along the normal (C = -depth,
    compliance 1 / k), so contact is as stable at any substep as the springs
    are; it only pushes. The depth follows the particle's motion this
    substep relative to what it touches. */
+GS__PRIVATE gs_vec3 gs__xpbd_contact(const gs__mesh *m, int i, gs_vec3 p, double h) {
+    double w = m->inv_mass[i], kh, ch, vn, d, dl;
+    gs_vec3 n = m->cn[i];
+    if (m->ck[i] == 0.0 || w == 0.0) return p;
+    vn = gs__dot(n, gs__madd(gs__sub(p, m->x[i]), m->cvel[i], -h));
+    d = m->cdepth[i] - vn;
+    if (!(d > 0.0)) return p;
+    kh = m->ck[i] * h * h;
+    ch = m->cc[i] * h;
+    dl = (kh * d - ch * vn) / ((kh + ch) * w + 1.0);
+    return dl > 0.0 ? gs__madd(p, n, w * dl) : p;
+}
+
 GS__PRIVATE void gs__xpbd_contacts(gs__mesh *m, double h) {
     int i;
-    for (i = 0; i < m->n; ++i) {
-        double w = m->inv_mass[i], kh, ch, vn, d, dl;
-        gs_vec3 n = m->cn[i];
-        if (m->ck[i] == 0.0 || w == 0.0) continue;
-        vn = gs__dot(n, gs__madd(gs__sub(m->xn[i], m->x[i]), m->cvel[i], -h));
-        d = m->cdepth[i] - vn;
-        if (!(d > 0.0)) continue;
-        kh = m->ck[i] * h * h;
-        ch = m->cc[i] * h;
-        dl = (kh * d - ch * vn) / ((kh + ch) * w + 1.0);
-        if (dl > 0.0) m->xn[i] = gs__madd(m->xn[i], n, w * dl);
+    for (i = 0; i < m->n; ++i) m->xn[i] = gs__xpbd_contact(m, i, m->xn[i], h);
+}
+
+/* gs__int_xpbd over the blocks: the prediction goes into the transposed
+   copy, the pass runs there, and the velocities come out with
+   gs__mesh_sane's checks and bounds in the same loop (pinned particles
+   neither move nor gain speed, as the substep's pin pass leaves them). */
+GS__PRIVATE void gs__int_xpbd_blocks(gs__mesh *m, double h) {
+    size_t n = (size_t)m->n, st = gs__soa_stride(n), i, k;
+    double *X = m->soa, *Y = X + st, *Z = Y + st, *PX = Z + st, *PY = PX + st, *PZ = PY + st;
+    const double *im = m->inv_mass;
+    gs_vec3 g = m->base.world->gravity;
+    double ih = 1.0 / h, vmax2 = m->solver.max_speed * m->solver.max_speed, w2 = 0.0;
+    double sx = 0.0, sy = 0.0, sz = 0.0; /* three sums: three chains, not one */
+    double lx = HUGE_VAL, ly = HUGE_VAL, lz = HUGE_VAL, hx = -HUGE_VAL, hy = -HUGE_VAL, hz = -HUGE_VAL;
+    const gs_vec3 *x = m->x, *v0 = m->v, *ext = m->ext_active ? m->ext : NULL;
+    for (i = 0; i < n; ++i) {
+        gs_vec3 a = gs__madd(g, v0[i], -m->air), v = im[i] > 0.0 ? gs__madd(v0[i], a, h) : v0[i];
+        if (ext) v = gs__madd(v, ext[i], im[i] * h);
+        X[i] = x[i].x + v.x * h; Y[i] = x[i].y + v.y * h; Z[i] = x[i].z + v.z * h;
+        PX[i] = x[i].x; PY[i] = x[i].y; PZ[i] = x[i].z;
+    }
+    gs__xpbd_blocks(m, h);
+    for (k = 0, i = 0; i < n; ++k) { /* box by box (gs__mesh_chunks) */
+        size_t end = i + GS__CHUNK < n ? i + GS__CHUNK : n;
+        double bx = HUGE_VAL, by = HUGE_VAL, bz = HUGE_VAL, tx = -HUGE_VAL, ty = -HUGE_VAL,
+               tz = -HUGE_VAL, vm = 0.0;
+        for (; i < end; ++i) {
+            gs_vec3 p = gs__v3(X[i], Y[i], Z[i]), v;
+            double s2, a;
+            if (ext) p = gs__xpbd_contact(m, (int)i, p, h);
+            v = gs__scale(gs__sub(p, x[i]), ih);
+            s2 = v.x * v.x + v.y * v.y + v.z * v.z;
+            m->xn[i] = p;
+            m->vn[i] = v;
+            w2 = s2 > w2 ? s2 : w2;
+            w2 = s2 == s2 ? w2 : s2; /* a NaN speed stays NaN */
+            sx += p.x; sy += p.y; sz += p.z;
+            a = fabs(v.x) > fabs(v.y) ? fabs(v.x) : fabs(v.y);
+            a = fabs(v.z) > a ? fabs(v.z) : a;
+            vm = a > vm ? a : vm; /* a NaN fails the check above: no box of it is used */
+            bx = p.x < bx ? p.x : bx; by = p.y < by ? p.y : by; bz = p.z < bz ? p.z : bz;
+            tx = p.x > tx ? p.x : tx; ty = p.y > ty ? p.y : ty; tz = p.z > tz ? p.z : tz;
+        }
+        m->clo[k] = gs__v3(bx, by, bz);
+        m->chi[k] = gs__v3(tx, ty, tz);
+        m->cvm[k] = vm;
+        lx = bx < lx ? bx : lx; ly = by < ly ? by : ly; lz = bz < lz ? bz : lz;
+        hx = tx > hx ? tx : hx; hy = ty > hy ? ty : hy; hz = tz > hz ? tz : hz;
+    }
+    m->chunks_next = 1;
+    m->checked = 1;
+    m->check_ok = w2 <= vmax2 && gs__finite(sx + sy + sz) && gs__in_range3(gs__v3(lx, ly, lz)) &&
+                  gs__in_range3(gs__v3(hx, hy, hz));
+    if (m->check_ok) {
+        m->lo = gs__v3(lx - m->radius, ly - m->radius, lz - m->radius);
+        m->hi = gs__v3(hx + m->radius, hy + m->radius, hz + m->radius);
     }
 }
 
@@ -4424,6 +4775,10 @@ GS__PRIVATE void gs__int_xpbd(gs__mesh *m, double h) {
     const double *im = m->inv_mass;
     double ih = 1.0 / h;
     int i;
+    if (m->nxblk > 0) {
+        gs__int_xpbd_blocks(m, h);
+        return;
+    }
     for (i = 0; i < m->n; ++i) {
         gs_vec3 a = gs__madd(g, m->v[i], -m->air);
         m->vn[i] = im[i] > 0.0 ? gs__madd(m->v[i], a, h) : m->v[i];
@@ -4469,6 +4824,17 @@ GS__PRIVATE int gs__mesh_sane(gs__mesh *m) {
 
 GS__PRIVATE void gs__mesh_contacts(gs__mesh *m, double t);
 GS__PRIVATE void gs__mesh_update_bounds(gs__mesh *m);
+GS__PRIVATE void gs__mesh_chunks(gs__mesh *m);
+
+/* After x or v change: the boxes of the contacts' broad phase follow them
+   where a body could ask (gs__rigid_vs_mesh), else they are marked stale
+   and made when asked. */
+GS__PRIVATE void gs__mesh_keep_chunks(gs__mesh *m) {
+    if (m->base.world->nbodies > 0)
+        gs__mesh_chunks(m);
+    else
+        m->chunks_ok = 0;
+}
 
 /* One integrator step of h seconds starting at simulation time t0. */
 GS__PRIVATE gs_result gs__mesh_substep(gs__mesh *m, double t0, double h) {
@@ -4476,6 +4842,7 @@ GS__PRIVATE gs_result gs__mesh_substep(gs__mesh *m, double t0, double h) {
     int i;
     gs__mesh_contacts(m, t0);
     m->checked = 0;
+    m->chunks_next = 0;
     switch (m->solver.integrator) {
     case GS_INTEGRATOR_EXPLICIT_EULER: gs__int_explicit_euler(m, h); break;
     case GS_INTEGRATOR_VERLET: gs__int_verlet(m, h); break;
@@ -4488,6 +4855,7 @@ GS__PRIVATE gs_result gs__mesh_substep(gs__mesh *m, double t0, double h) {
         m->xn[m->pins[i]] = m->x[m->pins[i]];
         m->vn[m->pins[i]] = gs__v3(0.0, 0.0, 0.0);
     }
+    if (m->chunks_next) m->chunks_ok = 0; /* they are the new state's, which may fail */
     if (!(m->checked ? m->check_ok : gs__mesh_sane(m)))
         return gs__fail(m->base.world, GS_ERR_UNSTABLE,
                         "%s agent %d: a step of %g s blew up (non-finite "
@@ -4496,6 +4864,10 @@ GS__PRIVATE gs_result gs__mesh_substep(gs__mesh *m, double t0, double h) {
                         m->solver.max_speed);
     t = m->x; m->x = m->xn; m->xn = t;
     t = m->v; m->v = m->vn; m->vn = t;
+    if (m->chunks_next)
+        m->chunks_ok = 1;
+    else
+        gs__mesh_keep_chunks(m);
     return GS_OK;
 }
 
@@ -4580,6 +4952,7 @@ GS__PRIVATE gs_result gs__mesh_step(gs_agent *a, double dt) {
             t = m->v; m->v = m->v0; m->v0 = t;
             m->lo = lo; /* the broad phase must see the undone state */
             m->hi = hi;
+            gs__mesh_keep_chunks(m);
         }
         return r;
     }
@@ -4879,6 +5252,7 @@ GS__PRIVATE void gs__mesh_finish(gs__mesh *m, const int *pins, int npins) {
     }
     m->npins = k;
     gs__mesh_find_runs(m);
+    if (m->xblk && m->nruns > 0) gs__xpbd_schedule(m);
     if (m->nruns == 0) gs__mesh_batch(m);
     for (i = 0; i < m->n; ++i) {
         m->inv_mass[i] = m->pinned[i] ? 0.0 : 1.0 / m->mass[i];
@@ -5208,7 +5582,7 @@ GS__PRIVATE gs_result gs__cloth_in_range(gs_world *w, gs__mesh *m) {
 GS_API gs_result gs_cloth_create(gs_world *w, const gs_cloth_desc *desc,
                                  gs_agent **out) {
     gs_cloth_desc d;
-    gs__mesh *m;
+    gs__mesh *m = NULL; /* set by gs__mesh_new; gcc cannot tell when it inlines */
     int pins[4], npins = 0, corner;
     gs_result r = gs__create_begin(w, desc, out, "gs_cloth_create");
     if (r != GS_OK) return r;
@@ -6882,12 +7256,15 @@ GS__PRIVATE gs_vec3 gs__point_velocity(const gs__rigid *r, gs_vec3 p) {
    a fixed normal for coincident centres pushes them apart. */
 GS__PRIVATE int gs__particle_contact(gs_vec3 x, double rp, const gs__rigid *r,
                                      gs_vec3 centre, gs_contact *c) {
-    gs__body b = gs__body_of(r), pb;
+    gs__body b, pb;
     gs__shape ps;
-    b.p = centre;
+    /* the bounding test first: it rejects nearly every particle of a
+       cloth, and the body's description is not free to make */
     if (gs__dot(gs__sub(x, centre), gs__sub(x, centre)) >=
         (rp + r->shape.bound) * (rp + r->shape.bound))
         return 0;
+    b = gs__body_of(r);
+    b.p = centre;
     if (r->shape.type == GS_SHAPE_SPHERE)
         return gs__sphere_sphere(x, rp, centre, r->shape.radius, gs__v3(0.0, 1.0, 0.0), c);
     if (r->shape.type == GS_SHAPE_BOX) return gs__sphere_box(x, rp, &b, c);
@@ -7155,18 +7532,25 @@ GS__PRIVATE int gs__mesh_info(const gs_agent *a, const gs_vec3 **x,
 /* The reaction of a mesh's particles on a rigid body, each particle taken
    where its velocity puts it at the body's time (see gs__mesh_vs_rigid: both
    sides of a contact must see the same overlap, or energy appears). */
+GS__PRIVATE int gs__chunk_skip(gs__mesh *m, int k, gs_vec3 c, double far, double lag);
+GS__PRIVATE double gs__chunk_reach(double rp, double reach);
+
 GS__PRIVATE void gs__rigid_vs_mesh(gs__rigid *r, gs_agent *m, double t) {
     const gs_vec3 *x = NULL, *v = NULL;
     const gs_material *mat = NULL;
     gs_vec3 lo, hi;
     double rp = 0.0, reach, slope, lag = fmax(-0.1, fmin(0.1, t - gs__agent_time(m)));
-    int n = gs__mesh_info(m, &x, &v, &rp, &mat), i;
+    int n = gs__mesh_info(m, &x, &v, &rp, &mat), i, k, end;
     gs__mesh_bounds(m, &lo, &hi);
     reach = r->shape.bound + rp + fabs(lag) * r->solver.max_speed;
     if (r->x.x + reach < lo.x || r->x.x - reach > hi.x || r->x.y + reach < lo.y ||
         r->x.y - reach > hi.y || r->x.z + reach < lo.z || r->x.z - reach > hi.z)
         return;
-    for (i = 0; i < n; ++i) {
+    for (k = 0, i = 0; i < n; ++k, i = end) {
+        end = i + GS__CHUNK < n ? i + GS__CHUNK : n;
+        if (gs__chunk_skip(gs__as_mesh(m), k, r->x, gs__chunk_reach(rp, r->shape.bound), lag))
+            continue;
+        for (; i < end; ++i) {
         gs_contact c;
         gs_vec3 f;
         if (!gs__particle_contact(gs__madd(x[i], v[i], lag), rp, r, r->x, &c)) continue;
@@ -7181,6 +7565,7 @@ GS__PRIVATE void gs__rigid_vs_mesh(gs__rigid *r, gs_agent *m, double t) {
         r->force = gs__sub(r->force, f);
         r->torque = gs__sub(r->torque, gs__cross(gs__sub(c.point, r->x), f));
         r->torque = gs__add(r->torque, gs__rolling_torque(r, c.normal, gs__dot(f, c.normal), r->w));
+        }
     }
 }
 
@@ -7250,6 +7635,7 @@ GS__PRIVATE void gs__mesh_update_bounds(gs__mesh *m) {
     r = gs__v3(m->radius, m->radius, m->radius);
     m->lo = gs__sub(lo, r);
     m->hi = gs__add(hi, r);
+    gs__mesh_chunks(m);
 }
 
 GS__PRIVATE void gs__mesh_bounds(const gs_agent *a, gs_vec3 *lo, gs_vec3 *hi) {
@@ -7307,16 +7693,79 @@ GS__PRIVATE void gs__mesh_touch(gs__mesh *m, int i, const gs_contact *c,
    most 0.1 s ahead or behind): held still, a body that steps less often
    than the mesh would jump into particles that have already relaxed against
    it, and each jump would store penalty energy the particles then release. */
+/* The boxes of m's particles at x, GS__CHUNK at a time, and the fastest
+   velocity component in each (a NaN makes the box's bound NaN: never
+   apart, see gs__chunk_apart). */
+GS__PRIVATE void gs__mesh_chunks(gs__mesh *m) {
+    int i, k;
+    for (k = 0, i = 0; i < m->n; ++k) {
+        gs_vec3 lo = m->x[i], hi = m->x[i];
+        double vm = 0.0;
+        int end = i + GS__CHUNK < m->n ? i + GS__CHUNK : m->n;
+        for (; i < end; ++i) {
+            gs_vec3 p = m->x[i], v = m->v[i];
+            double a = fabs(v.x) > fabs(v.y) ? fabs(v.x) : fabs(v.y);
+            a = fabs(v.z) > a ? fabs(v.z) : a;
+            vm = a > vm || a != a ? a : vm;
+            lo.x = p.x < lo.x ? p.x : lo.x; lo.y = p.y < lo.y ? p.y : lo.y;
+            lo.z = p.z < lo.z ? p.z : lo.z; hi.x = p.x > hi.x ? p.x : hi.x;
+            hi.y = p.y > hi.y ? p.y : hi.y; hi.z = p.z > hi.z ? p.z : hi.z;
+        }
+        m->clo[k] = lo;
+        m->chi[k] = hi;
+        m->cvm[k] = vm;
+    }
+    m->chunks_ok = 1;
+}
+
+/* How far from a body's centre a particle may be and still touch it:
+   gs__particle_contact's bound, rp + reach, and a margin over the
+   rounding of its squared distance, so that a box skipped by
+   gs__chunk_apart holds no particle that test would have let through
+   (the culled and the full loop give the same bits). */
+GS__PRIVATE double gs__chunk_reach(double rp, double reach) {
+    return (rp + reach) * (1.0 + 1e-9) + 1e-300;
+}
+
+/* Every point of box [lo, hi] is farther than `far` from c along an axis
+   (a NaN box is never apart: its particles go to the full test). */
+GS__PRIVATE int gs__chunk_apart(gs_vec3 lo, gs_vec3 hi, gs_vec3 c, double far) {
+    return lo.x - c.x > far || c.x - hi.x > far || lo.y - c.y > far || c.y - hi.y > far ||
+           lo.z - c.z > far || c.z - hi.z > far;
+}
+
+/* Box k of m cannot touch a body at c when its particles are taken `lag`
+   seconds along their velocities (gs__rigid_vs_mesh): the box grows by
+   the fastest component times |lag|, and by 1e-9 of its coordinates for
+   the rounding of x + v lag (1e-16 of them at most). */
+GS__PRIVATE int gs__chunk_skip(gs__mesh *m, int k, gs_vec3 c, double far, double lag) {
+    gs_vec3 lo, hi;
+    double mag;
+    if (!m->chunks_ok) gs__mesh_chunks(m);
+    lo = m->clo[k];
+    hi = m->chi[k];
+    mag = fmax(fmax(fabs(lo.x), fabs(hi.x)), fmax(fmax(fabs(lo.y), fabs(hi.y)),
+                                                fmax(fabs(lo.z), fabs(hi.z))));
+    return gs__chunk_apart(lo, hi, c, far + m->cvm[k] * fabs(lag) * (1.0 + 1e-9) +
+                                          1e-9 * (1.0 + mag + fabs(c.x) + fabs(c.y) + fabs(c.z)));
+}
+
 GS__PRIVATE void gs__mesh_vs_rigid(gs__mesh *m, gs__rigid *r, double t) {
     double reach = r->shape.bound;
     double lag = fmax(-0.1, fmin(0.1, t - gs__agent_time(&r->base)));
     gs_vec3 centre = r->probe ? r->x : gs__madd(r->x, r->v, lag);
     int i;
+    double far = gs__chunk_reach(m->radius, reach);
+    int k, end;
     if (centre.x + reach < m->lo.x || centre.x - reach > m->hi.x ||
         centre.y + reach < m->lo.y || centre.y - reach > m->hi.y ||
         centre.z + reach < m->lo.z || centre.z - reach > m->hi.z)
         return;
-    for (i = 0; i < m->n; ++i) {
+    if (!m->chunks_ok) gs__mesh_chunks(m);
+    for (k = 0, i = 0; i < m->n; ++k, i = end) {
+        end = i + GS__CHUNK < m->n ? i + GS__CHUNK : m->n;
+        if (gs__chunk_apart(m->clo[k], m->chi[k], centre, far)) continue;
+        for (; i < end; ++i) {
         gs_contact c;
         if (m->pinned[i] || !gs__particle_contact(m->x[i], m->radius, r, centre, &c)) continue;
         /* particles that move wake a sleeper (it is fixed to them until then) */
@@ -7325,6 +7774,7 @@ GS__PRIVATE void gs__mesh_vs_rigid(gs__mesh *m, gs__rigid *r, double t) {
         if (r->probe && r->base.rest < m->base.world->sleep_time) m->probe_touch = 1;
         gs__mesh_touch(m, i, &c, gs__point_velocity(r, c.point), &r->mat,
                        r->probe || r->base.sleeping ? 0.0 : r->reach2);
+        }
     }
 }
 
