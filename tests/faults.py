@@ -109,7 +109,10 @@ def wire_check(b, src=None, dst=None):
             return "short"
         t, index, count, _first, elements, enc, flags, plen, zero = \
             struct.unpack_from("<dHHIHBBHH", b, off + 8)
-        if enc not in (1, 2, 3) or count == 0 or index >= count or flags & ~1 or zero:
+        # flags: 1 heartbeat, 2 delta, 4 acknowledgements (at most one;
+        # the last two quantized only)
+        if enc not in (1, 2, 3) or count == 0 or index >= count or flags & ~7 or zero \
+                or flags & (flags - 1) or (flags & 6 and enc != 3):
             return "layout"
         rest = flags & 1            # GS_WIRE_CHUNK_REST: a heartbeat, no values
         size = 8 if enc == 1 else 4
