@@ -11472,8 +11472,10 @@ GS__PRIVATE gs_peer_health gs__peer_judge(const gs_net *net, int p, char *buf, s
     }
     if (win && win->refused > 0 && win->taken == 0) {
         gs__detail_text(&win->detail, more, sizeof more);
+        /* the detail's first 90 characters (it names the object and both
+           sizes well within them): a bound gcc can see fits the buffer */
         snprintf(buf, cap, "all %lu datagrams from this peer in the last %g s refused%s: %s "
-                 "(%s)%s", (unsigned long)win->refused, GS_PEER_QUIET,
+                 "(%s)%.90s", (unsigned long)win->refused, GS_PEER_QUIET,
                  win->reasons > 1 ? ", for more than one reason, the first" : "",
                  gs__reject_name(win->reason), gs_reject_str(win->reason), more);
         return GS_PEER_REFUSED;
