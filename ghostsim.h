@@ -9036,19 +9036,10 @@ GS__PRIVATE uint32_t gs__ghost_divergence(gs__ghost *g) {
 GS__PRIVATE int gs__sync_session(const gs_world *w);
 GS__PRIVATE int gs__sync_replay(const gs_world *w);
 
-GS__PRIVATE double gs__time_correction(const gs__ghost *g, double gap, double dt,
-                                       double w0) {
+GS__PRIVATE double gs__time_correction(const gs__ghost *g, double gap, double dt) {
     /* on the session clock time is the clock's, not the blend's: a stepped
        clock misreads the ages until the net measures the offset again */
     if (gs__sync_session(g->agent->world) || gs__sync_replay(g->agent->world)) return 0.0;
-    /* A copy (the local state's weight 0) of a lead that this host is
-       ahead of by more than the tolerance takes the lead's time too, and
-       the world's clock goes back with it (gs__world_blend): inside the
-       band the copy would stand for a state up to the band later than the
-       one it is, and a sphere copied onto a cloth that moved on is kicked.
-       Only back: a copy of a lead ahead is late by the snapshot's wait,
-       and chasing that would skip steps. */
-    if (w0 == 0.0 && !gs__time_literal(g) && gap < -g->agent->world->tolerance) return dt;
     return fabs(gap) > gs__time_band(g) ? dt : 0.0;
 }
 
@@ -9116,7 +9107,7 @@ GS__PRIVATE uint32_t gs__ghost_blend(gs__ghost *g, gs_net *net) {
         g->scratch[0] = t_i;
         if (den_t > 0.0)
             g->scratch[0] = gs__time_bound(
-                g, t_i, gs__time_correction(g, num_t / den_t, num_t / (ps.w0 + den_t), ps.w0));
+                g, t_i, gs__time_correction(g, num_t / den_t, num_t / (ps.w0 + den_t)));
         ps.fade = gs__offset_fade(g, g->scratch[0]);
         ps.finite = g->scratch[0] - g->scratch[0] == 0.0;
         ps.finite = gs__blend_pass(g, &ps);
