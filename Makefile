@@ -182,23 +182,25 @@ test-build: examples $(addprefix $(BUILD)/,$(TESTS) $(TESTS_NOSODIUM)) \
 # What only counts (the builds, compile checks, the fuzzers' fixed times,
 # the cmocka suites) goes in one make, two jobs at a time, so that no core
 # waits for a phase to end; each job's output is kept together. What
-# measures wall-clock pace or convergence between processes (tsan and
-# valgrind on the UDP threads, the manual's UDP quick start, the peers, the
-# fault suite) runs after, alone, as a loaded machine would fail it for the
-# wrong reason. tests/phase.sh prints each part's time.
+# measures wall-clock pace or convergence between processes (tsan on the
+# UDP threads, the manual's UDP quick start, the peers, the fault suite)
+# runs after, alone, as a loaded machine would fail it for the wrong
+# reason. tests/phase.sh prints each part's time.
 test: deps
 	@sh tests/phase.sh "build, checks, fuzzers, cmocka suites" $(MAKE) --no-print-directory -j2 \
 	  --output-sync=target $(SUITES_BY_LENGTH) compile-checks doc-check examples cmake-check \
 	  install-check fuzz-ci $(BUILD)/tsan/test_net $(BUILD)/test_net $(BUILD)/test_manual
-	@sh tests/phase.sh "tsan, valgrind, the manual over UDP" $(MAKE) --no-print-directory \
-	  tsan valgrind-udp run-plain-test_manual
+	@sh tests/phase.sh "tsan, the manual over UDP" $(MAKE) --no-print-directory \
+	  tsan run-plain-test_manual
 	@sh tests/phase.sh "peers and faults" $(MAKE) --no-print-directory test-peers faults-short
 
 # Suites too slow for make test's 10 minutes, which .ci/run runs after it:
 # the paper scene's convergence on a perfect and a bad link (85 s of
-# simulation; README "Convergence").
+# simulation; README "Convergence"), and the UDP tests under valgrind
+# (leaks of sockets, threads and buffers; two minutes, one thread at a time).
 test-slow: $(BUILD)/test_net
 	@GHOSTSIM_SLOW_TESTS=1 sh tests/run.sh "slow" "$(BUILD)/test_net test_scene_perfect_and_bad"
+	@$(MAKE) --no-print-directory valgrind-udp
 
 # The UDP tests (gather and scatter threads) under ThreadSanitizer, and under
 # valgrind for leaks: sockets, threads and buffers all released at shutdown.
