@@ -184,15 +184,18 @@ test-build: examples $(addprefix $(BUILD)/,$(TESTS) $(TESTS_NOSODIUM)) \
 # waits for a phase to end; each job's output is kept together. What
 # measures wall-clock pace or convergence between processes (tsan on the
 # UDP threads, the manual's UDP quick start, the peers, the fault suite)
-# runs after, alone, as a loaded machine would fail it for the wrong
-# reason. tests/phase.sh prints each part's time.
+# runs after, away from the builds, as a loaded machine would fail it for
+# the wrong reason; the peers and the fault suite side by side, as their
+# processes mostly wait (a paper-scene ghostpeer takes 5-10% of a core),
+# each on ports the kernel picks. tests/phase.sh prints each part's time.
 test: deps
 	@sh tests/phase.sh "build, checks, fuzzers, cmocka suites" $(MAKE) --no-print-directory -j2 \
 	  --output-sync=target $(SUITES_BY_LENGTH) compile-checks doc-check examples cmake-check \
 	  install-check fuzz-ci $(BUILD)/tsan/test_net $(BUILD)/test_net $(BUILD)/test_manual
 	@sh tests/phase.sh "tsan, the manual over UDP" $(MAKE) --no-print-directory \
 	  tsan run-plain-test_manual
-	@sh tests/phase.sh "peers and faults" $(MAKE) --no-print-directory test-peers faults-short
+	@sh tests/phase.sh "peers and faults" $(MAKE) --no-print-directory -j2 --output-sync=target \
+	  test-peers faults-short
 
 # Suites too slow for make test's 10 minutes, which .ci/run runs after it:
 # the paper scene's convergence on a perfect and a bad link (85 s of
