@@ -10687,11 +10687,17 @@ GS_API gs_result gs_net_create(gs_world *w, const gs_net_desc *desc,
 }
 
 /* Is the net inside one of its own calls (user code under its lock), or
-   is the simnet it joined running? Then it must not be freed. Read
-   without the lock: destroying a net whose other threads still run is
-   refused by its own contract already (close its gs_udp first). */
+   is the simnet it joined running? Then it must not be freed. Read under
+   the lock: a transport's thread (gs_udp's scatter) may be in an update,
+   which holds the lock throughout, so that under it `inside` is this
+   thread's own; the thread is stopped by the detach that follows. */
 GS__PRIVATE int gs__net_in_use(const gs_net *net) {
-    return net && (net->inside || net->held);
+    int busy;
+    if (!net) return 0;
+    gs__lock((gs_net *)net);
+    busy = net->inside || net->held;
+    gs__unlock((gs_net *)net);
+    return busy;
 }
 
 /* Refused from a callback, as gs_world_destroy. */
