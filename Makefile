@@ -131,7 +131,8 @@ reference_peer/ghostpeer: $(BUILD)/ghostpeer
 
 # The header as C99 and C++11 under gcc and clang, with and without
 # GHOSTSIM_STATIC and GHOSTSIM_SODIUM, implementation included: warning-free
-# or the build fails.
+# or the build fails. Once more at -O2 with everything static, where gcc
+# inlines across the implementation and warns about what it then sees.
 compile-checks: | $(BUILD)
 	@for f in compile_check compile_one; do \
 	  for cc in gcc clang; do \
@@ -143,7 +144,11 @@ compile-checks: | $(BUILD)
 	    for opt in "" "-DGHOSTSIM_STATIC" "-DGHOSTSIM_SODIUM"; do \
 	      echo "compile-check: $$f $$cxx -std=c++11 $$opt"; \
 	      $$cxx -std=c++11 $(WARN) $$opt -I. -x c++ -c tests/$$f.c -o $(BUILD)/cc.o || exit 1; \
-	    done; done; done
+	    done; done; done; \
+	for cc in gcc clang; do \
+	  echo "compile-check: compile_one $$cc -std=c99 -O2 -DGHOSTSIM_STATIC -DGHOSTSIM_SODIUM"; \
+	  $$cc -std=c99 $(WARN) -O2 -DGHOSTSIM_STATIC -DGHOSTSIM_SODIUM -I. -c tests/compile_one.c \
+	    -o $(BUILD)/cc.o || exit 1; done
 
 test-plain: $(addprefix $(BUILD)/,$(TESTS) $(TESTS_NOSODIUM))
 	@sh tests/run.sh "plain" $(addprefix $(BUILD)/,$(TESTS) $(TESTS_NOSODIUM))

@@ -336,7 +336,9 @@
                            ghosts, wire format v1, simnet, POSIX UDP.
        unreleased          wire format v2 (v1 refused as GS_REJECT_OLD_VERSION):
                            GS_ENCODING_QUANT, send on change with heartbeats,
-                           priority within a peer's budget, gs_wire_values.
+                           priority within a peer's budget, gs_wire_values;
+                           delta coding against acknowledged baselines
+                           (gs_ghost_desc.delta, GS_REJECT_BASELINE).
 
    LICENSE: MIT, at the end of this file.
 */
@@ -1157,6 +1159,11 @@ GS_API gs_vec3 gs_scene_probe_path(int i, double t);
    - no agent's or world's time leaves [0, GS_WIRE_MAX_TIME]. */
 #define GS_MAX_AGE 2.0              /* s */
 #define GS_MAX_TIME_CORRECTION 10.0 /* s per advance, per agent */
+/* Quantized snapshots a delta ghost keeps as baselines, sent and per peer
+   received: a peer's acknowledgement older than this many snapshots sent
+   since (a round trip past 16 / 60 Hz = 0.27 s) finds no baseline and the
+   next goes whole. */
+#define GS_DELTA_RING 16
 
 /* What a weight rule sees, for the local state or one received snapshot. */
 typedef struct gs_weight_in {
@@ -1177,7 +1184,9 @@ typedef struct gs_weight_in {
                         peers heard in the last 0.5 s (their snapshots in
                         this blend or not); but hosts within the ghost's
                         time deadband of it are in step, a tie, and the
-                        lowest id among them leads */
+                        lowest id among them leads (a peer's time, which
+                        is only ever read late, counts within twice the
+                        deadband) */
     uint32_t owner;  /* the object's owner, 0 if shared */
     int local;       /* 1 for the local state */
     int local_owns;  /* 1 if this host owns the object */
@@ -1313,6 +1322,13 @@ typedef struct gs_ghost_desc {
        probes). NULL (default): the defaults for every object. */
     gs_rule_for_fn rule_for;
     void *rule_for_user;
+    int delta;             /* GS_ENCODING_QUANT only: 1 codes each snapshot
+                              chunk as its differences from the newest
+                              snapshot every peer acknowledged (see >>wire),
+                              whole when there is none; default 0 (every
+                              snapshot whole). Each ghost then keeps its last
+                              GS_DELTA_RING snapshots sent, and per peer the
+                              last GS_DELTA_RING received, as integers */
 } gs_ghost_desc;
 
 /* The ghost desc with its defaults (what zero fields become); object_id
@@ -1452,6 +1468,40 @@ GS_API gs_result gs_world_sync_test(gs_world *w, int frames, int *bad_agent);
        (element count 0, payload 0 bytes, chunk index 0); the object is at
        rest at the time it carries, its state within the sender's
        rest_threshold of the last snapshot it sent of it.
+     Bit 1 (GS_WIRE_CHUNK_DELTA, GS_ENCODING_QUANT only, element count
+       1..GS_WIRE_QUANT_CHUNK): the chunk's values as differences from the same chunk of an earlier snapshot of
+       the object (its baseline), in the integers of the quantized state:
+       a scalar's integer is its value over its segment's step (base + q
+       above), a quaternion's four are the index of its largest component
+       plus 4 if that one is negative, then the other three q. The
+       segments (their kinds, counts, steps and bits) are the baseline's:
+       a delta is decoded only against the very state it was coded from,
+       so the receiver's state is the sender's quantized state bit for
+       bit. Payload: sequence - baseline sequence (u32 arithmetic) as an
+       unsigned LEB128 varint, 1..2^31; one byte: the width w (0..32) in
+       bits 0-5 and the coding in bit 7; then
+         coding 0 (packed): element-count zigzag differences of w bits,
+           packed as above;
+         coding 1 (changed bitmap): element-count bits, bit i set when
+           difference i is not 0 (padded with 0 bits to a whole byte),
+           then for each set bit zigzag(difference) - 1 in w bits.
+       The sender picks whichever is smaller. A receiver that does not hold
+       the baseline's chunk, or whose decoded integers leave the ranges
+       above (a scalar past 2^51 - 2^32 steps, a quaternion component past
+       2^bits - 1 or its three squares over 0.76), refuses that chunk
+       (GS_REJECT_BASELINE, counted; the rest of the datagram stands) and
+       says so in its next acknowledgement.
+     Bit 2 (GS_WIRE_CHUNK_ACK): acknowledgements, no values: object id =
+       the host they are for (every other host skips the chunk), sequence
+       0, time 0, chunk index 0, count 1, first element 0, encoding
+       GS_ENCODING_QUANT, element count = the number of entries (1..
+       GS_WIRE_MAX_ACKS), then per entry two unsigned LEB128 varints of at
+       most 5 bytes: zigzag(object id - the previous entry's, from 0) * 2
+       + refused, and zigzag(sequence - the previous entry's, from 0). An
+       entry tells the newest snapshot of that object the sender of the
+       chunk holds whole (every chunk), or with refused = 1 that it
+       refused a delta of it: the next goes whole.
+     At most one flag is set.
    v1 datagrams are refused as GS_REJECT_OLD_VERSION.
    A snapshot too big for one datagram is cut into chunks that each stand
    alone: a lost chunk leaves its range unblended, the rest still counts.
@@ -1478,6 +1528,9 @@ GS_API gs_result gs_world_sync_test(gs_world *w, int frames, int *bad_agent);
 #define GS_WIRE_VERSION 2
 #define GS_WIRE_MAX_SEGMENTS 4 /* segments in a quantized chunk */
 #define GS_WIRE_CHUNK_REST 0x01 /* chunk flag: a heartbeat */
+#define GS_WIRE_CHUNK_DELTA 0x02 /* chunk flag: differences from a baseline */
+#define GS_WIRE_CHUNK_ACK 0x04 /* chunk flag: acknowledgements */
+#define GS_WIRE_MAX_ACKS 100 /* entries in one acknowledgement chunk */
 #define GS_WIRE_MAX_DATAGRAM 1200
 #define GS_WIRE_HEADER 48
 #define GS_WIRE_CHUNK_HEADER 32
@@ -1534,11 +1587,23 @@ typedef struct gs_wire_chunk {
     uint32_t first;               /* element of the state after the time */
     uint16_t elements;
     gs_encoding encoding;
-    unsigned flags;               /* GS_WIRE_CHUNK_REST or 0 */
+    unsigned flags;               /* GS_WIRE_CHUNK_* or 0 */
     int segment_count;            /* GS_ENCODING_QUANT: its segments */
     gs_wire_segment segments[GS_WIRE_MAX_SEGMENTS];
     const unsigned char *payload; /* decode only: into the datagram */
+    uint32_t baseline;            /* GS_WIRE_CHUNK_DELTA: the sequence of
+                                     the snapshot it is coded against */
+    int delta_coding, delta_width;/* decode: GS_WIRE_CHUNK_DELTA's coding
+                                     (0 packed, 1 bitmap) and width */
+    uint16_t payload_bytes;       /* decode: the payload's length */
 } gs_wire_chunk;
+
+/* One entry of an acknowledgement chunk (GS_WIRE_CHUNK_ACK). */
+typedef struct gs_wire_ack {
+    uint32_t object_id;
+    uint32_t sequence; /* the newest snapshot held whole */
+    int refused;       /* 1: a delta of it was refused, send it whole */
+} gs_wire_ack;
 
 typedef struct gs_wire_view {
     gs_wire_header header;
@@ -1573,7 +1638,10 @@ typedef struct gs_wire_view {
     X(GS_REJECT_RATE, "over the sender's cap of datagrams per second")        \
     X(GS_REJECT_OLD_VERSION,                                                   \
       "wire format v1 (a ghostsim before wire v2): every host of a session "  \
-      "must speak v2")
+      "must speak v2")                                                        \
+    X(GS_REJECT_BASELINE,                                                      \
+      "a delta chunk whose baseline is not held (lost, too old, from before "  \
+      "a restart) or that leaves its ranges: that chunk only")
 
 typedef enum gs_reject {
 #define GS__REJECT_ENUM(name, text) name,
@@ -1616,8 +1684,27 @@ GS_API size_t gs_wire_end(unsigned char *buf, size_t size);
    with the key opens it. */
 GS_API gs_result gs_wire_decode(const unsigned char *buf, size_t size,
                                 gs_wire_view *out, gs_reject *why);
+/* Appends a delta chunk (c->flags GS_WIRE_CHUNK_DELTA, GS_ENCODING_QUANT,
+   c->baseline the baseline's sequence, older than c->sequence by 1..2^31)
+   of c->elements (1..GS_WIRE_QUANT_CHUNK, a quantized chunk's most)
+   integer differences from the baseline (see >>wire; each within
+   +-2^31); c->segments are not used. The coding is whichever is
+   smaller. Errors as gs_wire_add's; GS_ERR_INVALID_ARG for a difference
+   out of range. */
+GS_API gs_result gs_wire_add_delta(unsigned char *buf, size_t cap, size_t *size,
+                                   const gs_wire_chunk *c, const int64_t *diff);
+/* Appends an acknowledgement chunk for host `to` of n entries (1..
+   GS_WIRE_MAX_ACKS). Errors as gs_wire_add's. */
+GS_API gs_result gs_wire_add_ack(unsigned char *buf, size_t cap, size_t *size, uint32_t to,
+                                 const gs_wire_ack *acks, int n);
+/* The differences of a decoded delta chunk (c->elements), in steps. */
+GS_API void gs_wire_deltas(const gs_wire_chunk *c, int64_t *out);
+/* The entries of a decoded acknowledgement chunk into out (room for max);
+   returns how many were written. */
+GS_API int gs_wire_acks(const gs_wire_chunk *c, gs_wire_ack *out, int max);
 /* Value i of a decoded chunk (quantized: as the sender's state reads
-   after the round trip, bit for bit; linear in i there). */
+   after the round trip, bit for bit; linear in i there; a delta chunk:
+   its difference i, in steps; an acknowledgement chunk: 0). */
 GS_API double gs_wire_value(const gs_wire_chunk *c, int i);
 /* Every value of a decoded chunk into out (c->elements doubles), in one
    pass: what gs_wire_value gives for each i. */
@@ -3604,6 +3691,9 @@ typedef struct gs__spring {
     double rest, k, c; /* m, N/m, N s/m */
 } gs__spring;
 
+/* Particles per box of the particle-vs-body broad phase: a sixteenth of
+   a 128 x 128 cloth's row, about the size of the scene's spheres. */
+#define GS__CHUNK 16
 #define GS__MESH_BATCHES 65 /* 64 conflict-free colours, then the rest */
 #if defined(__SSE2__) && !defined(GHOSTSIM_NO_SIMD)
 #define GS__MESH_SSE2 1
@@ -3629,6 +3719,14 @@ typedef struct gs__run {
     int s0, a0, off, len; /* springs s0.., particles a0.. and a0 + off.. */
 } gs__run;
 
+/* One block of the XPBD pass: four springs, or one (GS__XB_ONE), whose
+   ends lie in the transposed copy as `kind` says (gs__xblk_lane). */
+enum { GS__XB_SPAN, GS__XB_PAIRS, GS__XB_DUOS, GS__XB_ONE };
+struct gs__xblk {
+    int kind, a, b, s; /* first end a, first end b, first k/c/rest in xsp */
+    int count;         /* blocks of four in a row, each next to the last */
+};
+
 typedef struct gs__mesh {
     gs_agent base;
     int n, ns, npins;
@@ -3652,6 +3750,13 @@ typedef struct gs__mesh {
     int checked;      /* the integrator ran gs__mesh_sane's checks itself */
     int check_ok;     /* and their outcome (lo, hi already set if 1) */
     double *soa, *sp_soa;
+    /* XPBD on a mesh with runs: the pass goes block by block over a
+       transposed copy (soa: x y z, then the substep's start x y z), each
+       block four springs that share no particle, their k, c, rest in xsp
+       in block order (see gs__xpbd_schedule). */
+    struct gs__xblk *xblk;
+    int nxblk;
+    double *xsp;
     int nbatch;
     int batch[GS__MESH_BATCHES + 1]; /* first spring of each batch, then ns */
     uint64_t *colours; /* per particle, the colours of its springs (build) */
@@ -3674,6 +3779,10 @@ typedef struct gs__mesh {
     double *ck, *cc;  /* its stiffness (N/m) and damping (N s/m), 0 = none */
     double *cdepth;   /* XPBD: the deepest contact's depth (m) at x, */
     gs_vec3 *cvel;    /* and the velocity of what it touches (m/s) */
+    gs_vec3 *clo, *chi; /* m; boxes of GS__CHUNK particles each, of x */
+    double *cvm;      /* m/s; the largest velocity component in each box */
+    int chunks_ok;    /* the boxes are those of x and v (gs__mesh_chunks) */
+    int chunks_next;  /* the integrator left the boxes of xn and vn there */
     int ext_active;   /* ext holds a non-zero force */
     int probe_touch;  /* in this step a probe that moves touched it: it
                          does not rest (gs__mesh_rest) */
@@ -3719,6 +3828,12 @@ GS__PRIVATE void gs__mesh_layout(gs__mesh *m, gs__carver *cv) {
     m->acc = (gs_vec3 *)gs__carve(cv, v3);
     m->sf = (double *)gs__carve(cv, (size_t)m->ns * 3 * sizeof(double));
     m->colours = (uint64_t *)gs__carve(cv, n * sizeof(uint64_t));
+    if (it == GS_INTEGRATOR_XPBD) {
+        m->runs = (gs__run *)gs__carve(cv, (size_t)m->ns * sizeof(gs__run));
+        m->soa = (double *)gs__carve(cv, 6 * gs__soa_stride(n) * sizeof(double));
+        m->xblk = (struct gs__xblk *)gs__carve(cv, gs__mul_sat((size_t)m->ns, sizeof(struct gs__xblk)));
+        m->xsp = (double *)gs__carve(cv, gs__mul_sat(gs__soa_stride((size_t)m->ns), 3 * sizeof(double)));
+    }
     if (it == GS_INTEGRATOR_SYMPLECTIC_EULER) {
         m->runs = (gs__run *)gs__carve(cv, (size_t)m->ns * sizeof(gs__run));
         m->soa = (double *)gs__carve(cv, 9 * gs__soa_stride(n) * sizeof(double));
@@ -3726,6 +3841,9 @@ GS__PRIVATE void gs__mesh_layout(gs__mesh *m, gs__carver *cv) {
     }
     m->perm = (int *)gs__carve(cv, (size_t)m->ns * sizeof(int));
     m->ext = (gs_vec3 *)gs__carve(cv, v3);
+    m->clo = (gs_vec3 *)gs__carve(cv, (n / GS__CHUNK + 1) * sizeof(gs_vec3));
+    m->chi = (gs_vec3 *)gs__carve(cv, (n / GS__CHUNK + 1) * sizeof(gs_vec3));
+    m->cvm = (double *)gs__carve(cv, (n / GS__CHUNK + 1) * sizeof(double));
     m->mass = (double *)gs__carve(cv, n * sizeof(double));
     m->inv_mass = (double *)gs__carve(cv, n * sizeof(double));
     m->springs = (gs__spring *)gs__carve(cv, gs__mul_sat((size_t)m->ns, sizeof(gs__spring)));
@@ -4081,6 +4199,7 @@ GS__PRIVATE void gs__mesh_find_runs(gs__mesh *m) {
 #ifdef GS__MESH_AVX
     m->avx = __builtin_cpu_supports("avx") ? 1 : 0;
 #endif
+    if (!m->sp_soa) return;
     for (i = 0; i < m->ns; ++i) {
         m->sp_soa[i] = m->springs[i].k;
         m->sp_soa[ns + (size_t)i] = m->springs[i].c;
@@ -4374,24 +4493,343 @@ GS__PRIVATE void gs__xpbd_pass(gs__mesh *m, double h) {
     }
 }
 
+/* ---- XPBD over runs (see gs__mesh.xblk) ----
+   The pass takes the springs run by run in creation order, and within a
+   run as two colours: a run of offset `off` (spring j joins a0 + j and a0
+   + j + off) shares no particle among any `off` springs in a row, so it
+   goes in segments of `off` springs, four at a time (GS__XB_SPAN), even
+   segments first, then odd ones. (A sweep of the segments in order, as
+   valid a Gauss-Seidel order on paper, carries one pass's correction from
+   the pinned edge through the whole cloth: a 128 x 128 cloth gains energy
+   under it and fails the sanity check within 200 steps.) Runs of
+   offset 1 and 2 (a row's neighbours and bend springs) would be serial:
+   they go even springs then odd ones (GS__XB_PAIRS: ends a + 2q and a +
+   2q + 1 for q = 0..3), and pairs of pairs (GS__XB_DUOS: ends a, a + 1, a
+   + 4, a + 5 and two further), so a block still shares nothing. Every lane
+   does gs__xpbd_spring's operations in its order, so the AVX and scalar
+   kernels give the same bits. */
+
+/* Where lane q of block t of entry k has its ends: blocks of a SPAN
+   follow each other by four particles, of PAIRS and DUOS by eight. */
+GS__PRIVATE void gs__xblk_lane(const struct gs__xblk *k, int t, int q, int *a, int *b) {
+    static const int pairs[4] = {0, 4, 2, 6}, duos[4] = {0, 1, 4, 5};
+    switch (k->kind) {
+    case GS__XB_PAIRS: *a = k->a + 8 * t + pairs[q]; *b = *a + 1; break;
+    case GS__XB_DUOS: *a = k->a + 8 * t + duos[q]; *b = *a + 2; break;
+    default: *a = k->a + 4 * t + q; *b = k->b + 4 * t + q; break;
+    }
+}
+
+/* Appends a block whose lanes are springs s[0..3] (one for GS__XB_ONE). */
+GS__PRIVATE void gs__xpbd_block(gs__mesh *m, int kind, int a, int b, const int *s) {
+    size_t ns = gs__soa_stride((size_t)m->ns);
+    struct gs__xblk *k = &m->xblk[m->nxblk++];
+    int q, lanes = kind == GS__XB_ONE ? 1 : 4, at = k == m->xblk ? 0 : k[-1].s +
+                                              (k[-1].kind == GS__XB_ONE ? 1 : 4);
+    k->kind = kind; k->a = a; k->b = b; k->s = at; k->count = 1;
+    for (q = 0; q < lanes; ++q) {
+        const gs__spring *sp = &m->springs[s[q]];
+        m->xsp[at + q] = sp->k;
+        m->xsp[ns + (size_t)(at + q)] = sp->c;
+        m->xsp[2 * ns + (size_t)(at + q)] = sp->rest;
+    }
+}
+
+/* Springs s0 + j, j = j0, j0 + step.., of run u: in fours with ends
+   contiguous (SPAN, step 1), then the rest one by one. */
+GS__PRIVATE void gs__xpbd_span(gs__mesh *m, const gs__run *u, int j0, int j1) {
+    int j = j0, s[4], q;
+    for (; j + 3 < j1; j += 4) {
+        for (q = 0; q < 4; ++q) s[q] = u->s0 + j + q;
+        gs__xpbd_block(m, GS__XB_SPAN, u->a0 + j, u->a0 + u->off + j, s);
+    }
+    for (; j < j1; ++j) {
+        s[0] = u->s0 + j;
+        gs__xpbd_block(m, GS__XB_ONE, u->a0 + j, u->a0 + u->off + j, s);
+    }
+}
+
+/* Offset 1 or 2: the springs of one parity class (cls = 0, 1) of run u. */
+GS__PRIVATE void gs__xpbd_parity(gs__mesh *m, const gs__run *u, int cls) {
+    int off = u->off, per = 2 * off, last = off == 1 ? 6 : 5, j, q, s[4], a, b;
+    for (j = cls * off; j + last < u->len; j += 8) { /* eight particles a block */
+        struct gs__xblk probe;
+        probe.kind = off == 1 ? GS__XB_PAIRS : GS__XB_DUOS;
+        probe.a = u->a0 + j;
+        probe.b = 0;
+        for (q = 0; q < 4; ++q) {
+            gs__xblk_lane(&probe, 0, q, &a, &b);
+            s[q] = u->s0 + (a - u->a0);
+        }
+        gs__xpbd_block(m, probe.kind, probe.a, 0, s);
+    }
+    for (; j < u->len; j += per)
+        for (q = 0; q < off && j + q < u->len; ++q) {
+            s[0] = u->s0 + j + q;
+            gs__xpbd_block(m, GS__XB_ONE, u->a0 + j + q, u->a0 + j + q + off, s);
+        }
+}
+
+/* Blocks that follow one another in memory become one entry: the pass
+   then runs them in a loop of one kind, in the same order. */
+GS__PRIVATE void gs__xpbd_merge(gs__mesh *m) {
+    int i, o = 0;
+    for (i = 1; i < m->nxblk; ++i) {
+        struct gs__xblk *p = &m->xblk[o];
+        const struct gs__xblk *k = &m->xblk[i];
+        int step = k->kind == GS__XB_SPAN ? 4 : 8;
+        if (k->kind != GS__XB_ONE && k->kind == p->kind && k->a == p->a + step * p->count &&
+            (k->kind != GS__XB_SPAN || k->b == p->b + 4 * p->count) &&
+            k->s == p->s + 4 * p->count)
+            p->count++;
+        else
+            m->xblk[++o] = *k;
+    }
+    if (m->nxblk > 0) m->nxblk = o + 1;
+}
+
+/* The blocks, from the runs (gs__mesh_find_runs). */
+GS__PRIVATE void gs__xpbd_schedule(gs__mesh *m) {
+    int r, j;
+    m->nxblk = 0;
+    for (r = 0; r < m->nruns; ++r) {
+        const gs__run *u = &m->runs[r];
+        if (u->off == 1 || u->off == 2) {
+            gs__xpbd_parity(m, u, 0);
+            gs__xpbd_parity(m, u, 1);
+        } else if (u->off >= 4) {
+            int cls;
+            for (cls = 0; cls < 2; ++cls)
+                for (j = cls * u->off; j < u->len; j += 2 * u->off)
+                    gs__xpbd_span(m, u, j, j + u->off < u->len ? j + u->off : u->len);
+        } else {
+            for (j = 0; j < u->len; ++j) gs__xpbd_span(m, u, j, j + 1);
+        }
+    }
+    gs__xpbd_merge(m);
+}
+
+/* One spring of the transposed copy (X = the substep's positions so far,
+   P = its start, stride st), as gs__xpbd_spring does it. */
+GS__PRIVATE void gs__xpbd_one(double *X, const double *P, size_t st, const double *im,
+                              const double *sp, size_t ns, int a, int b, double h) {
+    double *Y = X + st, *Z = Y + st;
+    const double *PY = P + st, *PZ = PY + st;
+    double dx = X[b] - X[a], dy = Y[b] - Y[a], dz = Z[b] - Z[a];
+    double l2 = dx * dx + dy * dy + dz * dz, l = sqrt(l2);
+    double kh = sp[0] * h * h, ch = sp[ns] * h, wa = im[a], wb = im[b];
+    double mx = (X[b] - P[b]) - (X[a] - P[a]), my = (Y[b] - PY[b]) - (Y[a] - PY[a]),
+           mz = (Z[b] - PZ[b]) - (Z[a] - PZ[a]);
+    double num = kh * (l2 - sp[2 * ns] * l) + ch * (dx * mx + dy * my + dz * mz);
+    double den = l2 * ((kh + ch) * (wa + wb) + 1.0);
+    double s = den > 0.0 ? (0.0 - num) / den : 0.0, sa = wa * s, sb = wb * s;
+    X[a] -= sa * dx; Y[a] -= sa * dy; Z[a] -= sa * dz;
+    X[b] += sb * dx; Y[b] += sb * dy; Z[b] += sb * dz;
+}
+
+#ifdef GS__MESH_AVX
+/* Inlined whatever the optimizer thinks: out of line, each block's
+   sixteen vectors go through memory (a third of the pass, measured). */
+#define GS__XINLINE __attribute__((target("avx"), always_inline, unused)) static inline
+/* A block's lanes of array p, and back (gs__xblk_lane's layouts). */
+GS__XINLINE void gs__xld4(const double *p, int kind, int a,
+                                                         int b, __m256d *va, __m256d *vb) {
+    __m256d v0, v1;
+    if (kind == GS__XB_SPAN) {
+        *va = _mm256_loadu_pd(p + a);
+        *vb = _mm256_loadu_pd(p + b);
+        return;
+    }
+    v0 = _mm256_loadu_pd(p + a);
+    v1 = _mm256_loadu_pd(p + a + 4);
+    if (kind == GS__XB_PAIRS) {
+        *va = _mm256_unpacklo_pd(v0, v1);
+        *vb = _mm256_unpackhi_pd(v0, v1);
+    } else {
+        *va = _mm256_permute2f128_pd(v0, v1, 0x20);
+        *vb = _mm256_permute2f128_pd(v0, v1, 0x31);
+    }
+}
+
+GS__XINLINE void gs__xst4(double *p, int kind, int a, int b,
+                                                         __m256d va, __m256d vb) {
+    if (kind == GS__XB_SPAN) {
+        _mm256_storeu_pd(p + a, va);
+        _mm256_storeu_pd(p + b, vb);
+    } else if (kind == GS__XB_PAIRS) {
+        _mm256_storeu_pd(p + a, _mm256_unpacklo_pd(va, vb));
+        _mm256_storeu_pd(p + a + 4, _mm256_unpackhi_pd(va, vb));
+    } else {
+        _mm256_storeu_pd(p + a, _mm256_permute2f128_pd(va, vb, 0x20));
+        _mm256_storeu_pd(p + a + 4, _mm256_permute2f128_pd(va, vb, 0x31));
+    }
+}
+
+/* gs__xpbd_one for the four lanes of block k. */
+GS__XINLINE void gs__xpbd_four(double *X, const double *P,
+                                                              size_t st, const double *im,
+                                                              const double *sp, size_t ns,
+                                                              int kind, int a, int b, int at,
+                                                              double h) {
+    __m256d ax, ay, az, bx, by, bz, pax, pay, paz, pbx, pby, pbz, wa, wb;
+    __m256d dx, dy, dz, l2, l, kh, ch, num, den, s, sa, sb, hv = _mm256_set1_pd(h);
+    gs__xld4(X, kind, a, b, &ax, &bx);
+    gs__xld4(X + st, kind, a, b, &ay, &by);
+    gs__xld4(X + 2 * st, kind, a, b, &az, &bz);
+    gs__xld4(P, kind, a, b, &pax, &pbx);
+    gs__xld4(P + st, kind, a, b, &pay, &pby);
+    gs__xld4(P + 2 * st, kind, a, b, &paz, &pbz);
+    gs__xld4(im, kind, a, b, &wa, &wb);
+    dx = _mm256_sub_pd(bx, ax); dy = _mm256_sub_pd(by, ay); dz = _mm256_sub_pd(bz, az);
+    l2 = _mm256_add_pd(_mm256_add_pd(_mm256_mul_pd(dx, dx), _mm256_mul_pd(dy, dy)),
+                       _mm256_mul_pd(dz, dz));
+    l = _mm256_sqrt_pd(l2);
+    kh = _mm256_mul_pd(_mm256_mul_pd(_mm256_loadu_pd(sp + at), hv), hv);
+    ch = _mm256_mul_pd(_mm256_loadu_pd(sp + ns + at), hv);
+    num = _mm256_add_pd(
+        _mm256_mul_pd(kh, _mm256_sub_pd(l2, _mm256_mul_pd(_mm256_loadu_pd(sp + 2 * ns + at), l))),
+        _mm256_mul_pd(ch, _mm256_add_pd(
+            _mm256_add_pd(_mm256_mul_pd(dx, _mm256_sub_pd(_mm256_sub_pd(bx, pbx), _mm256_sub_pd(ax, pax))),
+                          _mm256_mul_pd(dy, _mm256_sub_pd(_mm256_sub_pd(by, pby), _mm256_sub_pd(ay, pay)))),
+            _mm256_mul_pd(dz, _mm256_sub_pd(_mm256_sub_pd(bz, pbz), _mm256_sub_pd(az, paz))))));
+    den = _mm256_mul_pd(l2, _mm256_add_pd(_mm256_mul_pd(_mm256_add_pd(kh, ch), _mm256_add_pd(wa, wb)),
+                                          _mm256_set1_pd(1.0)));
+    s = _mm256_and_pd(_mm256_cmp_pd(den, _mm256_setzero_pd(), _CMP_GT_OQ),
+                      _mm256_div_pd(_mm256_sub_pd(_mm256_setzero_pd(), num), den));
+    sa = _mm256_mul_pd(wa, s);
+    sb = _mm256_mul_pd(wb, s);
+    gs__xst4(X, kind, a, b, _mm256_sub_pd(ax, _mm256_mul_pd(sa, dx)), _mm256_add_pd(bx, _mm256_mul_pd(sb, dx)));
+    gs__xst4(X + st, kind, a, b, _mm256_sub_pd(ay, _mm256_mul_pd(sa, dy)), _mm256_add_pd(by, _mm256_mul_pd(sb, dy)));
+    gs__xst4(X + 2 * st, kind, a, b, _mm256_sub_pd(az, _mm256_mul_pd(sa, dz)), _mm256_add_pd(bz, _mm256_mul_pd(sb, dz)));
+}
+
+__attribute__((target("avx"))) GS__PRIVATE void gs__xpbd_blocks_avx(gs__mesh *m, double h) {
+    size_t st = gs__soa_stride((size_t)m->n), ns = gs__soa_stride((size_t)m->ns);
+    double *X = m->soa;
+    const double *P = X + 3 * st;
+    const double *im = m->inv_mass, *sp = m->xsp;
+    int i, t;
+    for (i = 0; i < m->nxblk; ++i) {
+        const struct gs__xblk *k = &m->xblk[i];
+        int a = k->a, b = k->b, s = k->s, c = k->count;
+        switch (k->kind) { /* one loop per kind, the kind a constant in it */
+        case GS__XB_SPAN:
+            for (t = 0; t < c; ++t)
+                gs__xpbd_four(X, P, st, im, sp, ns, GS__XB_SPAN, a + 4 * t, b + 4 * t, s + 4 * t, h);
+            break;
+        case GS__XB_PAIRS:
+            for (t = 0; t < c; ++t)
+                gs__xpbd_four(X, P, st, im, sp, ns, GS__XB_PAIRS, a + 8 * t, 0, s + 4 * t, h);
+            break;
+        case GS__XB_DUOS:
+            for (t = 0; t < c; ++t)
+                gs__xpbd_four(X, P, st, im, sp, ns, GS__XB_DUOS, a + 8 * t, 0, s + 4 * t, h);
+            break;
+        default: gs__xpbd_one(X, P, st, im, sp + s, ns, a, b, h); break;
+        }
+    }
+}
+#endif
+
+/* The pass over the blocks, lane by lane where the CPU has no AVX. */
+GS__PRIVATE void gs__xpbd_blocks(gs__mesh *m, double h) {
+    size_t st = gs__soa_stride((size_t)m->n), ns = gs__soa_stride((size_t)m->ns);
+    double *X = m->soa;
+    const double *P = X + 3 * st;
+    int i, t, q, a, b;
+#ifdef GS__MESH_AVX
+    if (m->avx) {
+        gs__xpbd_blocks_avx(m, h);
+        return;
+    }
+#endif
+    for (i = 0; i < m->nxblk; ++i) {
+        const struct gs__xblk *k = &m->xblk[i];
+        for (t = 0; t < k->count; ++t)
+            for (q = 0; q < (k->kind == GS__XB_ONE ? 1 : 4); ++q) {
+                gs__xblk_lane(k, t, q, &a, &b);
+                gs__xpbd_one(X, P, st, m->inv_mass, m->xsp + k->s + 4 * t + q, ns, a, b, h);
+            }
+    }
+}
+
 /* Contacts as XPBD constraints: the deepest contact of each particle is a
    penalty spring of its stiffness and damping along the normal (C = -depth,
    compliance 1 / k), so contact is as stable at any substep as the springs
    are; it only pushes. The depth follows the particle's motion this
    substep relative to what it touches. */
+GS__PRIVATE gs_vec3 gs__xpbd_contact(const gs__mesh *m, int i, gs_vec3 p, double h) {
+    double w = m->inv_mass[i], kh, ch, vn, d, dl;
+    gs_vec3 n = m->cn[i];
+    if (m->ck[i] == 0.0 || w == 0.0) return p;
+    vn = gs__dot(n, gs__madd(gs__sub(p, m->x[i]), m->cvel[i], -h));
+    d = m->cdepth[i] - vn;
+    if (!(d > 0.0)) return p;
+    kh = m->ck[i] * h * h;
+    ch = m->cc[i] * h;
+    dl = (kh * d - ch * vn) / ((kh + ch) * w + 1.0);
+    return dl > 0.0 ? gs__madd(p, n, w * dl) : p;
+}
+
 GS__PRIVATE void gs__xpbd_contacts(gs__mesh *m, double h) {
     int i;
-    for (i = 0; i < m->n; ++i) {
-        double w = m->inv_mass[i], kh, ch, vn, d, dl;
-        gs_vec3 n = m->cn[i];
-        if (m->ck[i] == 0.0 || w == 0.0) continue;
-        vn = gs__dot(n, gs__madd(gs__sub(m->xn[i], m->x[i]), m->cvel[i], -h));
-        d = m->cdepth[i] - vn;
-        if (!(d > 0.0)) continue;
-        kh = m->ck[i] * h * h;
-        ch = m->cc[i] * h;
-        dl = (kh * d - ch * vn) / ((kh + ch) * w + 1.0);
-        if (dl > 0.0) m->xn[i] = gs__madd(m->xn[i], n, w * dl);
+    for (i = 0; i < m->n; ++i) m->xn[i] = gs__xpbd_contact(m, i, m->xn[i], h);
+}
+
+/* gs__int_xpbd over the blocks: the prediction goes into the transposed
+   copy, the pass runs there, and the velocities come out with
+   gs__mesh_sane's checks and bounds in the same loop (pinned particles
+   neither move nor gain speed, as the substep's pin pass leaves them). */
+GS__PRIVATE void gs__int_xpbd_blocks(gs__mesh *m, double h) {
+    size_t n = (size_t)m->n, st = gs__soa_stride(n), i, k;
+    double *X = m->soa, *Y = X + st, *Z = Y + st, *PX = Z + st, *PY = PX + st, *PZ = PY + st;
+    const double *im = m->inv_mass;
+    gs_vec3 g = m->base.world->gravity;
+    double ih = 1.0 / h, vmax2 = m->solver.max_speed * m->solver.max_speed, w2 = 0.0;
+    double sx = 0.0, sy = 0.0, sz = 0.0; /* three sums: three chains, not one */
+    double lx = HUGE_VAL, ly = HUGE_VAL, lz = HUGE_VAL, hx = -HUGE_VAL, hy = -HUGE_VAL, hz = -HUGE_VAL;
+    const gs_vec3 *x = m->x, *v0 = m->v, *ext = m->ext_active ? m->ext : NULL;
+    for (i = 0; i < n; ++i) {
+        gs_vec3 a = gs__madd(g, v0[i], -m->air), v = im[i] > 0.0 ? gs__madd(v0[i], a, h) : v0[i];
+        if (ext) v = gs__madd(v, ext[i], im[i] * h);
+        X[i] = x[i].x + v.x * h; Y[i] = x[i].y + v.y * h; Z[i] = x[i].z + v.z * h;
+        PX[i] = x[i].x; PY[i] = x[i].y; PZ[i] = x[i].z;
+    }
+    gs__xpbd_blocks(m, h);
+    for (k = 0, i = 0; i < n; ++k) { /* box by box (gs__mesh_chunks) */
+        size_t end = i + GS__CHUNK < n ? i + GS__CHUNK : n;
+        double bx = HUGE_VAL, by = HUGE_VAL, bz = HUGE_VAL, tx = -HUGE_VAL, ty = -HUGE_VAL,
+               tz = -HUGE_VAL, vm = 0.0;
+        for (; i < end; ++i) {
+            gs_vec3 p = gs__v3(X[i], Y[i], Z[i]), v;
+            double s2, a;
+            if (ext) p = gs__xpbd_contact(m, (int)i, p, h);
+            v = gs__scale(gs__sub(p, x[i]), ih);
+            s2 = v.x * v.x + v.y * v.y + v.z * v.z;
+            m->xn[i] = p;
+            m->vn[i] = v;
+            w2 = s2 > w2 ? s2 : w2;
+            w2 = s2 == s2 ? w2 : s2; /* a NaN speed stays NaN */
+            sx += p.x; sy += p.y; sz += p.z;
+            a = fabs(v.x) > fabs(v.y) ? fabs(v.x) : fabs(v.y);
+            a = fabs(v.z) > a ? fabs(v.z) : a;
+            vm = a > vm ? a : vm; /* a NaN fails the check above: no box of it is used */
+            bx = p.x < bx ? p.x : bx; by = p.y < by ? p.y : by; bz = p.z < bz ? p.z : bz;
+            tx = p.x > tx ? p.x : tx; ty = p.y > ty ? p.y : ty; tz = p.z > tz ? p.z : tz;
+        }
+        m->clo[k] = gs__v3(bx, by, bz);
+        m->chi[k] = gs__v3(tx, ty, tz);
+        m->cvm[k] = vm;
+        lx = bx < lx ? bx : lx; ly = by < ly ? by : ly; lz = bz < lz ? bz : lz;
+        hx = tx > hx ? tx : hx; hy = ty > hy ? ty : hy; hz = tz > hz ? tz : hz;
+    }
+    m->chunks_next = 1;
+    m->checked = 1;
+    m->check_ok = w2 <= vmax2 && gs__finite(sx + sy + sz) && gs__in_range3(gs__v3(lx, ly, lz)) &&
+                  gs__in_range3(gs__v3(hx, hy, hz));
+    if (m->check_ok) {
+        m->lo = gs__v3(lx - m->radius, ly - m->radius, lz - m->radius);
+        m->hi = gs__v3(hx + m->radius, hy + m->radius, hz + m->radius);
     }
 }
 
@@ -4400,6 +4838,10 @@ GS__PRIVATE void gs__int_xpbd(gs__mesh *m, double h) {
     const double *im = m->inv_mass;
     double ih = 1.0 / h;
     int i;
+    if (m->nxblk > 0) {
+        gs__int_xpbd_blocks(m, h);
+        return;
+    }
     for (i = 0; i < m->n; ++i) {
         gs_vec3 a = gs__madd(g, m->v[i], -m->air);
         m->vn[i] = im[i] > 0.0 ? gs__madd(m->v[i], a, h) : m->v[i];
@@ -4445,6 +4887,17 @@ GS__PRIVATE int gs__mesh_sane(gs__mesh *m) {
 
 GS__PRIVATE void gs__mesh_contacts(gs__mesh *m, double t);
 GS__PRIVATE void gs__mesh_update_bounds(gs__mesh *m);
+GS__PRIVATE void gs__mesh_chunks(gs__mesh *m);
+
+/* After x or v change: the boxes of the contacts' broad phase follow them
+   where a body could ask (gs__rigid_vs_mesh), else they are marked stale
+   and made when asked. */
+GS__PRIVATE void gs__mesh_keep_chunks(gs__mesh *m) {
+    if (m->base.world->nbodies > 0)
+        gs__mesh_chunks(m);
+    else
+        m->chunks_ok = 0;
+}
 
 /* One integrator step of h seconds starting at simulation time t0. */
 GS__PRIVATE gs_result gs__mesh_substep(gs__mesh *m, double t0, double h) {
@@ -4452,6 +4905,7 @@ GS__PRIVATE gs_result gs__mesh_substep(gs__mesh *m, double t0, double h) {
     int i;
     gs__mesh_contacts(m, t0);
     m->checked = 0;
+    m->chunks_next = 0;
     switch (m->solver.integrator) {
     case GS_INTEGRATOR_EXPLICIT_EULER: gs__int_explicit_euler(m, h); break;
     case GS_INTEGRATOR_VERLET: gs__int_verlet(m, h); break;
@@ -4464,6 +4918,7 @@ GS__PRIVATE gs_result gs__mesh_substep(gs__mesh *m, double t0, double h) {
         m->xn[m->pins[i]] = m->x[m->pins[i]];
         m->vn[m->pins[i]] = gs__v3(0.0, 0.0, 0.0);
     }
+    if (m->chunks_next) m->chunks_ok = 0; /* they are the new state's, which may fail */
     if (!(m->checked ? m->check_ok : gs__mesh_sane(m)))
         return gs__fail(m->base.world, GS_ERR_UNSTABLE,
                         "%s agent %d: a step of %g s blew up (non-finite "
@@ -4472,6 +4927,10 @@ GS__PRIVATE gs_result gs__mesh_substep(gs__mesh *m, double t0, double h) {
                         m->solver.max_speed);
     t = m->x; m->x = m->xn; m->xn = t;
     t = m->v; m->v = m->vn; m->vn = t;
+    if (m->chunks_next)
+        m->chunks_ok = 1;
+    else
+        gs__mesh_keep_chunks(m);
     return GS_OK;
 }
 
@@ -4556,6 +5015,7 @@ GS__PRIVATE gs_result gs__mesh_step(gs_agent *a, double dt) {
             t = m->v; m->v = m->v0; m->v0 = t;
             m->lo = lo; /* the broad phase must see the undone state */
             m->hi = hi;
+            gs__mesh_keep_chunks(m);
         }
         return r;
     }
@@ -4855,6 +5315,7 @@ GS__PRIVATE void gs__mesh_finish(gs__mesh *m, const int *pins, int npins) {
     }
     m->npins = k;
     gs__mesh_find_runs(m);
+    if (m->xblk && m->nruns > 0) gs__xpbd_schedule(m);
     if (m->nruns == 0) gs__mesh_batch(m);
     for (i = 0; i < m->n; ++i) {
         m->inv_mass[i] = m->pinned[i] ? 0.0 : 1.0 / m->mass[i];
@@ -5184,7 +5645,7 @@ GS__PRIVATE gs_result gs__cloth_in_range(gs_world *w, gs__mesh *m) {
 GS_API gs_result gs_cloth_create(gs_world *w, const gs_cloth_desc *desc,
                                  gs_agent **out) {
     gs_cloth_desc d;
-    gs__mesh *m;
+    gs__mesh *m = NULL; /* set by gs__mesh_new; gcc cannot tell when it inlines */
     int pins[4], npins = 0, corner;
     gs_result r = gs__create_begin(w, desc, out, "gs_cloth_create");
     if (r != GS_OK) return r;
@@ -6858,12 +7319,15 @@ GS__PRIVATE gs_vec3 gs__point_velocity(const gs__rigid *r, gs_vec3 p) {
    a fixed normal for coincident centres pushes them apart. */
 GS__PRIVATE int gs__particle_contact(gs_vec3 x, double rp, const gs__rigid *r,
                                      gs_vec3 centre, gs_contact *c) {
-    gs__body b = gs__body_of(r), pb;
+    gs__body b, pb;
     gs__shape ps;
-    b.p = centre;
+    /* the bounding test first: it rejects nearly every particle of a
+       cloth, and the body's description is not free to make */
     if (gs__dot(gs__sub(x, centre), gs__sub(x, centre)) >=
         (rp + r->shape.bound) * (rp + r->shape.bound))
         return 0;
+    b = gs__body_of(r);
+    b.p = centre;
     if (r->shape.type == GS_SHAPE_SPHERE)
         return gs__sphere_sphere(x, rp, centre, r->shape.radius, gs__v3(0.0, 1.0, 0.0), c);
     if (r->shape.type == GS_SHAPE_BOX) return gs__sphere_box(x, rp, &b, c);
@@ -7131,18 +7595,25 @@ GS__PRIVATE int gs__mesh_info(const gs_agent *a, const gs_vec3 **x,
 /* The reaction of a mesh's particles on a rigid body, each particle taken
    where its velocity puts it at the body's time (see gs__mesh_vs_rigid: both
    sides of a contact must see the same overlap, or energy appears). */
+GS__PRIVATE int gs__chunk_skip(gs__mesh *m, int k, gs_vec3 c, double far, double lag);
+GS__PRIVATE double gs__chunk_reach(double rp, double reach);
+
 GS__PRIVATE void gs__rigid_vs_mesh(gs__rigid *r, gs_agent *m, double t) {
     const gs_vec3 *x = NULL, *v = NULL;
     const gs_material *mat = NULL;
     gs_vec3 lo, hi;
     double rp = 0.0, reach, slope, lag = fmax(-0.1, fmin(0.1, t - gs__agent_time(m)));
-    int n = gs__mesh_info(m, &x, &v, &rp, &mat), i;
+    int n = gs__mesh_info(m, &x, &v, &rp, &mat), i, k, end;
     gs__mesh_bounds(m, &lo, &hi);
     reach = r->shape.bound + rp + fabs(lag) * r->solver.max_speed;
     if (r->x.x + reach < lo.x || r->x.x - reach > hi.x || r->x.y + reach < lo.y ||
         r->x.y - reach > hi.y || r->x.z + reach < lo.z || r->x.z - reach > hi.z)
         return;
-    for (i = 0; i < n; ++i) {
+    for (k = 0, i = 0; i < n; ++k, i = end) {
+        end = i + GS__CHUNK < n ? i + GS__CHUNK : n;
+        if (gs__chunk_skip(gs__as_mesh(m), k, r->x, gs__chunk_reach(rp, r->shape.bound), lag))
+            continue;
+        for (; i < end; ++i) {
         gs_contact c;
         gs_vec3 f;
         if (!gs__particle_contact(gs__madd(x[i], v[i], lag), rp, r, r->x, &c)) continue;
@@ -7157,6 +7628,7 @@ GS__PRIVATE void gs__rigid_vs_mesh(gs__rigid *r, gs_agent *m, double t) {
         r->force = gs__sub(r->force, f);
         r->torque = gs__sub(r->torque, gs__cross(gs__sub(c.point, r->x), f));
         r->torque = gs__add(r->torque, gs__rolling_torque(r, c.normal, gs__dot(f, c.normal), r->w));
+        }
     }
 }
 
@@ -7226,6 +7698,7 @@ GS__PRIVATE void gs__mesh_update_bounds(gs__mesh *m) {
     r = gs__v3(m->radius, m->radius, m->radius);
     m->lo = gs__sub(lo, r);
     m->hi = gs__add(hi, r);
+    gs__mesh_chunks(m);
 }
 
 GS__PRIVATE void gs__mesh_bounds(const gs_agent *a, gs_vec3 *lo, gs_vec3 *hi) {
@@ -7283,16 +7756,79 @@ GS__PRIVATE void gs__mesh_touch(gs__mesh *m, int i, const gs_contact *c,
    most 0.1 s ahead or behind): held still, a body that steps less often
    than the mesh would jump into particles that have already relaxed against
    it, and each jump would store penalty energy the particles then release. */
+/* The boxes of m's particles at x, GS__CHUNK at a time, and the fastest
+   velocity component in each (a NaN makes the box's bound NaN: never
+   apart, see gs__chunk_apart). */
+GS__PRIVATE void gs__mesh_chunks(gs__mesh *m) {
+    int i, k;
+    for (k = 0, i = 0; i < m->n; ++k) {
+        gs_vec3 lo = m->x[i], hi = m->x[i];
+        double vm = 0.0;
+        int end = i + GS__CHUNK < m->n ? i + GS__CHUNK : m->n;
+        for (; i < end; ++i) {
+            gs_vec3 p = m->x[i], v = m->v[i];
+            double a = fabs(v.x) > fabs(v.y) ? fabs(v.x) : fabs(v.y);
+            a = fabs(v.z) > a ? fabs(v.z) : a;
+            vm = a > vm || a != a ? a : vm;
+            lo.x = p.x < lo.x ? p.x : lo.x; lo.y = p.y < lo.y ? p.y : lo.y;
+            lo.z = p.z < lo.z ? p.z : lo.z; hi.x = p.x > hi.x ? p.x : hi.x;
+            hi.y = p.y > hi.y ? p.y : hi.y; hi.z = p.z > hi.z ? p.z : hi.z;
+        }
+        m->clo[k] = lo;
+        m->chi[k] = hi;
+        m->cvm[k] = vm;
+    }
+    m->chunks_ok = 1;
+}
+
+/* How far from a body's centre a particle may be and still touch it:
+   gs__particle_contact's bound, rp + reach, and a margin over the
+   rounding of its squared distance, so that a box skipped by
+   gs__chunk_apart holds no particle that test would have let through
+   (the culled and the full loop give the same bits). */
+GS__PRIVATE double gs__chunk_reach(double rp, double reach) {
+    return (rp + reach) * (1.0 + 1e-9) + 1e-300;
+}
+
+/* Every point of box [lo, hi] is farther than `far` from c along an axis
+   (a NaN box is never apart: its particles go to the full test). */
+GS__PRIVATE int gs__chunk_apart(gs_vec3 lo, gs_vec3 hi, gs_vec3 c, double far) {
+    return lo.x - c.x > far || c.x - hi.x > far || lo.y - c.y > far || c.y - hi.y > far ||
+           lo.z - c.z > far || c.z - hi.z > far;
+}
+
+/* Box k of m cannot touch a body at c when its particles are taken `lag`
+   seconds along their velocities (gs__rigid_vs_mesh): the box grows by
+   the fastest component times |lag|, and by 1e-9 of its coordinates for
+   the rounding of x + v lag (1e-16 of them at most). */
+GS__PRIVATE int gs__chunk_skip(gs__mesh *m, int k, gs_vec3 c, double far, double lag) {
+    gs_vec3 lo, hi;
+    double mag;
+    if (!m->chunks_ok) gs__mesh_chunks(m);
+    lo = m->clo[k];
+    hi = m->chi[k];
+    mag = fmax(fmax(fabs(lo.x), fabs(hi.x)), fmax(fmax(fabs(lo.y), fabs(hi.y)),
+                                                fmax(fabs(lo.z), fabs(hi.z))));
+    return gs__chunk_apart(lo, hi, c, far + m->cvm[k] * fabs(lag) * (1.0 + 1e-9) +
+                                          1e-9 * (1.0 + mag + fabs(c.x) + fabs(c.y) + fabs(c.z)));
+}
+
 GS__PRIVATE void gs__mesh_vs_rigid(gs__mesh *m, gs__rigid *r, double t) {
     double reach = r->shape.bound;
     double lag = fmax(-0.1, fmin(0.1, t - gs__agent_time(&r->base)));
     gs_vec3 centre = r->probe ? r->x : gs__madd(r->x, r->v, lag);
     int i;
+    double far = gs__chunk_reach(m->radius, reach);
+    int k, end;
     if (centre.x + reach < m->lo.x || centre.x - reach > m->hi.x ||
         centre.y + reach < m->lo.y || centre.y - reach > m->hi.y ||
         centre.z + reach < m->lo.z || centre.z - reach > m->hi.z)
         return;
-    for (i = 0; i < m->n; ++i) {
+    if (!m->chunks_ok) gs__mesh_chunks(m);
+    for (k = 0, i = 0; i < m->n; ++k, i = end) {
+        end = i + GS__CHUNK < m->n ? i + GS__CHUNK : m->n;
+        if (gs__chunk_apart(m->clo[k], m->chi[k], centre, far)) continue;
+        for (; i < end; ++i) {
         gs_contact c;
         if (m->pinned[i] || !gs__particle_contact(m->x[i], m->radius, r, centre, &c)) continue;
         /* particles that move wake a sleeper (it is fixed to them until then) */
@@ -7301,6 +7837,7 @@ GS__PRIVATE void gs__mesh_vs_rigid(gs__mesh *m, gs__rigid *r, double t) {
         if (r->probe && r->base.rest < m->base.world->sleep_time) m->probe_touch = 1;
         gs__mesh_touch(m, i, &c, gs__point_velocity(r, c.point), &r->mat,
                        r->probe || r->base.sleeping ? 0.0 : r->reach2);
+        }
     }
 }
 
@@ -7548,6 +8085,20 @@ typedef struct gs__snap {
     double *data;       /* the state after its time; valid where got */
 } gs__snap;
 
+/* One quantized state of a delta ghost (gs_ghost_desc.delta), sent or
+   received: the integers the wire codes differences of (see >>wire), and
+   per chunk whether it is held (received, or sent fit to be a baseline)
+   and its segments, whose steps and bits a delta against it reuses. */
+typedef struct gs__base {
+    int used;
+    uint32_t seq;           /* the snapshot's sequence */
+    int chunks;             /* chunks held */
+    unsigned char *got;     /* per chunk */
+    unsigned char *nseg;    /* per chunk: its segment count */
+    gs_wire_segment *seg;   /* per chunk, GS_WIRE_MAX_SEGMENTS */
+    int64_t *k;             /* the state's integers (after its time) */
+} gs__base;
+
 /* What a ghost keeps of one peer slot: its queue, what the blend learnt
    of its clock, and whether it said the object rests. */
 struct gs__ghost_peer {
@@ -7563,6 +8114,13 @@ struct gs__ghost_peer {
                              snapshot of the peer, -HUGE_VAL */
     double heard_x;       /* s; its x_comp then (the freshest) */
     int resting;          /* its latest word on the object was a heartbeat */
+    /* delta coding (gs_ghost_desc.delta): */
+    gs__base *ring;       /* the last GS_DELTA_RING snapshots received */
+    uint32_t acked;       /* the newest snapshot of ours it holds whole, */
+    int acked_known;      /* if it said one (0: send whole) */
+    uint32_t ack_seq;     /* the newest of its snapshots we hold whole, */
+    int ack_known;        /* if any, */
+    int ack_due, nack_due;/* to tell it: held, or a delta refused */
 };
 
 struct gs__ghost {
@@ -7587,6 +8145,7 @@ struct gs__ghost {
     double moved;         /* s; |time| the blends moved the agent by in the
                              world's epoch moved_epoch (one advance) */
     uint64_t moved_epoch;
+    double pulled;        /* s; how far back its last blend took the time */
     gs_ghost_stats stats;
     /* send on change */
     double *sent;         /* the values of the last snapshot sent whole */
@@ -7596,6 +8155,8 @@ struct gs__ghost {
     double next_heartbeat;/* s, wall time */
     double sent_at;       /* s, wall time it was last sent (priority) */
     size_t wire_bytes;    /* bytes its last snapshot took on the wire */
+    gs__base *ring;       /* delta: the last GS_DELTA_RING snapshots sent */
+    int64_t *kbuf;        /* delta: one chunk's integers or differences */
     struct gs__ghost_peer gp[GS__MAX_PEERS];
 };
 typedef struct gs__ghost gs__ghost;
@@ -7774,20 +8335,56 @@ GS__PRIVATE gs__snap *gs__snaps_new(gs_world *w, const gs__ghost *g) {
     return s;
 }
 
+/* GS_DELTA_RING quantized states of a delta ghost, in one block; NULL if
+   out of memory or too big for size_t. */
+GS__PRIVATE gs__base *gs__ring_new(gs_world *w, const gs__ghost *g) {
+    size_t R = GS_DELTA_RING, vars = g->n - 1, nc = (size_t)g->nchunks, per, bytes, i;
+    gs__base *b;
+    char *p;
+    if (!gs__size(nc, GS_WIRE_MAX_SEGMENTS * sizeof(gs_wire_segment) + 2, 0, &per) ||
+        !gs__size(vars, sizeof(int64_t), per, &per) ||
+        !gs__size(R, sizeof(gs__base) + per, 0, &bytes) || per > SIZE_MAX - sizeof(gs__base))
+        return NULL;
+    b = (gs__base *)gs__alloc(w, bytes);
+    if (!b) return NULL;
+    memset(b, 0, bytes);
+    p = (char *)(b + R);
+    for (i = 0; i < R; ++i, p += vars * sizeof(int64_t)) b[i].k = (int64_t *)p;
+    for (i = 0; i < R; ++i, p += nc * GS_WIRE_MAX_SEGMENTS * sizeof(gs_wire_segment))
+        b[i].seg = (gs_wire_segment *)p;
+    for (i = 0; i < R; ++i, p += nc) b[i].got = (unsigned char *)p;
+    for (i = 0; i < R; ++i, p += nc) b[i].nseg = (unsigned char *)p;
+    return b;
+}
+
 GS__PRIVATE gs__ghost *gs__ghost_of(const gs_agent *a);
 GS__PRIVATE gs_result gs__ghost_add_peer(gs__ghost *g, int slot) {
     gs_world *w = g->agent->world;
-    if (g->gp[slot].q) return GS_OK;
-    g->gp[slot].resting = 0;
+    struct gs__ghost_peer *gp = &g->gp[slot];
+    if (gp->q) return GS_OK;
+    gp->resting = 0;
+    gp->acked_known = gp->ack_known = gp->ack_due = gp->nack_due = 0;
     g->sent_any = 0; /* the new peer has none of our states */
-    g->gp[slot].q = gs__snaps_new(w, g);
-    return g->gp[slot].q ? GS_OK : gs__fail(w, GS_ERR_NO_MEMORY, "ghost: out of memory for a peer queue");
+    gp->q = gs__snaps_new(w, g);
+    if (gp->q && g->d.delta && !gp->ring) {
+        gp->ring = gs__ring_new(w, g);
+        if (!gp->ring) {
+            gs__free(w, gp->q);
+            gp->q = NULL;
+        }
+    }
+    return gp->q ? GS_OK : gs__fail(w, GS_ERR_NO_MEMORY, "ghost: out of memory for a peer queue");
 }
 
 GS__PRIVATE void gs__ghost_free(gs__ghost *g) {
     gs_world *w = g->agent->world;
     int i;
-    for (i = 0; i < GS__MAX_PEERS; ++i) gs__free(w, g->gp[i].q);
+    for (i = 0; i < GS__MAX_PEERS; ++i) {
+        gs__free(w, g->gp[i].q);
+        gs__free(w, g->gp[i].ring);
+    }
+    gs__free(w, g->ring);
+    gs__free(w, g->kbuf);
     gs__free(w, g);
 }
 
@@ -7851,6 +8448,10 @@ GS__PRIVATE gs_result gs__ghost_check(gs_world *w, const gs_ghost_desc *d) {
     gs__check_nonneg(&c, "rest_threshold", d->rest_threshold);
     gs__check_positive(&c, "heartbeat_rate", d->heartbeat_rate);
     gs__check_positive(&c, "importance", d->importance);
+    gs__check_int(&c, "delta", d->delta, 0, 1);
+    if (d->delta && d->encoding != GS_ENCODING_QUANT)
+        gs__check_fail(&c, GS_ERR_INVALID_ARG, "delta is 1 but the encoding is not "
+                       "GS_ENCODING_QUANT (deltas are of quantized integers)");
     return c.r;
 }
 
@@ -7936,6 +8537,13 @@ GS_API gs_result gs_ghost_attach(gs_agent *a, const gs_ghost_desc *desc) {
         g->gp[i].newest = g->gp[i].lead_at = g->gp[i].heard_at = -HUGE_VAL;
     a->ghost = g;
     r = gs__ghost_queues(g);
+    if (r == GS_OK && d.delta) {
+        g->ring = gs__ring_new(w, g);
+        g->kbuf = (int64_t *)gs__alloc(w, (size_t)g->per_chunk * sizeof(int64_t));
+        if (!g->ring || !g->kbuf)
+            r = gs__fail(w, GS_ERR_NO_MEMORY, "gs_ghost_attach: out of memory for the "
+                         "delta baselines");
+    }
     if (r != GS_OK) {
         a->ghost = NULL;
         gs__ghost_free(g);
@@ -8129,13 +8737,24 @@ GS__PRIVATE void gs__ghost_hear(gs__ghost *g, double t_i) {
 }
 
 /* The largest x_comp of a blend (the local state's is 0), and the lead:
-   the lowest host id within the time band of the most advanced host among
-   this one and the peers heard in the last GS__LIVE_TIME, whether or not
-   a snapshot of theirs is in this blend. Elected from this blend's
+   the lowest host id in step with the most advanced host among this one
+   and the peers heard in the last GS__LIVE_TIME, whether or not a
+   snapshot of theirs is in this blend. Elected from this blend's
    snapshots alone, the lead would change with whichever arrived first:
    with the link from 1 to 2 cut and 2 going its own way, a host that
    hears both would copy host 1's state at one blend and host 2's at the
-   next (a sphere metres apart from one blend to the next). */
+   next (a sphere metres apart from one blend to the next).
+   In step means within the time band, but a peer's x_comp is read within
+   twice it. A peer's time is only ever read late: a snapshot waits up to
+   a send period to be sent, which its age does not count, and it is read
+   by whichever agent of the world is stepping, up to the tolerance away;
+   the band is that error. Read against the same band, two hosts in step
+   near its edge would disagree: the one ahead would see the other past
+   the band and lead, the one behind would see a tie that it wins and lead
+   too, and neither would copy the other again (test_converge: spheres
+   metres apart after a clock step). With the error allowed for, the host
+   ahead sees the tie as well; the host behind still takes a peer more
+   than a band ahead for the lead, and follows its time. */
 #define GS__LIVE_TIME 0.5 /* s of local simulation time */
 GS__PRIVATE double gs__ghost_lead(gs__ghost *g, double t_i, uint32_t *lead) {
     const gs_world *wd = g->agent->world;
@@ -8150,7 +8769,7 @@ GS__PRIVATE double gs__ghost_lead(gs__ghost *g, double t_i, uint32_t *lead) {
     *lead = x_live <= band ? wd->host_id : 0;
     for (p = 0; p < GS__MAX_PEERS; ++p) {
         uint32_t h = wd->net->peers[p].host;
-        if (t_i - g->gp[p].heard_at <= GS__LIVE_TIME && g->gp[p].heard_x >= x_live - band &&
+        if (t_i - g->gp[p].heard_at <= GS__LIVE_TIME && g->gp[p].heard_x >= x_live - 2.0 * band &&
             (*lead == 0 || h < *lead))
             *lead = h;
     }
@@ -8514,6 +9133,9 @@ GS__PRIVATE int gs__blend_apply(gs__ghost *g, double t_i) {
     if (gs__agent_put_state(g->agent, g->scratch) != GS_OK) return 0;
     gs__sync_log_blend(g->agent, g->scratch);
     g->moved += fabs(g->scratch[0] - t_i);
+    /* the formula as written pulls back at every blend, and the clock
+       stays: the time pulled back is simulated again (the latency trap) */
+    g->pulled = gs__time_literal(g) ? 0.0 : t_i - g->scratch[0];
     for (e = 0; e < GS__MAX_PEERS; ++e) g->gp[e].lead -= g->scratch[0] - t_i;
     t = g->offset; /* the next offsets are now the offsets */
     g->offset = g->offset_next;
@@ -8602,6 +9224,8 @@ GS__PRIVATE void gs__ghost_after_step(gs_agent *a) {
 GS__PRIVATE void gs__world_blend(gs_world *w) {
     uint32_t seen = 0;
     int i, pending;
+    int back = 0;
+    double pull = HUGE_VAL;
     if (!w->net) return;
     for (i = 0; i < w->agent_count; ++i) {
         gs__ghost *g = gs__ghost_of(w->agents[i]);
@@ -8609,8 +9233,24 @@ GS__PRIVATE void gs__world_blend(gs_world *w) {
         gs__lock(w->net);
         pending = gs__ghost_pending(g);
         gs__unlock(w->net);
-        if (pending) seen |= gs__ghost_blend(g, w->net);
+        if (!pending) continue;
+        g->pulled = 0.0;
+        seen |= gs__ghost_blend(g, w->net);
+        if (g->pulled > 0.0) {
+            back++;
+            pull = fmin(pull, g->pulled);
+        }
     }
+    /* The world's clock follows its agents back too: when the blends took
+       most of them back (a host in step that copies its lead, ahead of it
+       by more than the time band), the clock goes back with them, the
+       least of their moves. Otherwise they would step on to the clock
+       again from the states they took, and the next blend take them back
+       again (or not, as each object's snapshot says), all the time:
+       objects a few tens of ms apart in time push each other (a sphere
+       resting on the cloth is kicked off it). */
+    if (2 * back > w->agent_count && pull < HUGE_VAL)
+        w->target = w->target - pull > 0.0 ? w->target - pull : 0.0;
     if (!seen) return;
     gs__lock(w->net);
     for (i = 0; i < GS__MAX_PEERS; ++i)
@@ -9203,8 +9843,8 @@ GS__PRIVATE void gs__sync_heard(gs_net *net, int p, const gs_wire_view *v, doubl
     int i, n = 0;
     if (!pe->clock_known) return;
     for (i = 0; i < v->chunk_count; ++i)
-        if (v->chunks[i].index == 0) {
-            sum += v->chunks[i].time - send;
+        if (v->chunks[i].index == 0 && !(v->chunks[i].flags & GS_WIRE_CHUNK_ACK)) {
+            sum += v->chunks[i].time - send; /* (an acknowledgement has no time) */
             n++;
         }
     if (n == 0 || !gs__finite(sum)) return;
@@ -9940,6 +10580,216 @@ GS__PRIVATE double gs__quant_value(const gs_wire_chunk *c, int i) {
     }
     return 0.0;
 }
+/* ---- GS_WIRE_CHUNK_DELTA and GS_WIRE_CHUNK_ACK ---- */
+
+/* An unsigned LEB128 varint at *p of at most max bytes before end; 0 if
+   it is cut short or longer. */
+GS__PRIVATE int gs__varint_get(const unsigned char **p, const unsigned char *end, int max,
+                               uint64_t *out) {
+    uint64_t z = 0;
+    int i;
+    for (i = 0; i < max && *p < end; ++i) {
+        unsigned b = *(*p)++;
+        z |= (uint64_t)(b & 0x7f) << (7 * i);
+        if (!(b & 0x80)) { *out = z; return 1; }
+    }
+    return 0;
+}
+GS__PRIVATE size_t gs__varint_put(unsigned char *p, uint64_t z) {
+    size_t n = 0;
+    for (; z >= 0x80; z >>= 7) p[n++] = (unsigned char)((z & 0x7f) | 0x80);
+    p[n++] = (unsigned char)z;
+    return n;
+}
+/* zigzag of a u32 difference read as signed (wraps both ways) */
+GS__PRIVATE uint64_t gs__zigzag32(uint32_t d) { return gs__zigzag((int64_t)(int32_t)d); }
+
+/* Reads a delta chunk's differences in order. */
+typedef struct gs__dread {
+    gs__bitr map, val;
+    int coding, width;
+} gs__dread;
+GS__PRIVATE void gs__dread_init(const gs_wire_chunk *c, gs__dread *d) {
+    const unsigned char *q = c->payload, *end = q + c->payload_bytes;
+    uint64_t dist = 0;
+    size_t bm = ((size_t)c->elements + 7) / 8;
+    gs__varint_get(&q, end, 5, &dist);
+    q++; /* width and coding: in c already */
+    d->coding = c->delta_coding;
+    d->width = c->delta_width;
+    d->map.p = q; d->map.end = q + bm; d->map.acc = 0; d->map.n = 0;
+    if (d->coding == 0) bm = 0;
+    d->val.p = q + bm; d->val.end = end; d->val.acc = 0; d->val.n = 0;
+}
+GS__PRIVATE int64_t gs__dread_next(gs__dread *d) {
+    if (d->coding == 0) return gs__unzigzag(gs__bitr_get(&d->val, d->width));
+    if (!gs__bitr_get(&d->map, 1)) return 0;
+    return gs__unzigzag((uint64_t)gs__bitr_get(&d->val, d->width) + 1u);
+}
+
+/* Checks a delta payload of len bytes and fills c's baseline, coding and
+   width. */
+GS__PRIVATE int gs__delta_parse(gs_wire_chunk *c, const unsigned char *p, size_t len) {
+    const unsigned char *q = p, *end = p + len;
+    uint64_t dist = 0;
+    size_t need, bm, i;
+    int nz = 0;
+    if (c->encoding != GS_ENCODING_QUANT || c->elements == 0 ||
+        c->elements > GS_WIRE_QUANT_CHUNK)
+        return 0;
+    if (!gs__varint_get(&q, end, 5, &dist) || dist < 1 || dist > 0x80000000u || q >= end)
+        return 0;
+    c->delta_width = *q & 0x3f;
+    c->delta_coding = *q >> 7;
+    if ((*q & 0x40) || c->delta_width > 32) return 0;
+    ++q;
+    c->baseline = c->sequence - (uint32_t)dist;
+    if (c->delta_coding == 0) {
+        need = ((size_t)c->elements * (size_t)c->delta_width + 7) / 8;
+    } else {
+        bm = ((size_t)c->elements + 7) / 8;
+        if (bm > (size_t)(end - q)) return 0;
+        for (i = 0; i < bm; ++i) {
+            unsigned b = q[i];
+            for (; b; b &= b - 1) ++nz;
+        }
+        /* the padding bits are 0: one datagram, one meaning */
+        if (c->elements % 8 && q[bm - 1] >> (c->elements % 8)) return 0;
+        need = bm + ((size_t)nz * (size_t)c->delta_width + 7) / 8;
+    }
+    return need == (size_t)(end - q);
+}
+
+/* Checks an acknowledgement payload: element count entries of two
+   varints each, within their ranges, filling exactly len bytes. */
+GS__PRIVATE int gs__ack_parse(const gs_wire_chunk *c, const unsigned char *p, size_t len) {
+    const unsigned char *q = p, *end = p + len;
+    int i;
+    if (c->encoding != GS_ENCODING_QUANT || c->elements < 1 || c->elements > GS_WIRE_MAX_ACKS ||
+        c->index != 0 || c->count != 1 || c->first != 0 || c->sequence != 0 || c->time != 0.0)
+        return 0;
+    for (i = 0; i < c->elements; ++i) {
+        uint64_t a, b;
+        if (!gs__varint_get(&q, end, 5, &a) || !gs__varint_get(&q, end, 5, &b)) return 0;
+        if (a >> 33 || b >> 32) return 0;
+    }
+    return q == end;
+}
+
+GS_API int gs_wire_acks(const gs_wire_chunk *c, gs_wire_ack *out, int max) {
+    const unsigned char *q, *end;
+    uint32_t obj = 0, seq = 0;
+    int i;
+    if (!c || !out || !(c->flags & GS_WIRE_CHUNK_ACK) || !c->payload) return 0;
+    q = c->payload;
+    end = q + c->payload_bytes;
+    for (i = 0; i < c->elements && i < max; ++i) {
+        uint64_t a = 0, b = 0;
+        gs__varint_get(&q, end, 5, &a);
+        gs__varint_get(&q, end, 5, &b);
+        obj += (uint32_t)gs__unzigzag(a >> 1);
+        seq += (uint32_t)gs__unzigzag(b);
+        out[i].object_id = obj;
+        out[i].sequence = seq;
+        out[i].refused = (int)(a & 1);
+    }
+    return i;
+}
+
+/* One value of w bits from a packed run at *p (before end), through the
+   accumulator: 32 bits at a time while they are there. */
+#define GS__UNPACK(z, p, end, acc, n, w, mask)                                  \
+    do {                                                                       \
+        if ((n) < (w)) {                                                       \
+            if ((end) - (p) >= 4) {                                            \
+                (acc) |= (uint64_t)gs__get32(p) << (n);                        \
+                (p) += 4;                                                      \
+                (n) += 32;                                                     \
+            } else                                                             \
+                while ((n) < (w)) { (acc) |= (uint64_t)*(p)++ << (n); (n) += 8; } \
+        }                                                                      \
+        (z) = (acc) & (mask);                                                  \
+        (acc) >>= (w);                                                         \
+        (n) -= (w);                                                            \
+    } while (0)
+
+/* In one pass, the accumulator in locals (as gs__quant_get): this is the
+   receiving side's inner loop. */
+GS_API void gs_wire_deltas(const gs_wire_chunk *c, int64_t *out) {
+    const unsigned char *q, *end, *map = NULL;
+    uint64_t dist = 0, acc = 0, mask, z;
+    int i, n = 0, w;
+    if (!c || !out || !(c->flags & GS_WIRE_CHUNK_DELTA) || !c->payload) return;
+    q = c->payload;
+    end = q + c->payload_bytes;
+    gs__varint_get(&q, end, 5, &dist);
+    q++;
+    w = c->delta_width;
+    mask = ((uint64_t)1 << w) - 1;
+    if (c->delta_coding) {
+        map = q;
+        q += ((size_t)c->elements + 7) / 8;
+    }
+    for (i = 0; i < c->elements; ++i) {
+        if (map && !(map[i >> 3] >> (i & 7) & 1)) { out[i] = 0; continue; }
+        GS__UNPACK(z, q, end, acc, n, w, mask);
+        out[i] = gs__unzigzag(z + (map != NULL));
+    }
+}
+
+/* Writes a delta payload at p (room bytes): its size, or 0 if it does not
+   fit. The differences are within +-2^31 (checked by the caller). */
+GS__PRIVATE size_t gs__delta_put(unsigned char *p, size_t room, const gs_wire_chunk *c,
+                                 const int64_t *d) {
+    unsigned char head[6];
+    size_t hn = gs__varint_put(head, (uint64_t)(uint32_t)(c->sequence - c->baseline));
+    size_t need0, need1, need;
+    uint64_t m0 = 0, m1 = 0;
+    int i, nz = 0, w0 = 0, w1 = 0, coding, wd;
+    for (i = 0; i < c->elements; ++i) {
+        uint64_t z = gs__zigzag(d[i]);
+        m0 |= z;
+        if (z) { nz++; m1 |= z - 1; }
+    }
+    while (w0 < 32 && m0 >> w0) ++w0;
+    while (w1 < 32 && m1 >> w1) ++w1;
+    need0 = ((size_t)c->elements * (size_t)w0 + 7) / 8;
+    need1 = ((size_t)c->elements + 7) / 8 + ((size_t)nz * (size_t)w1 + 7) / 8;
+    coding = need1 < need0;
+    wd = coding ? w1 : w0;
+    need = hn + 1 + (coding ? need1 : need0);
+    if (need > room) return 0;
+    memcpy(p, head, hn);
+    p[hn] = (unsigned char)(wd | coding << 7);
+    /* the writer in locals (as gs__quant_put_scalar); need counts every
+       bit, so the 32-bit stores stay inside it */
+    {
+        unsigned char *o = p + hn + 1;
+        uint64_t acc = 0;
+        int n = 0;
+        if (coding) {
+            size_t bm = ((size_t)c->elements + 7) / 8;
+            memset(o, 0, bm);
+            for (i = 0; i < c->elements; ++i)
+                if (d[i]) o[i >> 3] = (unsigned char)(o[i >> 3] | 1u << (i & 7));
+            o += bm;
+        }
+        for (i = 0; i < c->elements; ++i) {
+            if (coding && !d[i]) continue;
+            acc |= (gs__zigzag(d[i]) - (uint64_t)coding) << n;
+            n += wd;
+            if (n >= 32) {
+                gs__put32(o, (uint32_t)acc);
+                o += 4;
+                acc >>= 32;
+                n -= 32;
+            }
+        }
+        for (; n > 0; n -= 8, acc >>= 8) *o++ = (unsigned char)acc;
+    }
+    return need;
+}
+
 
 /* ---- the header's fields, by name: nothing else reads or patches them ---- */
 GS__PRIVATE unsigned gs__hdr_version(const unsigned char *b) { return b[4]; }
@@ -10014,44 +10864,26 @@ GS__PRIVATE gs_result gs__wire_put_quant(unsigned char *p, size_t room, const gs
     return *len ? GS_OK : GS_ERR_CAPACITY;
 }
 
-GS_API gs_result gs_wire_add(unsigned char *buf, size_t cap, size_t *size,
-                             const gs_wire_chunk *c, const double *values) {
-    size_t vs, need, room;
-    unsigned char *p;
-    int rest;
-    if (!buf || !size || !c || (c->elements && !values)) return GS_ERR_INVALID_ARG;
-    if (c->encoding != GS_ENCODING_F64 && c->encoding != GS_ENCODING_F32 &&
-        c->encoding != GS_ENCODING_QUANT)
-        return GS_ERR_INVALID_ARG;
-    rest = (c->flags & GS_WIRE_CHUNK_REST) != 0;
-    if ((c->flags & ~(unsigned)GS_WIRE_CHUNK_REST) || (rest && (c->elements || c->index)))
-        return GS_ERR_INVALID_ARG;
-    /* *size as gs_wire_begin and gs_wire_add leave it, or nothing is
-       written: a wild one would wrap the room check below */
+/* The room left for a chunk's payload after *size bytes (the chunk header
+   and the checksum kept free), or an error: a *size that gs_wire_begin and
+   gs_wire_add cannot have left (a wild one would wrap the room check), a
+   datagram with GS_WIRE_MAX_CHUNKS chunks already or no room. */
+GS__PRIVATE gs_result gs__wire_room(const unsigned char *buf, size_t cap, const size_t *size,
+                                    size_t *room) {
     if (*size < GS_WIRE_HEADER || *size > cap || *size > GS_WIRE_MAX_DATAGRAM)
         return GS_ERR_INVALID_ARG;
     if (gs__hdr_chunks(buf) >= GS_WIRE_MAX_CHUNKS) return GS_ERR_CAPACITY;
-    room = cap < GS_WIRE_MAX_DATAGRAM ? cap : GS_WIRE_MAX_DATAGRAM;
-    if (GS_WIRE_CHUNK_HEADER + 4 > room - *size) return GS_ERR_CAPACITY;
-    room -= *size + GS_WIRE_CHUNK_HEADER + 4; /* the checksum's room stays free */
-    if (c->encoding != GS_ENCODING_QUANT && !rest &&
-        gs__value_size(c->encoding) * c->elements > room)
-        return GS_ERR_CAPACITY;
-    if (!gs__finite(c->time)) return GS_ERR_NOT_FINITE;
-    if (c->time < 0.0 || c->time > GS_WIRE_MAX_TIME) return GS_ERR_INVALID_ARG;
-    /* the values first, checked as they are written: the bytes past *size
-       are the caller's scratch until the chunk is counted below */
-    if (c->encoding == GS_ENCODING_QUANT) {
-        gs_result r = gs__wire_put_quant(buf + *size + GS_WIRE_CHUNK_HEADER, room, c, values, &vs);
-        if (r != GS_OK) return r;
-    } else {
-        vs = rest ? 0 : gs__value_size(c->encoding) * c->elements;
-        if (!gs__wire_put_values(buf + *size + GS_WIRE_CHUNK_HEADER, c->encoding, values,
-                                 rest ? 0 : c->elements))
-            return GS_ERR_NOT_FINITE;
-    }
-    need = GS_WIRE_CHUNK_HEADER + vs;
-    p = buf + *size;
+    *room = cap < GS_WIRE_MAX_DATAGRAM ? cap : GS_WIRE_MAX_DATAGRAM;
+    if (GS_WIRE_CHUNK_HEADER + 4 > *room - *size) return GS_ERR_CAPACITY;
+    *room -= *size + GS_WIRE_CHUNK_HEADER + 4;
+    return GS_OK;
+}
+
+/* The chunk header of c (payload vs bytes, already written after it) at
+   *size, and the chunk counted. */
+GS__PRIVATE void gs__wire_put_head(unsigned char *buf, size_t *size, const gs_wire_chunk *c,
+                                   size_t vs) {
+    unsigned char *p = buf + *size;
     gs__put32(p, c->object_id);
     gs__put32(p + 4, c->sequence);
     gs__putf64(p + 8, c->time);
@@ -10063,8 +10895,95 @@ GS_API gs_result gs_wire_add(unsigned char *buf, size_t cap, size_t *size,
     p[27] = (unsigned char)c->flags;
     gs__put16(p + 28, (uint16_t)vs);
     gs__put16(p + 30, 0);
-    *size += need;
+    *size += GS_WIRE_CHUNK_HEADER + vs;
     gs__hdr_set_chunks(buf, gs__hdr_chunks(buf) + 1);
+}
+
+GS_API gs_result gs_wire_add(unsigned char *buf, size_t cap, size_t *size,
+                             const gs_wire_chunk *c, const double *values) {
+    size_t vs, room;
+    gs_result r;
+    int rest;
+    if (!buf || !size || !c || (c->elements && !values)) return GS_ERR_INVALID_ARG;
+    if (c->encoding != GS_ENCODING_F64 && c->encoding != GS_ENCODING_F32 &&
+        c->encoding != GS_ENCODING_QUANT)
+        return GS_ERR_INVALID_ARG;
+    rest = (c->flags & GS_WIRE_CHUNK_REST) != 0;
+    if ((c->flags & ~(unsigned)GS_WIRE_CHUNK_REST) || (rest && (c->elements || c->index)))
+        return GS_ERR_INVALID_ARG;
+    r = gs__wire_room(buf, cap, size, &room);
+    if (r != GS_OK) return r;
+    if (c->encoding != GS_ENCODING_QUANT && !rest &&
+        gs__value_size(c->encoding) * c->elements > room)
+        return GS_ERR_CAPACITY;
+    if (!gs__finite(c->time)) return GS_ERR_NOT_FINITE;
+    if (c->time < 0.0 || c->time > GS_WIRE_MAX_TIME) return GS_ERR_INVALID_ARG;
+    /* the values first, checked as they are written: the bytes past *size
+       are the caller's scratch until the chunk is counted below */
+    if (c->encoding == GS_ENCODING_QUANT) {
+        r = gs__wire_put_quant(buf + *size + GS_WIRE_CHUNK_HEADER, room, c, values, &vs);
+        if (r != GS_OK) return r;
+    } else {
+        vs = rest ? 0 : gs__value_size(c->encoding) * c->elements;
+        if (!gs__wire_put_values(buf + *size + GS_WIRE_CHUNK_HEADER, c->encoding, values,
+                                 rest ? 0 : c->elements))
+            return GS_ERR_NOT_FINITE;
+    }
+    gs__wire_put_head(buf, size, c, vs);
+    return GS_OK;
+}
+
+GS_API gs_result gs_wire_add_delta(unsigned char *buf, size_t cap, size_t *size,
+                                   const gs_wire_chunk *c, const int64_t *diff) {
+    size_t vs, room;
+    uint32_t dist;
+    gs_result r;
+    int i;
+    if (!buf || !size || !c || !diff || c->elements == 0 || c->elements > GS_WIRE_QUANT_CHUNK)
+        return GS_ERR_INVALID_ARG;
+    dist = c->sequence - c->baseline;
+    if (c->encoding != GS_ENCODING_QUANT || c->flags != GS_WIRE_CHUNK_DELTA || dist == 0 ||
+        dist > 0x80000000u || c->count == 0 || c->index >= c->count)
+        return GS_ERR_INVALID_ARG;
+    for (i = 0; i < c->elements; ++i)
+        if (diff[i] < -2147483648LL || diff[i] > 2147483647LL) return GS_ERR_INVALID_ARG;
+    if (!gs__finite(c->time)) return GS_ERR_NOT_FINITE;
+    if (c->time < 0.0 || c->time > GS_WIRE_MAX_TIME) return GS_ERR_INVALID_ARG;
+    r = gs__wire_room(buf, cap, size, &room);
+    if (r != GS_OK) return r;
+    vs = gs__delta_put(buf + *size + GS_WIRE_CHUNK_HEADER, room, c, diff);
+    if (!vs) return GS_ERR_CAPACITY;
+    gs__wire_put_head(buf, size, c, vs);
+    return GS_OK;
+}
+
+GS_API gs_result gs_wire_add_ack(unsigned char *buf, size_t cap, size_t *size, uint32_t to,
+                                 const gs_wire_ack *acks, int n) {
+    unsigned char tmp[GS_WIRE_MAX_ACKS * 10];
+    uint32_t obj = 0, seq = 0;
+    size_t len = 0, room;
+    gs_wire_chunk c;
+    gs_result r;
+    int i;
+    if (!buf || !size || !acks || n < 1 || n > GS_WIRE_MAX_ACKS) return GS_ERR_INVALID_ARG;
+    for (i = 0; i < n; ++i) {
+        len += gs__varint_put(tmp + len, gs__zigzag32(acks[i].object_id - obj) << 1 |
+                                             (uint64_t)(acks[i].refused != 0));
+        len += gs__varint_put(tmp + len, gs__zigzag32(acks[i].sequence - seq));
+        obj = acks[i].object_id;
+        seq = acks[i].sequence;
+    }
+    r = gs__wire_room(buf, cap, size, &room);
+    if (r != GS_OK) return r;
+    if (len > room) return GS_ERR_CAPACITY;
+    memset(&c, 0, sizeof c);
+    c.object_id = to;
+    c.count = 1;
+    c.elements = (uint16_t)n;
+    c.encoding = GS_ENCODING_QUANT;
+    c.flags = GS_WIRE_CHUNK_ACK;
+    memcpy(buf + *size + GS_WIRE_CHUNK_HEADER, tmp, len);
+    gs__wire_put_head(buf, size, &c, len);
     return GS_OK;
 }
 
@@ -10075,6 +10994,14 @@ GS_API size_t gs_wire_end(unsigned char *buf, size_t size) {
 }
 
 GS_API double gs_wire_value(const gs_wire_chunk *c, int i) {
+    if (c->flags & GS_WIRE_CHUNK_ACK) return 0.0;
+    if (c->flags & GS_WIRE_CHUNK_DELTA) {
+        gs__dread d;
+        int64_t v = 0;
+        gs__dread_init(c, &d);
+        for (; i >= 0; --i) v = gs__dread_next(&d);
+        return (double)v;
+    }
     if (c->encoding == GS_ENCODING_QUANT) return gs__quant_value(c, i);
     if (c->encoding == GS_ENCODING_F32) return (double)gs__getf32(c->payload + 4 * (size_t)i);
     return gs__getf64(c->payload + 8 * (size_t)i);
@@ -10114,6 +11041,13 @@ GS__PRIVATE int gs__wire_values_finite(const gs_wire_chunk *c) {
 GS__PRIVATE void gs__wire_get_values(const gs_wire_chunk *c, double *out) {
     const unsigned char *p = c->payload;
     int i;
+    if (c->flags & (GS_WIRE_CHUNK_DELTA | GS_WIRE_CHUNK_ACK)) {
+        gs__dread d;
+        if (c->flags & GS_WIRE_CHUNK_DELTA) gs__dread_init(c, &d);
+        for (i = 0; i < c->elements; ++i)
+            out[i] = c->flags & GS_WIRE_CHUNK_DELTA ? (double)gs__dread_next(&d) : 0.0;
+        return;
+    }
     if (c->encoding == GS_ENCODING_QUANT) { gs__quant_get(c, out); return; }
     if (c->encoding == GS_ENCODING_F32) {
         for (i = 0; i < c->elements; ++i, p += 4) out[i] = (double)gs__getf32(p);
@@ -10146,9 +11080,16 @@ GS__PRIVATE int gs__wire_chunk(const unsigned char *buf, size_t end, size_t *off
     c->encoding = (gs_encoding)p[26];
     c->flags = p[27];
     c->segment_count = 0;
+    c->baseline = 0;
+    c->delta_coding = c->delta_width = 0;
+    c->payload_bytes = gs__get16(p + 28);
     if ((c->encoding != GS_ENCODING_F64 && c->encoding != GS_ENCODING_F32 &&
          c->encoding != GS_ENCODING_QUANT) ||
-        c->count == 0 || c->index >= c->count || (c->flags & ~(unsigned)GS_WIRE_CHUNK_REST) ||
+        c->count == 0 || c->index >= c->count ||
+        (c->flags & ~(unsigned)(GS_WIRE_CHUNK_REST | GS_WIRE_CHUNK_DELTA | GS_WIRE_CHUNK_ACK)) ||
+        (c->flags & (c->flags - 1)) || /* at most one */
+        ((c->flags & (GS_WIRE_CHUNK_DELTA | GS_WIRE_CHUNK_ACK)) &&
+         c->encoding != GS_ENCODING_QUANT) ||
         gs__get16(p + 30) != 0) { *why = GS_REJECT_LAYOUT; return 0; }
     len = c->encoding == GS_ENCODING_QUANT ? gs__get16(p + 28)
                                            : gs__value_size(c->encoding) * c->elements;
@@ -10161,8 +11102,10 @@ GS__PRIVATE int gs__wire_chunk(const unsigned char *buf, size_t end, size_t *off
     }
     if (!gs__wire_time_ok(c->time)) { *why = GS_REJECT_TIME; return 0; }
     c->payload = p + GS_WIRE_CHUNK_HEADER;
-    if (c->encoding == GS_ENCODING_QUANT && !(c->flags & GS_WIRE_CHUNK_REST) &&
-        !gs__quant_parse(c, c->payload, len)) { *why = GS_REJECT_LAYOUT; return 0; }
+    if (c->flags & GS_WIRE_CHUNK_DELTA ? !gs__delta_parse(c, c->payload, len)
+        : c->flags & GS_WIRE_CHUNK_ACK ? !gs__ack_parse(c, c->payload, len)
+        : c->encoding == GS_ENCODING_QUANT && !(c->flags & GS_WIRE_CHUNK_REST) &&
+              !gs__quant_parse(c, c->payload, len)) { *why = GS_REJECT_LAYOUT; return 0; }
     if (!gs__wire_values_finite(c)) { *why = GS_REJECT_NOT_FINITE; return 0; }
     *off += GS_WIRE_CHUNK_HEADER + len;
     return 1;
@@ -10581,8 +11524,10 @@ GS__PRIVATE gs_peer_health gs__peer_judge(const gs_net *net, int p, char *buf, s
     }
     if (win && win->refused > 0 && win->taken == 0) {
         gs__detail_text(&win->detail, more, sizeof more);
+        /* the detail's first 90 characters (it names the object and both
+           sizes well within them): a bound gcc can see fits the buffer */
         snprintf(buf, cap, "all %lu datagrams from this peer in the last %g s refused%s: %s "
-                 "(%s)%s", (unsigned long)win->refused, GS_PEER_QUIET,
+                 "(%s)%.90s", (unsigned long)win->refused, GS_PEER_QUIET,
                  win->reasons > 1 ? ", for more than one reason, the first" : "",
                  gs__reject_name(win->reason), gs_reject_str(win->reason), more);
         return GS_PEER_REFUSED;
@@ -10776,6 +11721,8 @@ GS__PRIVATE void gs__net_drop_queues(gs_world *w, int p) {
         if (!g) continue;
         gs__free(w, g->gp[p].q);
         g->gp[p].q = NULL;
+        gs__free(w, g->gp[p].ring);
+        g->gp[p].ring = NULL;
     }
 }
 
@@ -11079,12 +12026,255 @@ GS__PRIVATE int gs__ghost_moved(const gs__ghost *g) {
     return 0;
 }
 
+/* ---- delta coding (gs_ghost_desc.delta): the quantized integers ---- */
+
+#define GS__QK_MAX 2251795518717952LL /* 2^51 - 2^32: |integer| a decoder takes */
+
+/* The integers of values v in the segments' layout (see >>wire), into k.
+   key: the steps are made as gs_wire_add makes them (a wide span doubles
+   one) and written back into seg; else seg's steps are kept (a baseline's).
+   0 if an integer leaves the decoder's range or a quaternion is 0. */
+GS__PRIVATE int gs__qk_make(gs_wire_segment *seg, int nseg, const double *v, int64_t *k,
+                            int key) {
+    int s, i, j, ok = 1;
+    for (s = 0; s < nseg; ++s) {
+        gs_wire_segment *sg = &seg[s];
+        if (sg->kind == GS_WIRE_SCALAR) {
+            double inv;
+            int64_t lo, hi;
+            if (key) sg->step = gs__quant_step(sg->step, v, sg->count, &lo, &hi);
+            inv = 1.0 / sg->step;
+            for (i = 0; i < sg->count; ++i) {
+                double x = v[i] * inv;
+                if (!(fabs(x) <= (double)GS__QK_MAX)) { ok = 0; k[i] = 0; continue; }
+                k[i] = gs__round(x);
+            }
+        } else {
+            double st = gs__quat_step(sg->bits), top = (double)((1u << sg->bits) - 1u);
+            for (i = 0; i < sg->count; i += 4) {
+                const double *q = v + i;
+                double norm = sqrt(q[0] * q[0] + q[1] * q[1] + q[2] * q[2] + q[3] * q[3]);
+                int big = 0, m = 1;
+                for (j = 1; j < 4; ++j) big = fabs(q[j]) > fabs(q[big]) ? j : big;
+                ok &= norm > 0.0;
+                k[i] = big + 4 * (q[big] < 0.0);
+                for (j = 0; j < 4; ++j) {
+                    double u;
+                    if (j == big) continue;
+                    u = floor((q[j] / norm + 0.7071067811865476) / st + 0.5);
+                    k[i + m++] = (int64_t)(u < 0.0 ? 0.0 : u > top ? top : u);
+                }
+            }
+        }
+        v += sg->count;
+        k += sg->count;
+    }
+    return ok;
+}
+
+/* The values of integers k in the segments' layout: what a decoder of the
+   chunk reads, bit for bit (the same products as gs__quant_get's). */
+GS__PRIVATE void gs__qk_values(const gs_wire_segment *seg, int nseg, const int64_t *k,
+                               double *out) {
+    int s, i, j;
+    for (s = 0; s < nseg; ++s) {
+        const gs_wire_segment *sg = &seg[s];
+        if (sg->kind == GS_WIRE_SCALAR) {
+            for (i = 0; i < sg->count; ++i) out[i] = (double)k[i] * sg->step;
+        } else {
+            double st = gs__quat_step(sg->bits);
+            for (i = 0; i < sg->count; i += 4) {
+                int big = (int)(k[i] & 3), m = 1;
+                double ss = 0.0, *o = out + i;
+                for (j = 0; j < 4; ++j) {
+                    if (j == big) continue;
+                    o[j] = (double)k[i + m++] * st - 0.7071067811865476;
+                    ss += o[j] * o[j];
+                }
+                o[big] = ss < 1.0 ? sqrt(1.0 - ss) : 0.0;
+                if (k[i] & 4) o[big] = -o[big];
+            }
+        }
+        out += sg->count;
+        k += sg->count;
+    }
+}
+
+/* Are integers k what an encoder in the segments' layout sends? (A delta
+   from a peer is checked: what it decodes to must be a state.) */
+GS__PRIVATE int gs__qk_ok(const gs_wire_segment *seg, int nseg, const int64_t *k) {
+    int s, i, j;
+    for (s = 0; s < nseg; ++s) {
+        const gs_wire_segment *sg = &seg[s];
+        if (sg->kind == GS_WIRE_SCALAR) {
+            for (i = 0; i < sg->count; ++i)
+                if (k[i] > GS__QK_MAX || k[i] < -GS__QK_MAX) return 0;
+        } else {
+            int64_t top = ((int64_t)1 << sg->bits) - 1;
+            double st = gs__quat_step(sg->bits);
+            for (i = 0; i < sg->count; i += 4) {
+                double ss = 0.0;
+                if (k[i] < 0 || k[i] > 7) return 0;
+                for (j = 1; j < 4; ++j) {
+                    double c;
+                    if (k[i + j] < 0 || k[i + j] > top) return 0;
+                    c = (double)k[i + j] * st - 0.7071067811865476;
+                    ss += c * c;
+                }
+                if (ss > 0.76) return 0; /* as gs__quant_quats_ok */
+            }
+        }
+        k += sg->count;
+    }
+    return 1;
+}
+
+/* The integers of a parsed quantized chunk (whole, not a delta). */
+GS__PRIVATE void gs__qk_from_chunk(const gs_wire_chunk *c, int64_t *k) {
+    int s, i, j;
+    for (s = 0; s < c->segment_count; ++s) {
+        const gs_wire_segment *sg = &c->segments[s];
+        gs__bitr r;
+        r.p = sg->data; r.end = sg->data + gs__seg_bytes(sg); r.acc = 0; r.n = 0;
+        if (sg->kind == GS_WIRE_SCALAR) {
+            for (i = 0; i < sg->count; ++i) k[i] = sg->base + (int64_t)gs__bitr_get(&r, sg->width);
+        } else {
+            for (i = 0; i < sg->count; i += 4) {
+                int64_t big = gs__bitr_get(&r, 2);
+                k[i] = big + 4 * (int64_t)gs__bitr_get(&r, 1);
+                for (j = 1; j < 4; ++j) k[i + j] = gs__bitr_get(&r, sg->bits);
+            }
+        }
+        k += sg->count;
+    }
+}
+
+/* Do two chunks' segments have one layout (a delta needs its baseline's)? */
+GS__PRIVATE int gs__seg_same(const gs_wire_segment *a, int na, const gs_wire_segment *b, int nb) {
+    int s;
+    if (na != nb) return 0;
+    for (s = 0; s < na; ++s)
+        if (a[s].kind != b[s].kind || a[s].count != b[s].count ||
+            (a[s].kind == GS_WIRE_QUATERNION && a[s].bits != b[s].bits))
+            return 0;
+    return 1;
+}
+
+GS__PRIVATE int gs__seq_newer(uint32_t a, uint32_t b);
+
+/* The ring entry holding snapshot seq, or NULL. */
+GS__PRIVATE gs__base *gs__ring_find(gs__base *ring, uint32_t seq) {
+    int i;
+    for (i = 0; i < GS_DELTA_RING; ++i)
+        if (ring[i].used && ring[i].seq == seq) return &ring[i];
+    return NULL;
+}
+
+/* The entry for snapshot seq: the one holding it, a free one, or the
+   oldest other than keep (emptied); NULL if every entry is newer than seq
+   (a late chunk of a snapshot too old to be a baseline). */
+GS__PRIVATE gs__base *gs__ring_slot(gs__base *ring, int nchunks, uint32_t seq,
+                                    const gs__base *keep) {
+    gs__base *e = gs__ring_find(ring, seq), *oldest = NULL;
+    int i;
+    if (e) return e;
+    for (i = 0; i < GS_DELTA_RING && !e; ++i) {
+        if (!ring[i].used) e = &ring[i];
+        else if (&ring[i] != keep && (!oldest || gs__seq_newer(oldest->seq, ring[i].seq)))
+            oldest = &ring[i];
+    }
+    if (!e) {
+        if (!oldest || gs__seq_newer(oldest->seq, seq)) return NULL;
+        e = oldest;
+    }
+    e->used = 1;
+    e->seq = seq;
+    e->chunks = 0;
+    memset(e->got, 0, (size_t)nchunks);
+    return e;
+}
+
+/* The baseline of a delta ghost's next snapshot: the newest every peer
+   acknowledged, which is the oldest of their acknowledgements (the chunks
+   are encoded once for all peers), if the ring still holds it. NULL: the
+   next goes whole. */
+GS__PRIVATE gs__base *gs__delta_base(const gs_net *net, gs__ghost *g) {
+    uint32_t oldest = 0;
+    int p, any = 0;
+    for (p = 0; p < GS__MAX_PEERS; ++p) {
+        const struct gs__ghost_peer *gp = &g->gp[p];
+        if (!net->peers[p].used) continue;
+        if (!gp->acked_known) return NULL;
+        if (!any || gs__seq_newer(oldest, gp->acked)) oldest = gp->acked;
+        any = 1;
+    }
+    /* too old: a peer that received every snapshot sent since may have let
+       it go (it keeps as many as we do) */
+    if (!any || g->b_seq - oldest >= (uint32_t)GS_DELTA_RING) return NULL;
+    return gs__ring_find(g->ring, oldest);
+}
+
+/* Adds a chunk (values, or differences d for a delta) to the datagram,
+   sending it first when full. */
+GS__PRIVATE gs_result gs__put_chunk(gs_net *net, double now, size_t *size,
+                                    const gs_wire_chunk *ch, const double *v, const int64_t *d) {
+    int k;
+    gs_result r = GS_ERR_CAPACITY;
+    for (k = 0; k < 2 && r == GS_ERR_CAPACITY; ++k) {
+        if (k) gs__datagram_flush(net, now, size);
+        r = d ? gs_wire_add_delta(net->buf, gs__net_cap(net), size, ch, d)
+              : gs_wire_add(net->buf, gs__net_cap(net), size, ch, v);
+    }
+    return r;
+}
+
+/* One chunk of a delta ghost's snapshot, into ring entry `to`: against
+   the baseline's same chunk when the baseline holds it in the same layout
+   and every difference fits, else whole. */
+GS__PRIVATE void gs__send_delta_chunk(gs_net *net, gs__ghost *g, double now, size_t *size,
+                                      gs_wire_chunk *ch, const gs__base *base, gs__base *to) {
+    int c = ch->index, nseg = ch->segment_count, delta = 0, usable, j;
+    size_t first = ch->first;
+    const double *v = g->B + 1 + first;
+    int64_t *k = to->k + first, *d = g->kbuf;
+    gs_wire_segment *ts = to->seg + (size_t)c * GS_WIRE_MAX_SEGMENTS;
+    const gs_wire_segment *bs = base ? base->seg + (size_t)c * GS_WIRE_MAX_SEGMENTS : NULL;
+    gs_result r;
+    if (base && base->got[c] && gs__seg_same(bs, base->nseg[c], ch->segments, nseg)) {
+        memcpy(ts, bs, (size_t)nseg * sizeof *ts);
+        delta = gs__qk_make(ts, nseg, v, k, 0);
+        for (j = 0; j < ch->elements && delta; ++j) {
+            d[j] = k[j] - base->k[first + (size_t)j];
+            delta = d[j] >= -2147483647LL && d[j] <= 2147483647LL;
+        }
+    }
+    if (delta) {
+        ch->flags = GS_WIRE_CHUNK_DELTA;
+        ch->baseline = base->seq;
+        r = gs__put_chunk(net, now, size, ch, NULL, d);
+        usable = 1;
+    } else {
+        memcpy(ts, ch->segments, (size_t)nseg * sizeof *ts);
+        usable = gs__qk_make(ts, nseg, v, k, 1);
+        r = gs__put_chunk(net, now, size, ch, v, NULL);
+    }
+    to->nseg[c] = (unsigned char)nseg;
+    to->got[c] = r == GS_OK && usable;
+    to->chunks += to->got[c];
+}
+
 /* Appends every chunk of a ghost's B to the datagrams for all peers, or a
    heartbeat (rest). */
 GS__PRIVATE void gs__send_ghost(gs_net *net, gs__ghost *g, double now, size_t *size,
                                 int rest) {
     size_t vars = g->n - 1, bytes = 0, before;
+    gs__base *base = NULL, *to = NULL;
     int c, p;
+    if (g->ring && !rest) {
+        base = gs__delta_base(net, g);
+        to = gs__ring_slot(g->ring, g->nchunks, g->b_seq, base);
+        if (to == base) base = NULL;
+    }
     for (c = 0; c < (rest ? 1 : g->nchunks); ++c) {
         gs_wire_chunk ch;
         size_t first = (size_t)c * (size_t)g->per_chunk, cnt = (size_t)g->per_chunk;
@@ -11101,8 +12291,15 @@ GS__PRIVATE void gs__send_ghost(gs_net *net, gs__ghost *g, double now, size_t *s
         ch.flags = rest ? GS_WIRE_CHUNK_REST : 0;
         ch.segment_count = 0;
         ch.payload = NULL;
+        ch.baseline = 0;
         if (ch.encoding == GS_ENCODING_QUANT && !rest) gs__ghost_segments(g, first, cnt, &ch);
         before = *size;
+        if (to) {
+            size_t at = *size;
+            gs__send_delta_chunk(net, g, now, size, &ch, base, to);
+            bytes += *size >= at ? *size - at : *size - GS_WIRE_HEADER;
+            continue;
+        }
         if (gs_wire_add(net->buf, gs__net_cap(net), size, &ch, g->B + 1 + first) ==
             GS_ERR_CAPACITY) {
             gs__datagram_flush(net, now, size);
@@ -11149,6 +12346,38 @@ GS__PRIVATE void gs__send_due(gs_net *net, gs__ghost *g, double now, size_t *siz
 GS__PRIVATE int gs__ghost_due(const gs__ghost *g, double now) {
     double period = 1.0 / g->d.send_rate;
     return g->b_seq != g->sent_seq && (now >= g->next_send || g->next_send - now > period);
+}
+
+/* Acknowledgements to every peer of what we hold whole of its delta
+   ghosts' snapshots, or refused, since the last ones: one entry per
+   object that has news, in the datagram every peer gets (the chunk names
+   the one it is for). A lost one is made good by the next snapshot's. */
+GS__PRIVATE void gs__send_acks(gs_net *net, double now, size_t *size) {
+    gs_wire_ack acks[GS_WIRE_MAX_ACKS];
+    gs_world *w = net->world;
+    int p, i, n, k;
+    for (p = 0; p < GS__MAX_PEERS; ++p) {
+        if (!net->peers[p].used) continue;
+        for (i = 0, n = 0; i <= w->agent_count; ++i) {
+            gs__ghost *g = i < w->agent_count ? gs__ghost_of(w->agents[i]) : NULL;
+            if (g && (g->gp[p].ack_due || g->gp[p].nack_due)) {
+                acks[n].object_id = g->d.object_id;
+                acks[n].sequence = g->gp[p].ack_seq;
+                acks[n].refused = g->gp[p].nack_due;
+                g->gp[p].ack_due = g->gp[p].nack_due = 0;
+                ++n;
+            }
+            if (n == GS_WIRE_MAX_ACKS || (n && i == w->agent_count)) {
+                gs_result r = GS_ERR_CAPACITY;
+                for (k = 0; k < 2 && r == GS_ERR_CAPACITY; ++k) {
+                    if (k) gs__datagram_flush(net, now, size);
+                    r = gs_wire_add_ack(net->buf, gs__net_cap(net), size, net->peers[p].host,
+                                        acks, n);
+                }
+                n = 0;
+            }
+        }
+    }
 }
 
 /* Every due ghost is encoded once into datagrams that go to every peer
@@ -11252,7 +12481,10 @@ GS_API gs_result gs_net_update(gs_net *net, double now) {
         g->next_send = now + 1.0 / g->d.send_rate;
         g->sent_at = now;
     }
-    if (peers) gs__datagram_flush(net, now, &size);
+    if (peers) {
+        gs__send_acks(net, now, &size);
+        gs__datagram_flush(net, now, &size);
+    }
     net->inside--;
     gs__unlock(net);
     if (net->send_error != GS_OK) {
@@ -11309,7 +12541,11 @@ GS__PRIVATE int gs__peer_run(gs_net *net, int p, uint32_t run) {
         pe->their_send_time = 0.0;
         for (i = 0; i < w->agent_count; ++i) {
             gs__ghost *g = gs__ghost_of(w->agents[i]);
-            if (g) g->gp[p].resting = 0;
+            if (g) { /* its sequences start again: no baseline of before */
+                g->gp[p].resting = 0;
+                g->gp[p].ack_known = g->gp[p].ack_due = g->gp[p].nack_due = 0;
+                for (k = 0; g->gp[p].ring && k < GS_DELTA_RING; ++k) g->gp[p].ring[k].used = 0;
+            }
             for (k = 0; g && g->gp[p].q && k <= g->d.queue_size; ++k) {
                 g->gp[p].q[k].used = 0;
                 g->gp[p].q[k].chunks = 0;
@@ -11322,6 +12558,7 @@ GS__PRIVATE int gs__peer_run(gs_net *net, int p, uint32_t run) {
     for (i = 0; i < w->agent_count; ++i) {
         gs__ghost *g = gs__ghost_of(w->agents[i]);
         if (g) g->sent_any = 0;
+        if (g) g->gp[p].acked_known = 0;
     }
     pe->prev_run = pe->run;
     pe->run = run;
@@ -11367,7 +12604,11 @@ GS__PRIVATE int gs__chunks_fit(gs_net *net, const gs_wire_view *v, double now,
     for (i = 0; i < v->chunk_count; ++i) {
         const gs_wire_chunk *c = &v->chunks[i];
         const gs__ghost *g;
-        ghosts[i] = i > 0 && c->object_id == v->chunks[i - 1].object_id
+        if (c->flags & GS_WIRE_CHUNK_ACK) { /* its object id is a host's */
+            ghosts[i] = NULL;
+            continue;
+        }
+        ghosts[i] = i > 0 && ghosts[i - 1] && c->object_id == v->chunks[i - 1].object_id
                         ? ghosts[i - 1] : gs__ghost_find(net->world, c->object_id);
         g = ghosts[i];
         if (!g) {
@@ -11445,17 +12686,71 @@ GS__PRIVATE void gs__heartbeat(gs_net *net, gs__ghost *g, int p, const gs_wire_c
     s->chunks = g->nchunks;
 }
 
+/* A delta chunk's integers (into g->kbuf) from its baseline's, and the
+   baseline's segments (into seg, *nseg); 0 if refused: the baseline is not
+   held (or the ghost codes no deltas), or the sum leaves its ranges. Then
+   it is counted, and the next acknowledgement asks for a whole one. */
+GS__PRIVATE int gs__delta_take(gs_net *net, gs__ghost *g, int p, const gs_wire_chunk *c,
+                               gs_wire_segment *seg, int *nseg) {
+    const gs__base *b = g->gp[p].ring ? gs__ring_find(g->gp[p].ring, c->baseline) : NULL;
+    int i, ok = b && b->got[c->index];
+    if (ok) {
+        *nseg = b->nseg[c->index];
+        memcpy(seg, b->seg + (size_t)c->index * GS_WIRE_MAX_SEGMENTS,
+               (size_t)*nseg * sizeof *seg);
+        gs_wire_deltas(c, g->kbuf);
+        for (i = 0; i < c->elements; ++i) g->kbuf[i] += b->k[c->first + (uint32_t)i];
+        ok = gs__qk_ok(seg, *nseg, g->kbuf);
+    }
+    if (!ok) {
+        net->peers[p].st.rejected[GS_REJECT_BASELINE]++;
+        net->peers[p].st.rejected_total++;
+        g->gp[p].nack_due = 1;
+    }
+    return ok;
+}
+
+/* A quantized chunk received (k: its integers; NULL: read them from c)
+   kept as part of a baseline; a snapshot held whole is acknowledged. */
+GS__PRIVATE void gs__ring_keep(gs__ghost *g, int p, const gs_wire_chunk *c, const int64_t *k,
+                               const gs_wire_segment *seg, int nseg) {
+    struct gs__ghost_peer *gp = &g->gp[p];
+    gs__base *e = gs__ring_slot(gp->ring, g->nchunks, c->sequence, NULL);
+    if (!e || e->got[c->index]) return;
+    if (k) memcpy(e->k + c->first, k, (size_t)c->elements * sizeof *k);
+    else gs__qk_from_chunk(c, e->k + c->first);
+    memcpy(e->seg + (size_t)c->index * GS_WIRE_MAX_SEGMENTS, seg, (size_t)nseg * sizeof *seg);
+    e->nseg[c->index] = (unsigned char)nseg;
+    e->got[c->index] = 1;
+    if (++e->chunks == g->nchunks && (!gp->ack_known || gs__seq_newer(e->seq, gp->ack_seq))) {
+        gp->ack_seq = e->seq;
+        gp->ack_known = 1;
+        gp->ack_due = 1;
+    }
+}
+
 GS__PRIVATE void gs__queue_chunk(gs_net *net, gs__ghost *g, int p, const gs_wire_chunk *c,
                                  double age) {
     gs__snap *s, *last = &g->gp[p].q[g->d.queue_size];
+    gs_wire_segment seg[GS_WIRE_MAX_SEGMENTS];
+    int nseg = 0, delta = (c->flags & GS_WIRE_CHUNK_DELTA) != 0;
     g->gp[p].resting = (c->flags & GS_WIRE_CHUNK_REST) != 0;
     if (g->gp[p].resting) {
         gs__heartbeat(net, g, p, c, age);
         return;
     }
+    if (delta && !gs__delta_take(net, g, p, c, seg, &nseg)) return;
     s = gs__snap_slot(g, p, c, age);
     if (s->got[c->index]) return; /* a duplicated chunk */
-    gs__wire_get_values(c, s->data + c->first);
+    if (delta) {
+        gs__qk_values(seg, nseg, g->kbuf, s->data + c->first);
+    } else {
+        gs__wire_get_values(c, s->data + c->first);
+        nseg = c->segment_count;
+        memcpy(seg, c->segments, (size_t)nseg * sizeof *seg);
+    }
+    if (g->gp[p].ring && c->encoding == GS_ENCODING_QUANT)
+        gs__ring_keep(g, p, c, delta ? g->kbuf : NULL, seg, nseg);
     /* the newest values of each chunk: a late older chunk leaves them */
     if (!last->used || !gs__seq_newer(last->seq, c->sequence)) {
         size_t cnt = c->elements;
@@ -11470,6 +12765,26 @@ GS__PRIVATE void gs__queue_chunk(gs_net *net, gs__ghost *g, int p, const gs_wire
     net->peers[p].st.chunks_received++;
     if (c->index == 0) net->peers[p].st.snapshots_received++;
     if (c->time > net->peers[p].st.last_remote_time) net->peers[p].st.last_remote_time = c->time;
+}
+
+/* An acknowledgement chunk from peer p: what it holds of our delta
+   ghosts' snapshots (chunks for other hosts are skipped). */
+GS__PRIVATE void gs__take_acks(gs_net *net, int p, const gs_wire_chunk *c) {
+    gs_wire_ack acks[GS_WIRE_MAX_ACKS];
+    int i, n;
+    if (c->object_id != net->world->host_id) return;
+    n = gs_wire_acks(c, acks, GS_WIRE_MAX_ACKS);
+    for (i = 0; i < n; ++i) {
+        gs__ghost *g = gs__ghost_find(net->world, acks[i].object_id);
+        struct gs__ghost_peer *gp;
+        if (!g || !g->ring) continue;
+        gp = &g->gp[p];
+        if (acks[i].refused) gp->acked_known = 0; /* the next goes whole */
+        else if (!gp->acked_known || gs__seq_newer(acks[i].sequence, gp->acked)) {
+            gp->acked = acks[i].sequence;
+            gp->acked_known = 1;
+        }
+    }
 }
 
 GS__PRIVATE gs_result gs__reject(gs_net *net, int p, gs_reject r, gs_reject *why) {
@@ -11680,7 +12995,10 @@ GS__PRIVATE gs_result gs__deliver_locked(gs_net *net, const void *data, size_t s
         pe->st.datagrams_received++;
         pe->st.bytes_received += size;
         pe->st.last_heard = now;
-        for (i = 0; i < v->chunk_count; ++i) gs__queue_chunk(net, ghosts[i], p, &v->chunks[i], age);
+        for (i = 0; i < v->chunk_count; ++i) {
+            if (ghosts[i]) gs__queue_chunk(net, ghosts[i], p, &v->chunks[i], age);
+            else gs__take_acks(net, p, &v->chunks[i]);
+        }
         gs__sync_heard(net, p, v, now);
         gs__diag_taken(&pe->diag, now);
     }

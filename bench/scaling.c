@@ -15,6 +15,8 @@
    - hosts: 2 .. 16 worlds on gs_simnet (perfect links), each with a 16x16
      cloth under a ghost (60 Hz, f64); cost per host-step = wall time of
      gs_simnet_run / (hosts x steps).
+   - the paper scene: gs_scene_create's scene at 16 .. 128 (64 in the
+     quick run) per cloth integrator: CPU seconds per simulated second.
    Cost is the median over repeats, in thread CPU time (a busy machine's
    waits do not count). Memory: bytes the world allocated
    (live, after creation and a few steps) for each size; per particle and
@@ -279,6 +281,56 @@ static rest_row run_rest(int quick)
     return row;
 }
 
+/* ---- the paper's scene at sizes: CPU per simulated second ----
+   gs_scene_create's scene (3 spheres, 1 probe on its path) with an n x n
+   cloth under one integrator, after its settle: thread CPU seconds per
+   simulated second over 60 Hz frames (under 0.5: the simulation of a host
+   keeps wall-clock pace on half a core). A size whose settle is over the
+   budget, or whose step an integrator refuses, is -1 (refused). */
+#define PACE_SIZES 4
+#define PACE_INTEGRATORS 3
+static const int pace_n[PACE_SIZES] = {16, 32, 64, 128};
+static const gs_integrator pace_it[PACE_INTEGRATORS] = {
+    GS_INTEGRATOR_IMPLICIT_EULER, GS_INTEGRATOR_SYMPLECTIC_EULER, GS_INTEGRATOR_XPBD};
+static const char *const pace_name[PACE_INTEGRATORS] = {"implicit", "symplectic", "xpbd"};
+
+static double scene_pace(int n, gs_integrator it, double seconds)
+{
+    gs_world_desc wd = gs_world_desc_default();
+    gs_scene_desc sd = gs_scene_desc_default();
+    gs_world *w;
+    gs_scene sc;
+    gs_result r;
+    double t0, cost = -1.0;
+    int i, frames = (int)(seconds * 60.0 + 0.5);
+    if ((r = gs_world_create(&wd, &w)) != GS_OK) die("gs_world_create", NULL, r);
+    sd.cloth_n = n;
+    sd.cloth_integrator = it;
+    if (gs_scene_create(w, &sd, &sc) == GS_OK) {
+        gs_quat id = {0.0, 0.0, 0.0, 1.0};
+        t0 = bu_cpu_now();
+        for (i = 0; i < frames; ++i) {
+            gs_probe_set_target(sc.probes[0], gs_scene_probe_path(0, i / 60.0), id);
+            if (gs_world_advance(w, 1.0 / 60.0, NULL) != GS_OK) break;
+        }
+        if (i == frames) cost = (bu_cpu_now() - t0) / (frames / 60.0);
+    }
+    gs_world_destroy(w);
+    return cost;
+}
+
+/* Implicit Euler's settle alone at 128 x 128 is minutes: left out there. */
+static void run_pace(int quick, double cost[PACE_SIZES][PACE_INTEGRATORS])
+{
+    int i, k;
+    for (i = 0; i < PACE_SIZES; ++i)
+        for (k = 0; k < PACE_INTEGRATORS; ++k)
+            cost[i][k] = (quick && pace_n[i] > 64) ||
+                                 (pace_it[k] == GS_INTEGRATOR_IMPLICIT_EULER && pace_n[i] > 64)
+                             ? -2.0
+                             : scene_pace(pace_n[i], pace_it[k], quick ? 0.5 : 2.0);
+}
+
 /* ---- hosts ---- */
 typedef struct host_row {
     int hosts;
@@ -369,6 +421,7 @@ int main(int argc, char **argv)
     rigid_row rrow[8];
     rest_row rest;
     host_row hrow[8];
+    double pace[PACE_SIZES][PACE_INTEGRATORS];
     double x[8], y[8], y2[8], k_same, k_default, k_rigid, k_hosts, k_hosts_total, fa, per_particle,
         per_particle_ghost, per_peer, per_body;
     bu_json *j;
@@ -420,6 +473,21 @@ int main(int argc, char **argv)
                     "frame asleep (%d agents asleep), %.1f awake: %.2fx\n",
             rest.frame_asleep * 1e6, rest.asleep, rest.frame_awake * 1e6,
             rest.frame_awake / rest.frame_asleep);
+
+    fprintf(stderr, "paper scene (3 spheres, probe on its path): CPU s per simulated s after the settle "
+                    "(-1 refused, - not run)\n%10s %12s %12s %12s\n", "cloth", pace_name[0], pace_name[1],
+            pace_name[2]);
+    run_pace(a.quick, pace);
+    for (i = 0; i < PACE_SIZES; ++i) {
+        int k;
+        fprintf(stderr, "%7dx%-3d", pace_n[i], pace_n[i]);
+        for (k = 0; k < PACE_INTEGRATORS; ++k)
+            if (pace[i][k] < -1.5)
+                fprintf(stderr, " %12s", "-");
+            else
+                fprintf(stderr, " %12.3f", pace[i][k]);
+        fputc('\n', stderr);
+    }
 
     fprintf(stderr, "%10s %16s %16s %14s %14s\n", "hosts", "us/host-step", "us/step (all)", "bytes/world",
             "simnet bytes");
@@ -497,6 +565,15 @@ int main(int argc, char **argv)
     bu_json_num(j, "bytes_per_world_16x16_ghost", fa);
     bu_json_num(j, "bytes_per_peer_16x16_ghost", per_peer);
     bu_json_num(j, "simnet_bytes", hrow[0].simnet_bytes);
+    for (i = 0; i < PACE_SIZES; ++i) {
+        int k;
+        for (k = 0; k < PACE_INTEGRATORS; ++k) {
+            char key[64];
+            if (pace[i][k] < -1.5) continue;
+            snprintf(key, sizeof key, "scene%d_%s_cpu_per_sim_s", pace_n[i], pace_name[k]);
+            bu_json_num(j, key, pace[i][k]);
+        }
+    }
     bu_json_num(j, "wall_s", bu_now() - t_start);
     bu_json_obj_end(j);
 

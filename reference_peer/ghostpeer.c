@@ -3,13 +3,15 @@
      ghostpeer --id N --listen HOST:PORT [--peer ID@HOST:PORT]... [--duration S]
                [--cloth N] [--spheres K] [--weight cs|exp[:RATE]|owner]
                [--integrator NAME] [--dt S] [--probe-until S] [--seed N]
-               [--encoding f64|f32|quant] [--stats-every S] [--trace FILE] [--key FILE]
+               [--encoding f64|f32|quant|quant-delta] [--stats-every S] [--trace FILE] [--key FILE]
                [--clock-step AT:SECONDS] [--probe-wild AT:SECONDS:SPEED]
                [--resolution M] [--rest-threshold M] [--heartbeat-rate HZ]
                [--sync present|replay] [--clock local|session]
 
    --encoding quant sends positions at --resolution metres (default 5e-5),
    velocities at 1 mm/s and orientations as smallest three (wire v2);
+   --encoding quant-delta the same, each snapshot coded as its differences
+   from the newest one the peers acknowledged (gs_ghost_desc.delta);
    --rest-threshold M (default 0: off) sends a ghost that moved less than M
    since its last snapshot as a heartbeat only, at --heartbeat-rate Hz
    (default 4). Each JSON line gives per peer "bytes_sent" and "bytes_rx"
@@ -99,6 +101,7 @@ typedef struct options {
     double probe_until;    /* s of simulation time */
     uint32_t seed;
     gs_encoding encoding;
+    int delta;             /* --encoding quant-delta */
     double resolution;     /* m, quant positions; 0 = the library's default */
     double rest_threshold; /* m; 0 = send every state */
     double heartbeat_rate; /* Hz; 0 = the library's default */
@@ -125,7 +128,7 @@ static void usage(const char *why) {
             "usage: ghostpeer --id N --listen HOST:PORT [--peer ID@HOST:PORT]... [--duration S]\n"
             "                 [--cloth N] [--spheres K] [--weight cs|exp[:RATE]|owner]\n"
             "                 [--integrator explicit|symplectic|verlet|rk4|implicit|xpbd] [--dt S]\n"
-            "                 [--probe-until S] [--seed N] [--encoding f64|f32|quant]\n"
+            "                 [--probe-until S] [--seed N] [--encoding f64|f32|quant|quant-delta]\n"
             "                 [--stats-every S] [--trace FILE] [--key FILE]\n"
             "                 [--clock-step AT:SECONDS] [--probe-wild AT:SECONDS:SPEED]\n"
             "                 [--resolution M] [--rest-threshold M] [--heartbeat-rate HZ]\n"
@@ -296,7 +299,11 @@ static void parse_args(int argc, char **argv, options *o) {
             if (strcmp(v, "f64") == 0) o->encoding = GS_ENCODING_F64;
             else if (strcmp(v, "f32") == 0) o->encoding = GS_ENCODING_F32;
             else if (strcmp(v, "quant") == 0) o->encoding = GS_ENCODING_QUANT;
-            else usage("--encoding: f64, f32 or quant");
+            else if (strcmp(v, "quant-delta") == 0) {
+                o->encoding = GS_ENCODING_QUANT;
+                o->delta = 1;
+            }
+            else usage("--encoding: f64, f32, quant or quant-delta");
         }
         else if (strcmp(f, "--resolution") == 0) o->resolution = parse_number(f, v, 1e-9, 1.0);
         else if (strcmp(f, "--rest-threshold") == 0)
@@ -404,6 +411,7 @@ static int build(peer_host *h) {
     gd.encoding = o->encoding;
     gd.position_resolution = o->resolution;
     gd.rest_threshold = o->rest_threshold;
+    gd.delta = o->delta;
     gd.heartbeat_rate = o->heartbeat_rate;
     if (gs_scene_attach_ghosts(&h->sc, &gd) != GS_OK) return fail(h, "ghost");
     ud = gs_udp_desc_default(); /* its rcvbuf and the net's are what zero gave */

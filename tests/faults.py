@@ -109,7 +109,10 @@ def wire_check(b, src=None, dst=None):
             return "short"
         t, index, count, _first, elements, enc, flags, plen, zero = \
             struct.unpack_from("<dHHIHBBHH", b, off + 8)
-        if enc not in (1, 2, 3) or count == 0 or index >= count or flags & ~1 or zero:
+        # flags: 1 heartbeat, 2 delta, 4 acknowledgements (at most one;
+        # the last two quantized only)
+        if enc not in (1, 2, 3) or count == 0 or index >= count or flags & ~7 or zero \
+                or flags & (flags - 1) or (flags & 6 and enc != 3):
             return "layout"
         rest = flags & 1            # GS_WIRE_CHUNK_REST: a heartbeat, no values
         size = 8 if enc == 1 else 4
@@ -722,11 +725,13 @@ def sc_kill(exe, name, tm):
 
 def sc_clock(step):
     def scenario(exe, name, tm):
-        # Since the issue-14..17 merges the scene takes up to 8-10 s after a
-        # +2 s step to come within 1 mm (it took 0.04 s at e74b36a); the
-        # short suite's 10 s run judged it before it settled (1.15 mm in
-        # one CI run, finals 0.1-0.9 mm in others). It gets the full
-        # suite's timing, the target unchanged, until that is mended.
+        # The scene can take up to 8 s after a +2 s step to come within
+        # 1 mm: while the stepped host catches up, the other follows it in
+        # jumps and the probes' catch-up can throw a sphere off the cloth,
+        # which then rolls on the ground for seconds (the same at e74b36a
+        # on a loaded machine: 2 of 4 runs failed). The short suite's 10 s
+        # run judged it before it settled. It gets the full suite's timing,
+        # the target unchanged, until that is mended.
         tm = FULL
         run = Run(exe, name, [1, 2], tm.duration, tm.f1,
                   extra={2: ["--clock-step", "%g:%g" % (tm.f0, step)]})
@@ -821,10 +826,10 @@ def run_scenarios(exe, short, want):
             if ((n in want) if want else (sh if short else full))]
     for name, fn in todo:
         # The short suite (make test's) runs a failed scenario once more and
-        # says so, as peers.py does: since today's merges one scenario in
-        # five fails a run at random on an idle machine (finals 1.2-2.2 mm
-        # after cut, kill or clock-fwd, where the others end at micrometres).
-        # The full suite does not retry, so `make faults` shows the rate.
+        # says so, as peers.py does: clock-fwd still fails about one run in
+        # three on a loaded machine (see sc_clock), kill about one in ten
+        # (finals 1-2 mm, where the others end at micrometres). The full
+        # suite does not retry, so `make faults` shows the rate.
         for attempt in range(2 if short else 1):
             r = run_one(exe, name, fn, tm, attempt)
             if r["ok"]:

@@ -3,9 +3,12 @@
 
    The world of tests/fuzz_world.h (host 1; peers 2 and 3; objects 10..15:
    a cloth, a chain, a sphere, a probe, a custom point, an empty custom)
-   with every ghost in GS_ENCODING_QUANT is built once. So is a sender
-   (host 2, the same objects) whose first snapshots, in quant, are the
-   templates, with a heartbeat of each object besides.
+   with every ghost in GS_ENCODING_QUANT and delta coding on is built once.
+   So is a sender (host 2, the same objects) whose first snapshots, in
+   quant, are the templates, with a heartbeat of each object besides; then,
+   acknowledged by hosts 1 and 3, its next snapshots, delta chunks against
+   the first (which the receiver is given once, so that it holds them as
+   baselines), and an acknowledgement chunk for the receiver's objects.
    An input is either datagrams back to back (it starts with "GSIM": cut
    before each magic, as tests/fuzz_wire.c does), or an edit: byte 0 picks
    a template (bit 7 set: the checksum is left as the edits make it), and
@@ -14,7 +17,9 @@
    harness's, so a template is not refused as a duplicate the second time.
    Every datagram: gs_wire_decode on an exact-size heap copy (refused: a
    reason decode gives; accepted: every chunk's payload inside it, its
-   values finite, a quantized one encodes again to the same values), then
+   values finite, a quantized one encodes again to the same values, a
+   delta chunk to the same differences, an acknowledgement chunk to the
+   same entries), then
    gs_net_deliver at a clock moving 1 ms a datagram: GS_OK or
    GS_ERR_REJECTED, for decode's own reason when decode refused it. Every
    4096 inputs the world advances 4 ms (the queued snapshots blend) and its
@@ -83,6 +88,7 @@ static void requant(fuzz_world *f) {
         gd.encoding = GS_ENCODING_QUANT;
         gd.queue_size = 4;
         gd.rest_threshold = i == 2 ? 1e-3 : 0.0;
+        gd.delta = 1;
         if (i == 3) {
             gd.owner = FUZZ_PEER_A;
             gd.weight = gs_weight_owner;
@@ -116,6 +122,54 @@ static void heartbeats(harness *h) {
     }
 }
 
+/* A datagram from host `from` to `to` with one acknowledgement chunk of
+   every object at sequence seq[i] (seq NULL: 1). */
+static size_t ack_datagram(unsigned char *buf, uint32_t from, uint32_t to, const uint32_t *seq) {
+    gs_wire_header hd;
+    gs_wire_ack a[FUZZ_OBJECTS];
+    size_t size;
+    int i;
+    memset(&hd, 0, sizeof hd);
+    hd.session = FUZZ_SESSION;
+    hd.sender = from;
+    for (i = 0; i < FUZZ_OBJECTS; ++i) {
+        a[i].object_id = 10u + (uint32_t)i;
+        a[i].sequence = seq ? seq[i] : 1u;
+        a[i].refused = i == 5;
+    }
+    CHECK(gs_wire_begin(buf, GS_WIRE_MAX_DATAGRAM, &hd, &size) == GS_OK);
+    CHECK(gs_wire_add_ack(buf, GS_WIRE_MAX_DATAGRAM, &size, to, a, FUZZ_OBJECTS) == GS_OK);
+    return gs_wire_end(buf, size);
+}
+
+/* The sender's next snapshots as deltas: its first ones acknowledged by
+   both its peers, and given to the receiver as baselines. */
+static void deltas(harness *h, int keys) {
+    static gs_wire_view v;
+    unsigned char buf[GS_WIRE_MAX_DATAGRAM];
+    uint32_t seq[FUZZ_OBJECTS];
+    int t, i;
+    size_t n;
+    for (i = 0; i < FUZZ_OBJECTS; ++i) seq[i] = 1;
+    for (t = 0; t < keys; ++t) {
+        CHECK(gs_wire_decode(h->tpl[t], h->tpl_size[t], &v, NULL) == GS_OK);
+        for (i = 0; i < v.chunk_count; ++i)
+            if (v.chunks[i].object_id >= 10 && v.chunks[i].object_id < 10 + FUZZ_OBJECTS)
+                seq[v.chunks[i].object_id - 10] = v.chunks[i].sequence;
+        CHECK(gs_net_deliver(h->rx.net, h->tpl[t], h->tpl_size[t], 0.01, NULL) == GS_OK);
+    }
+    n = ack_datagram(buf, FUZZ_HOST, FUZZ_PEER_A, seq);
+    CHECK(gs_net_deliver(h->tx.net, buf, n, 0.03, NULL) == GS_OK);
+    n = ack_datagram(buf, FUZZ_PEER_B, FUZZ_PEER_A, seq);
+    CHECK(gs_net_deliver(h->tx.net, buf, n, 0.03, NULL) == GS_OK);
+    CHECK(gs_world_advance(h->tx.w, 0.02, NULL) == GS_OK);
+    CHECK(gs_net_update(h->tx.net, 0.04) == GS_OK);
+    if (h->ntpl < TEMPLATES) { /* acknowledgements for the receiver's objects */
+        h->tpl_size[h->ntpl] = ack_datagram(h->tpl[h->ntpl], FUZZ_PEER_A, FUZZ_HOST, NULL);
+        h->ntpl++;
+    }
+}
+
 static harness *harness_get(void) {
     static harness *h; /* the harness's one world, built on the first input */
     if (h) return h;
@@ -127,7 +181,11 @@ static harness *harness_get(void) {
     requant(&h->tx);
     CHECK(gs_world_advance(h->tx.w, 0.02, NULL) == GS_OK);
     CHECK(gs_net_update(h->tx.net, 0.02) == GS_OK);
-    heartbeats(h);
+    {
+        int keys = h->ntpl;
+        heartbeats(h);
+        deltas(h, keys);
+    }
     fuzz_world_destroy(&h->tx); /* the templates are all it was for */
     CHECK(h->ntpl > FUZZ_OBJECTS);
     return h;
@@ -167,6 +225,39 @@ static void requant_same(harness *h, const gs_wire_chunk *c) {
     }
 }
 
+/* A delta chunk's differences code again to the same (the coding may
+   differ: the input's need not be the smaller), and an acknowledgement
+   chunk's entries to the same entries. */
+static void recode_same(harness *h, const gs_wire_chunk *c) {
+    unsigned char out[GS_WIRE_MAX_DATAGRAM];
+    int64_t d[GS_WIRE_MAX_DATAGRAM], e[GS_WIRE_MAX_DATAGRAM];
+    gs_wire_ack a[GS_WIRE_MAX_ACKS], b[GS_WIRE_MAX_ACKS];
+    gs_wire_header hd;
+    size_t n = 0;
+    int k, na;
+    memset(&hd, 0, sizeof hd);
+    CHECK(gs_wire_begin(out, sizeof out, &hd, &n) == GS_OK);
+    if (c->flags & GS_WIRE_CHUNK_DELTA) {
+        gs_wire_deltas(c, d);
+        CHECK(gs_wire_add_delta(out, sizeof out, &n, c, d) == GS_OK);
+        n = gs_wire_end(out, n);
+        CHECK(gs_wire_decode(out, n, &h->again, NULL) == GS_OK);
+        CHECK(h->again.chunks[0].baseline == c->baseline);
+        gs_wire_deltas(&h->again.chunks[0], e);
+        for (k = 0; k < c->elements; ++k) CHECK(d[k] == e[k]);
+        return;
+    }
+    na = gs_wire_acks(c, a, GS_WIRE_MAX_ACKS);
+    CHECK(na == c->elements);
+    CHECK(gs_wire_add_ack(out, sizeof out, &n, c->object_id, a, na) == GS_OK);
+    n = gs_wire_end(out, n);
+    CHECK(gs_wire_decode(out, n, &h->again, NULL) == GS_OK);
+    CHECK(gs_wire_acks(&h->again.chunks[0], b, GS_WIRE_MAX_ACKS) == na);
+    for (k = 0; k < na; ++k)
+        CHECK(a[k].object_id == b[k].object_id && a[k].sequence == b[k].sequence &&
+              a[k].refused == b[k].refused);
+}
+
 static void one_datagram(harness *h, const unsigned char *src, size_t size) {
     unsigned char *buf = (unsigned char *)malloc(size ? size : 1);
     gs_reject dwhy = GS_REJECT_COUNT, why = GS_REJECT_COUNT;
@@ -190,8 +281,10 @@ static void one_datagram(harness *h, const unsigned char *src, size_t size) {
                 CHECK(gs_wire_value(c, 0) == v[0]);
                 CHECK(gs_wire_value(c, c->elements - 1) == v[c->elements - 1]);
             }
-            if (c->encoding == GS_ENCODING_QUANT && !(c->flags & GS_WIRE_CHUNK_REST) &&
-                c->elements <= 240)
+            if (c->flags & (GS_WIRE_CHUNK_DELTA | GS_WIRE_CHUNK_ACK))
+                recode_same(h, c);
+            else if (c->encoding == GS_ENCODING_QUANT && !(c->flags & GS_WIRE_CHUNK_REST) &&
+                     c->elements <= 240)
                 requant_same(h, c);
         }
     }
