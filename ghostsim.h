@@ -339,6 +339,13 @@
                            priority within a peer's budget, gs_wire_values;
                            delta coding against acknowledged baselines
                            (gs_ghost_desc.delta, GS_REJECT_BASELINE).
+                           One way to make a net: gs_net_create on a
+                           gs_transport (gs_simnet_transport,
+                           gs_udp_create + gs_udp_transport, or yours);
+                           gs_net_add_peer(net, host, addr); gs_net_poll.
+                           gs_simnet_join, gs_udp_open, gs_udp_add_peer,
+                           gs_udp_remove_peer, gs_udp_net, gs_udp_poll and
+                           gs_net_desc.send/send_user are gone.
 
    LICENSE: MIT, at the end of this file.
 */
