@@ -216,7 +216,7 @@ static void cpu_times(int enc, double *enc_us, double *dec_us, double *bytes) {
     }
     gs_net_desc nd;
     memset(&nd, 0, sizeof nd);
-    nd.transport.transport.send = keep;
+    nd.transport.send = keep;
     nd.transport.user = c;
     nd.bandwidth = 1e9;
     for (i = 0; i < 2; ++i) {
