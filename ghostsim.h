@@ -13251,9 +13251,14 @@ GS__PRIVATE gs_result gs__sim_send(void *user, uint32_t host, const void *data, 
     int to = gs__sim_slot(s, host);
     const gs_link_desc *l;
     if (size > GS_WIRE_MAX_DATAGRAM) return GS_ERR_INVALID_ARG;
-    if (to < 0) { /* a host whose net went, or never joined: lost on the way */
-        s->dropped++;
-        return GS_OK;
+    if (to < 0) {
+        int i;
+        for (i = 0; i < s->hosts; ++i) /* a host whose net went: lost on the way */
+            if (s->host[i].state == GS__SIM_GONE && s->host[i].host == host) {
+                s->dropped++;
+                return GS_OK;
+            }
+        return GS_ERR_INVALID_ARG; /* never on this simnet: a send failure */
     }
     l = &s->link[from - s->host][to];
     if (gs__link_cut(l, s->now) || gs__sim_rand(s) < l->loss) {
@@ -13348,7 +13353,7 @@ GS__PRIVATE void gs__sim_detach(void *user, gs_net *net) {
     (void)net;
     if (h->state != GS__SIM_JOINED) return;
     gs__sync_set_clock(h->world, h->prev_clock, h->prev_clock_user);
-    h->state = GS__SIM_GONE;
+    h->state = GS__SIM_GONE; /* h->host stays: what is sent to it is lost */
     h->net = NULL;
     h->world = NULL;
 }

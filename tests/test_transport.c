@@ -356,6 +356,12 @@ static void test_simnet_transport(void **state) {
     assert_int_equal(gs_net_create(h[2].w, &nd, &h[2].net), GS_OK);
     assert_int_equal(gs_simnet_run(sim, 1.0, 1.0 / 60.0), GS_OK);
     assert_true(fabs(h[2].t.x[0] - h[0].t.x[0]) < 1e-9);
+    /* a peer that never joined the simnet: every send to it fails */
+    assert_int_equal(gs_net_add_peer(h[0].net, 9, NULL), GS_OK);
+    assert_int_equal(gs_simnet_run(sim, 0.1, 1.0 / 60.0), GS_OK);
+    assert_int_equal(gs_net_peer_stats(h[0].net, 9, &ps), GS_OK);
+    assert_true(ps.send_failures > 0 && ps.datagrams_sent == 0);
+    assert_int_equal(gs_net_remove_peer(h[0].net, 9), GS_OK);
     /* the simnet goes first: the nets left send nothing, and say so */
     gs_simnet_destroy(sim);
     assert_int_equal(gs_world_advance(h[0].w, 0.1, NULL), GS_OK);
