@@ -161,10 +161,13 @@ test-asan: $(addprefix $(BUILD)/asan/,$(TESTS) $(TESTS_NOSODIUM))
 # the longest first (under ASan the net and ghost suites are most of the
 # time), so both cores stay busy to the end; test-plain and test-asan run
 # them in one line each.
+# The build without libsodium runs plain only (the sanitizers see the same
+# code in the other suites), and the manual's quick starts run on a quiet
+# machine, after: its UDP one must keep wall-clock pace.
 SLOW_SUITES := test_net test_ghost
 SUITES_BY_LENGTH := $(addprefix run-asan-,$(SLOW_SUITES)) \
-  $(addprefix run-asan-,$(filter-out $(SLOW_SUITES),$(TESTS) $(TESTS_NOSODIUM))) \
-  $(addprefix run-plain-,$(TESTS) $(TESTS_NOSODIUM))
+  $(addprefix run-asan-,$(filter-out $(SLOW_SUITES) test_manual,$(TESTS))) \
+  $(addprefix run-plain-,$(filter-out test_manual,$(TESTS)) $(TESTS_NOSODIUM))
 run-plain-%: $(BUILD)/%
 	@sh tests/run.sh "plain" $(BUILD)/$*
 run-asan-%: $(BUILD)/asan/%
@@ -176,25 +179,28 @@ test-build: examples $(addprefix $(BUILD)/,$(TESTS) $(TESTS_NOSODIUM)) \
             $(addprefix $(BUILD)/asan/,$(TESTS) $(TESTS_NOSODIUM)) $(BUILD)/tsan/test_net \
             $(BUILD)/fuzz_wire $(BUILD)/fuzz_sealed $(BUILD)/fuzz_clock
 
-# Suites that only count (compile checks, the fuzzers' fixed times, the
-# cmocka suites) run two at a time, each one's output kept together; the
-# ones that measure wall-clock pace or convergence between processes
-# (tsan and valgrind on the UDP threads, the peers, the fault suite) run
-# alone, as a loaded machine would fail them for the wrong reason.
+# What only counts (the builds, compile checks, the fuzzers' fixed times,
+# the cmocka suites) goes in one make, two jobs at a time, so that no core
+# waits for a phase to end; each job's output is kept together. What
+# measures wall-clock pace or convergence between processes (tsan on the
+# UDP threads, the manual's UDP quick start, the peers, the fault suite)
+# runs after, alone, as a loaded machine would fail it for the wrong
+# reason. tests/phase.sh prints each part's time.
 test: deps
-	@sh tests/phase.sh "build" $(MAKE) --no-print-directory -j2 test-build
-	@sh tests/phase.sh "checks and fuzzers" $(MAKE) --no-print-directory -j2 --output-sync=target \
-	  compile-checks doc-check examples cmake-check install-check fuzz-ci
-	@sh tests/phase.sh "cmocka suites" $(MAKE) --no-print-directory -j2 --output-sync=target \
-	  $(SUITES_BY_LENGTH)
-	@sh tests/phase.sh "tsan and valgrind" $(MAKE) --no-print-directory tsan valgrind-udp
+	@sh tests/phase.sh "build, checks, fuzzers, cmocka suites" $(MAKE) --no-print-directory -j2 \
+	  --output-sync=target $(SUITES_BY_LENGTH) compile-checks doc-check examples cmake-check \
+	  install-check fuzz-ci $(BUILD)/tsan/test_net $(BUILD)/test_net $(BUILD)/test_manual
+	@sh tests/phase.sh "tsan, the manual over UDP" $(MAKE) --no-print-directory \
+	  tsan run-plain-test_manual
 	@sh tests/phase.sh "peers and faults" $(MAKE) --no-print-directory test-peers faults-short
 
 # Suites too slow for make test's 10 minutes, which .ci/run runs after it:
 # the paper scene's convergence on a perfect and a bad link (85 s of
-# simulation; README "Convergence").
+# simulation; README "Convergence"), and the UDP tests under valgrind
+# (leaks of sockets, threads and buffers; two minutes, one thread at a time).
 test-slow: $(BUILD)/test_net
 	@GHOSTSIM_SLOW_TESTS=1 sh tests/run.sh "slow" "$(BUILD)/test_net test_scene_perfect_and_bad"
+	@$(MAKE) --no-print-directory valgrind-udp
 
 # The UDP tests (gather and scatter threads) under ThreadSanitizer, and under
 # valgrind for leaks: sockets, threads and buffers all released at shutdown.

@@ -171,7 +171,9 @@
          clock is past where it was, every ghost is due at each update, the
          bandwidth budget and the receive cap refill nothing, and the peers
          misjudge the age of this host's snapshots (by more than GS_MAX_AGE:
-         unknown), so their weight rules misjudge who leads.
+         unknown), so their weight rules misjudge who leads. It is counted
+         (gs_peer_stats.clock_backwards) and shows as every peer's health,
+         GS_PEER_CLOCK_BACK, until the clock is past where it was.
          gs_world_advance refuses negative seconds (GS_ERR_INVALID_ARG; the
          world does not move).
        - Every host keeps wall-clock pace, in short frames (60 a second or
