@@ -29,11 +29,13 @@
        if (gs_simnet_create(NULL, &sim) != GS_OK) return 1;
        for (int h = 0; h < 2; ++h) {            // every host builds the same
            gs_world_desc wd = gs_world_desc_default();
+           gs_net_desc nd = gs_net_desc_default();
            wd.host_id = (uint32_t)h + 1;        // hosts 1 and 2
            if (gs_world_create(&wd, &w[h]) != GS_OK) return 1;
            if (gs_scene_create(w[h], &sd, &sc[h]) != GS_OK ||
                gs_scene_attach_ghosts(&sc[h], &gd) != GS_OK ||
-               gs_simnet_join(sim, w[h], NULL, &net[h]) != GS_OK) {
+               gs_simnet_transport(sim, &nd.transport) != GS_OK ||
+               gs_net_create(w[h], &nd, &net[h]) != GS_OK) {  // joins
                fprintf(stderr, "%s\n", gs_world_error(w[h]));
                return 1;
            }
@@ -62,7 +64,7 @@
        // each is its own process (or machine) that runs one h of the loops.
        const char *addr[2] = {"127.0.0.1:47301", "127.0.0.1:47302"};
        gs_world *w[2];
-       gs_udp *u[2];
+       gs_net *net[2];
        gs_scene sc[2];
        gs_scene_desc sd = gs_scene_desc_default();
        gs_ghost_desc gd = gs_ghost_desc_default();
@@ -70,13 +72,17 @@
        for (int h = 0; h < 2; ++h) {
            gs_world_desc wd = gs_world_desc_default();
            gs_udp_desc ud = gs_udp_desc_default(); // poll mode
+           gs_net_desc nd = gs_net_desc_default();
+           gs_udp *u;
            wd.host_id = (uint32_t)h + 1;
            ud.bind = addr[h];
            if (gs_world_create(&wd, &w[h]) != GS_OK) return 1;
            if (gs_scene_create(w[h], &sd, &sc[h]) != GS_OK ||
                gs_scene_attach_ghosts(&sc[h], &gd) != GS_OK ||
-               gs_udp_open(w[h], &ud, &u[h]) != GS_OK ||  // the socket first,
-               gs_udp_add_peer(u[h], 2 - (uint32_t)h, addr[1 - h]) != GS_OK) {
+               gs_udp_create(w[h], &ud, &u) != GS_OK ||  // the socket first,
+               gs_udp_transport(u, &nd.transport) != GS_OK ||
+               gs_net_create(w[h], &nd, &net[h]) != GS_OK || // (owns u now)
+               gs_net_add_peer(net[h], 2 - (uint32_t)h, addr[1 - h]) != GS_OK) {
                fprintf(stderr, "%s\n", gs_world_error(w[h]));  // then the peer
                return 1;
            }
@@ -88,7 +94,7 @@
                gs_probe_set_target(sc[h].probes[h], gs_scene_probe_path(h, t),
                                    gs_rigid_orientation(sc[h].probes[h]));
                gs_world_advance(w[h], now - last, NULL); // blend, step, publish
-               gs_udp_poll(u[h], now);                   // receive, send
+               gs_net_poll(net[h], now);                 // receive, send
            }
            last = now;
            struct timespec frame = {0, 10000000};       // 100 frames a second
@@ -101,10 +107,8 @@
            gap = fmax(gap, fabs(a.x - b.x) + fabs(a.y - b.y) + fabs(a.z - b.z));
        }
        printf("the hosts' spheres are %.1e m apart\n", gap);
-       for (int h = 0; h < 2; ++h) {
-           gs_udp_close(u[h]);                  // before its world
-           gs_world_destroy(w[h]);
-       }
+       for (int h = 0; h < 2; ++h)
+           gs_world_destroy(w[h]);              // its net, and the gs_udp
        return gap < 1e-3 ? 0 : 1;
 
    THE FRAME LOOP
@@ -121,13 +125,14 @@
        (gs_ghost_render_state smooths the blends' corrections).
        The transports do parts of it: gs_simnet_run does 2 and 3 for every
        host it joined, then 1 with what arrived during the frame, for as
-       many frames as asked; gs_udp_poll in poll mode (threads 0) does 1
-       then 3, so it comes right after the advance; with threads 1 the
-       gather thread delivers as datagrams arrive and the scatter thread
-       sends, and gs_udp_poll only wakes the scatter thread.
+       many frames as asked; gs_net_poll(net, now) on gs_udp in poll mode
+       (threads 0) does 1 then 3, so it comes right after the advance;
+       with threads 1 the gather thread delivers as datagrams arrive and
+       the scatter thread sends, and gs_net_poll only wakes the scatter
+       thread.
        `now` is wall-clock time in seconds from one monotonic clock per
        host: the same clock for every gs_net_deliver, gs_net_update and
-       gs_udp_poll of that host, in [0, GS_WIRE_MAX_TIME], never going
+       gs_net_poll of that host, in [0, GS_WIRE_MAX_TIME], never going
        back. With gs_udp it is gs_udp_now() (its receive side reads that
        clock); a gs_simnet keeps its own. `seconds` is the same clock's
        time since the last frame, so that simulated time keeps wall-clock
@@ -154,10 +159,13 @@
          probe_count equal to the number of hosts (probe i belongs to host
          i + 1, so the hosts are numbered 1..N); a host with another count
          sends a probe the others do not know (see above).
-       - The transport exists before its peers: gs_udp_open (or
-         gs_net_create, gs_simnet_join) makes the net, then gs_udp_add_peer
-         (or gs_net_add_peer) names each peer. Nothing goes to a host that
-         is not a peer, and what it sends is refused (GS_REJECT_SENDER).
+       - One way to make a net: gs_net_create, on a transport
+         (gs_simnet_transport, gs_udp_create + gs_udp_transport, or your
+         own gs_transport). The transport exists before its peers:
+         gs_net_add_peer(net, host, addr) names each (addr "HOST:PORT" on
+         gs_udp, NULL on the simnet, which adds its hosts itself).
+         Nothing goes to a host that is not a peer, and what it sends is
+         refused (GS_REJECT_SENDER).
        - `now` never goes back. One that does is not refused (only NaN,
          infinity and values outside [0, GS_WIRE_MAX_TIME] are): until the
          clock is past where it was, every ghost is due at each update, the
@@ -197,7 +205,7 @@
        snapshot   One agent's state at one simulation time, on the wire in
                   chunks of at most one datagram (wire format v2).
        transport  What carries datagrams: gs_simnet (simulated, seeded),
-                  gs_udp (POSIX), or your send callback + gs_net_deliver.
+                  gs_udp (POSIX), or yours; a gs_transport table.
        sync       The session clock (hosts at one simulation time at one
                   wall instant), the world history (gs_world_sync_test) and
                   the replay blend (GS_SYNC_REPLAY): gs_sync_desc.
@@ -265,9 +273,9 @@
        world, an agent, a ghost, the net or the simnet returns GS_ERR_BUSY
        (advance, create, destroy, set_state, step, set_gravity,
        set_budget, set_ground, probe targets, pins, ghost attach and
-       detach, net create, peers added or removed, gs_udp_add_peer and
-       _remove_peer, gs_udp_poll in poll mode; while a gs_simnet_run
-       runs, gs_simnet_join, _link and _run); gs_world_destroy,
+       detach, net create, peers added or removed, gs_net_poll on a
+       transport with a poll; while a gs_simnet_run runs, gs_net_create
+       on it, gs_simnet_link and _run); gs_world_destroy,
        gs_net_destroy, gs_udp_close and gs_net_set_lock are refused
        (nothing freed or changed, the reason in gs_world_error), and
        gs_simnet_destroy is ignored while its run goes on. gs_net_update
@@ -333,6 +341,13 @@
                            priority within a peer's budget, gs_wire_values;
                            delta coding against acknowledged baselines
                            (gs_ghost_desc.delta, GS_REJECT_BASELINE).
+                           One way to make a net: gs_net_create on a
+                           gs_transport (gs_simnet_transport,
+                           gs_udp_create + gs_udp_transport, or yours);
+                           gs_net_add_peer(net, host, addr); gs_net_poll.
+                           gs_simnet_join, gs_udp_open, gs_udp_add_peer,
+                           gs_udp_remove_peer, gs_udp_net, gs_udp_poll and
+                           gs_net_desc.send/send_user are gone.
 
    LICENSE: MIT, at the end of this file.
 */
@@ -474,7 +489,7 @@ typedef struct gs_sync_desc {
     gs_sync_mode mode;     /* default present */
     gs_sync_clock clock;   /* default local */
     gs_clock_fn now;       /* the wall clock the session clock reads (s);
-                              default the world's clock; gs_simnet_join
+                              default the world's clock; a simnet transport
                               sets the simnet's clock of the host (so the
                               simnet must outlive the world's advances) */
     void *now_user;
@@ -1723,10 +1738,44 @@ typedef struct gs_net gs_net;
 typedef gs_result (*gs_send_fn)(void *user, uint32_t host, const void *data,
                                 size_t size);
 
+/* What carries a net's datagrams, as a table of callbacks that the net
+   calls (user is passed to each): gs_simnet_transport and gs_udp_transport
+   fill one, or the application fills its own with a send alone and hands
+   what it receives to gs_net_deliver. Only send is required; a NULL
+   callback does nothing and succeeds. Each runs in the world's thread
+   (send also in gs_udp's scatter thread, under the net's lock).
+   - send: see gs_send_fn; inside gs_net_update.
+   - add_peer: inside gs_net_add_peer, before the net takes the peer: the
+     peer's address (addr, as the application gave it, NULL if none) is
+     kept or refused here (an error refuses the peer). NULL: the
+     transport uses no addresses, and gs_net_add_peer refuses one that is
+     given.
+   - remove_peer: inside gs_net_remove_peer, after the net forgot the peer
+     (and when an add_peer succeeded but the net could not take the peer).
+   - attach: inside gs_net_create, once the net is made and is the world's
+     (peers may be added from here); an error undoes the create.
+   - poll: inside gs_net_poll, before its gs_net_update: deliver what has
+     arrived (gs_net_deliver) at `now`.
+   - sends_itself: nonzero when a thread of the transport calls
+     gs_net_update at its own reading of the clock (gs_udp with threads:
+     the scatter thread); gs_net_poll then only polls, so that one net
+     does not send at two clocks.
+   - detach: inside gs_net_destroy (and so gs_world_destroy), before the
+     net goes; nothing may call into the net after it returns. */
+typedef struct gs_transport {
+    void *user;
+    gs_send_fn send;                                                    /* required */
+    gs_result (*add_peer)(void *user, uint32_t host, const char *addr); /* may be NULL */
+    gs_result (*remove_peer)(void *user, uint32_t host);               /* may be NULL */
+    gs_result (*attach)(void *user, gs_net *net);                      /* may be NULL */
+    gs_result (*poll)(void *user, gs_net *net, double now);            /* may be NULL */
+    void (*detach)(void *user, gs_net *net);                           /* may be NULL */
+    int sends_itself;                                                  /* default 0 */
+} gs_transport;
+
 typedef struct gs_net_desc {
     uint32_t session;   /* datagrams of other sessions are refused; default 1 */
-    gs_send_fn send;    /* required */
-    void *send_user;
+    gs_transport transport; /* required: its send at least (see gs_transport) */
     double bandwidth;   /* bytes/s to each peer at most; default 1e7 */
     double time_window; /* s; refuse snapshots further than this from the
                            local time; 0 = none (a late joiner must be able
@@ -1747,7 +1796,8 @@ typedef struct gs_net_desc {
 } gs_net_desc;
 
 /* Session 1, bandwidth 1e7 bytes/s, no time window, 16 peers, no key;
-   send NULL (required: set it); max_rate 0, which follows bandwidth. */
+   an empty transport (required: fill it); max_rate 0, which follows
+   bandwidth. */
 GS_API gs_net_desc gs_net_desc_default(void);
 
 /* How a peer looks from here, in gs_peer_stats.health (a name a program
@@ -1757,7 +1807,7 @@ GS_API gs_net_desc gs_net_desc_default(void);
    - GS_PEER_NO_UPDATE: the world advanced GS_PEER_QUIET s since the last
      gs_net_update (or since the net was made, with none): nothing is sent.
    - GS_PEER_CLOCK_BACK: the latest `now` given to gs_net_update,
-     gs_net_deliver or gs_udp_poll is more than GS_CLOCK_SLACK before one
+     gs_net_deliver or gs_net_poll is more than GS_CLOCK_SLACK before one
      given earlier, and the clock has not caught up with it yet.
    - GS_PEER_NOT_SENDING: updates run, but nothing went to this peer for
      GS_PEER_QUIET s (a world with no ghosts has nothing to send).
@@ -1851,34 +1901,44 @@ typedef struct gs_peer_stats {
                                 gs_net_update returns the first error */
 } gs_peer_stats;
 
-/* Gives the world its net on your own transport: desc->send carries the
-   datagrams, and the application hands those it receives to
-   gs_net_deliver (for gs_simnet and gs_udp, gs_simnet_join and gs_udp_open
-   call this). Zero fields take the defaults beside them; desc and
-   desc->send are required. Peers come after (gs_net_add_peer). Returns
-   GS_OK and *out, or GS_ERR_INVALID_ARG (a NULL desc, out or send, a
-   world that has a net already, a bandwidth, max_rate or max_peers out of
-   range, a negative time_window), GS_ERR_NOT_FINITE for a NaN or
-   infinite number, GS_ERR_UNSUPPORTED for a key without
+/* Gives the world its net: the one way to make one, whatever carries the
+   datagrams. desc->transport is filled by gs_simnet_transport, by
+   gs_udp_transport, or by the application (its own send; it hands what
+   it receives to gs_net_deliver). The transport's attach runs last (the
+   simnet links the new host to those before it, gs_udp starts its
+   threads). Zero fields take the defaults beside them; desc and
+   desc->transport.send are required. Peers come after (gs_net_add_peer).
+   Returns GS_OK and *out, or GS_ERR_INVALID_ARG (a NULL desc, out or
+   transport.send, a world that has a net already, a bandwidth, max_rate
+   or max_peers out of range, a negative time_window), GS_ERR_NOT_FINITE
+   for a NaN or infinite number, GS_ERR_UNSUPPORTED for a key without
    GHOSTSIM_SODIUM, GS_ERR_SYSTEM if libsodium fails to start,
-   GS_ERR_NO_MEMORY, GS_ERR_BUSY from a callback; *out is NULL on failure,
-   the reason in gs_world_error. gs_world_destroy destroys the net too. */
+   GS_ERR_NO_MEMORY, GS_ERR_BUSY from a callback, or the attach's error
+   (then nothing is kept); *out is NULL on failure, the reason in
+   gs_world_error. gs_world_destroy destroys the net too. */
 GS_API gs_result gs_net_create(gs_world *w, const gs_net_desc *desc,
                                gs_net **out);
-/* Refused from a callback or while a gs_simnet_run runs it, as
-   gs_world_destroy. */
+/* Detaches the transport (gs_udp: its threads stop, its socket closes
+   and it is freed), then frees the net and the ghosts' queues. Refused
+   from a callback or while a gs_simnet_run runs it, as gs_world_destroy. */
 GS_API void gs_net_destroy(gs_net *net);
-/* Adds host as a peer: from then on the ghosts' states go to it and its
-   datagrams are taken (a host that is not a peer is refused as
-   GS_REJECT_SENDER). A host that is a peer already: GS_OK, nothing
-   changes. GS_ERR_INVALID_ARG for host 0 or this host's id,
-   GS_ERR_CAPACITY past max_peers, GS_ERR_NO_MEMORY for the ghosts' queues
-   (then no queue is kept), GS_ERR_BUSY from a callback. On a gs_udp's
-   net call gs_udp_add_peer, which gives the address too. */
-GS_API gs_result gs_net_add_peer(gs_net *net, uint32_t host);
+/* Adds host as a peer, at addr if the transport uses addresses (gs_udp:
+   "HOST:PORT", "[v6]:PORT", required; the simnet's and a transport
+   without add_peer: NULL). From then on the ghosts' states go to it and
+   its datagrams are taken (a host that is not a peer is refused as
+   GS_REJECT_SENDER; gs_udp takes them from that address only). A host
+   that is a peer already: GS_OK, and the transport takes the new address.
+   GS_ERR_INVALID_ARG for host 0 or this host's id, an address the
+   transport refuses (gs_udp: none, or one that does not parse) or one
+   given to a transport without addresses; GS_ERR_CAPACITY past
+   max_peers, GS_ERR_NO_MEMORY for the ghosts' queues (then no queue is
+   kept and the transport forgets the peer again), GS_ERR_BUSY from a
+   callback; the reason in gs_world_error. */
+GS_API gs_result gs_net_add_peer(gs_net *net, uint32_t host, const char *addr);
 /* Forgets a peer: nothing more goes to it, its datagrams are refused and
-   the snapshots queued from it go. GS_ERR_INVALID_ARG for a host that is
-   not a peer, GS_ERR_BUSY from a callback. */
+   the snapshots queued from it go; then the transport forgets it (its
+   remove_peer: gs_udp drops the address). GS_ERR_INVALID_ARG for a host
+   that is not a peer, GS_ERR_BUSY from a callback. */
 GS_API gs_result gs_net_remove_peer(gs_net *net, uint32_t host);
 /* Sends what is due at wall time `now` (s): each ghost's latest state at its
    rate, within each peer's bandwidth. A send callback that fails is
@@ -1894,6 +1954,17 @@ GS_API gs_result gs_net_remove_peer(gs_net *net, uint32_t host);
    FRAME LOOP at the top). GS_ERR_BUSY from a weight rule or the send
    callback. */
 GS_API gs_result gs_net_update(gs_net *net, double now);
+/* The frame's network call for a transport that needs one (gs_udp; any
+   with a poll): the transport's poll delivers what waits (gs_udp in poll
+   mode receives every waiting datagram, with threads it wakes the
+   scatter thread), then gs_net_update(net, now) (not with a transport
+   that sends itself: gs_udp's threads). Call it after
+   gs_world_advance, with the clock the transport delivers at
+   (gs_udp_now() for gs_udp: one net needs one clock, another shows as
+   GS_PEER_CLOCK_BACK). Returns the poll's error, else gs_net_update's;
+   GS_ERR_INVALID_ARG / GS_ERR_NOT_FINITE for a `now` as gs_net_update
+   refuses it, GS_ERR_BUSY from a callback (nothing received). */
+GS_API gs_result gs_net_poll(gs_net *net, double now);
 /* Hands a received datagram to ghostsim (`data` is read during the call
    only), before the gs_world_advance that should blend it (see THE FRAME
    LOOP at the top). Returns GS_OK when it was queued,
@@ -1940,13 +2011,12 @@ typedef struct gs_unknown_stats {
 /* Into *out (safe from any thread). GS_ERR_INVALID_ARG for a NULL net or
    out. */
 GS_API gs_result gs_net_unknown_stats(const gs_net *net, gs_unknown_stats *out);
-/* The world's net (made by gs_net_create, gs_simnet_join or gs_udp_open),
-   or NULL if it has none. */
+/* The world's net (made by gs_net_create), or NULL if it has none. */
 GS_API gs_net *gs_world_net(const gs_world *w);
 /* What is wrong with this world's networking that no call returned as an
    error, for a user to read: "" when nothing is found, else one line per
    finding, e.g. "3 ghosts and no net: nothing is sent or received
-   (gs_net_create, gs_simnet_join or gs_udp_open)", "a net and no peers:
+   (gs_net_create)", "a net and no peers:
    nothing is sent (...)", "a net and no ghosts: ...", then each peer
    whose health is not GS_PEER_OK or GS_PEER_WAITING, with its name and
    reason ("peer 2: silent: nothing received from this peer for 1.2 s
@@ -1998,7 +2068,7 @@ typedef struct gs_simnet_desc {
     gs_allocator allocator; /* default GS_MALLOC / GS_FREE */
 } gs_simnet_desc;
 
-/* A perfect link: no latency, loss or cap (what gs_simnet_join sets). */
+/* A perfect link: no latency, loss or cap (what a host joins with). */
 GS_API gs_link_desc gs_link_desc_default(void);
 /* Seed 1, 16384 datagrams in flight, the default allocator. */
 GS_API gs_simnet_desc gs_simnet_desc_default(void);
@@ -2012,14 +2082,23 @@ GS_API gs_result gs_simnet_create(const gs_simnet_desc *desc, gs_simnet **out);
 /* Destroys the simnet (not the worlds or their nets). Ignored from a
    callback inside its gs_simnet_run. */
 GS_API void gs_simnet_destroy(gs_simnet *sim);
-/* Joins a world: creates its net on the simnet's transport (desc.send is
-   ignored) and links it both ways to every world joined so far with a
-   perfect link. If a host cannot take it (GS_ERR_CAPACITY past its
-   max_peers) nothing is kept: no net, and no host keeps it as a peer.
-   GS_ERR_BUSY while the simnet runs (so are gs_simnet_link and
-   gs_simnet_run). */
-GS_API gs_result gs_simnet_join(gs_simnet *sim, gs_world *w,
-                                const gs_net_desc *desc, gs_net **out);
+/* Fills *out with a transport on this simnet for one host: give it to
+   gs_net_create (nd.transport), which joins the world there. The host is
+   the world's host_id; at the create it is linked both ways to every host
+   joined so far with a perfect link (each is the other's peer: no
+   gs_net_add_peer needed, and no address is taken). If a host cannot
+   take it (GS_ERR_CAPACITY past its max_peers) nothing is kept: no net,
+   and no host keeps it as a peer. One transport makes one net (a second
+   gs_net_create with it is GS_ERR_INVALID_ARG), and the same transport
+   may be given again after a create that failed. Its net's destroy
+   takes the host off the simnet (what is sent to it is lost). Returns
+   GS_OK, or GS_ERR_INVALID_ARG for a NULL argument, GS_ERR_CAPACITY past
+   16 transports on one simnet; at the create, GS_ERR_INVALID_ARG for a
+   host that joined already, GS_ERR_BUSY while the simnet runs (so are
+   gs_simnet_link and gs_simnet_run). Destroy the worlds (or their nets)
+   before the simnet; a net that outlives its simnet sends nothing
+   (GS_ERR_INVALID_ARG, counted as send failures). */
+GS_API gs_result gs_simnet_transport(gs_simnet *sim, gs_transport *out);
 /* Sets the link from host a to host b (one direction), both joined.
    GS_ERR_INVALID_ARG for a host not joined, a negative latency, jitter or
    bandwidth, a probability outside [0, 1]; GS_ERR_NOT_FINITE for an
@@ -2035,8 +2114,8 @@ GS_API gs_result gs_simnet_run(gs_simnet *sim, double seconds, double frame);
 /* The simnet's virtual time, in seconds: the frames run so far. */
 GS_API double gs_simnet_time(const gs_simnet *sim);
 /* The detail of the last failed call on this simnet ("" if none, or for a
-   NULL sim): the simnet may have no world to hold it. gs_simnet_join's
-   failures are also in the joining world's gs_world_error. Valid until the
+   NULL sim): the simnet may have no world to hold it. Its transport's
+   failures at gs_net_create are also in the joining world's gs_world_error. Valid until the
    next call on the simnet. */
 GS_API const char *gs_simnet_error(const gs_simnet *sim);
 /* A host's own clock on the simnet (tests of the session clock): the
@@ -2067,7 +2146,7 @@ GS_API gs_result gs_simnet_get_stats(const gs_simnet *sim, gs_simnet_stats *out)
    >>udp
    POSIX UDP (left out by GHOSTSIM_NO_UDP): the paper's gather thread
    (receive, validate, queue) and scatter thread (send what is due), or
-   no threads at all: call gs_udp_poll from your loop.
+   no threads at all: call gs_net_poll from your loop.
    Peers are an allow-list of (host id, address) pairs: a datagram whose
    source address is not the one registered for the sender id in its
    header is refused (GS_REJECT_ADDRESS, counted on that peer) before
@@ -2084,48 +2163,37 @@ typedef struct gs_udp_desc {
                               outside 0..65535 is GS_ERR_INVALID_ARG (0:
                               the kernel picks one) */
     int threads;           /* 1: gather and scatter threads; 0 (default):
-                              poll mode (call gs_udp_poll each frame) */
+                              poll mode (call gs_net_poll each frame) */
     int rcvbuf;            /* bytes; default 4 MiB */
-    gs_net_desc net;       /* session, bandwidth...; zero fields take
-                              gs_net_desc_default()'s; send is ignored */
 } gs_udp_desc;
 
-/* bind NULL (required: set it), poll mode, 4 MiB of rcvbuf,
-   gs_net_desc_default(). */
+/* bind NULL (required: set it), poll mode, 4 MiB of rcvbuf. */
 GS_API gs_udp_desc gs_udp_desc_default(void);
 
-/* Opens a UDP socket bound to desc->bind and gives the world its net on
-   it (as gs_net_create, with desc->net; threads 1 starts the gather and
-   scatter threads). Peers come after (gs_udp_add_peer). Returns GS_OK and
-   *out, or GS_ERR_INVALID_ARG (a NULL argument, a bad address or port),
-   GS_ERR_SYSTEM (the socket, its bind, e.g. a port in use, or a thread:
-   the system's reason in gs_world_error), gs_net_create's errors for
-   desc->net, GS_ERR_NO_MEMORY; *out is NULL and nothing is kept on
-   failure. Close it (gs_udp_close) before destroying the world. */
-GS_API gs_result gs_udp_open(gs_world *w, const gs_udp_desc *desc,
-                             gs_udp **out);
-/* Joins the threads, closes the socket, frees everything. Refused from a
-   callback of its world (the threads may wait on the lock it holds). */
+/* Opens a UDP socket bound to desc->bind, for world w's net (w gives the
+   allocator and holds the messages): the socket exists before the peers
+   that send to it are named. Then gs_udp_transport and gs_net_create make
+   the net (threads 1 starts the gather and scatter threads there), and
+   gs_net_add_peer(net, host, "HOST:PORT") names each peer. Returns GS_OK
+   and *out, or GS_ERR_INVALID_ARG (a NULL argument, a bad address or
+   port), GS_ERR_SYSTEM (the socket or its bind, e.g. a port in use: the
+   system's reason in gs_world_error), GS_ERR_NO_MEMORY, GS_ERR_BUSY from
+   a callback; *out is NULL and nothing is kept on failure. Once its net
+   is made, the net owns it: gs_net_destroy (or gs_world_destroy) stops
+   its threads, closes the socket and frees it. */
+GS_API gs_result gs_udp_create(gs_world *w, const gs_udp_desc *desc, gs_udp **out);
+/* Fills *out with the transport of u, for gs_net_create on u's world
+   (another world's net is GS_ERR_INVALID_ARG there, as is a second net).
+   Its add_peer requires an address; its poll (gs_net_poll) receives in
+   poll mode and wakes the scatter thread with threads. GS_ERR_INVALID_ARG
+   for a NULL argument. */
+GS_API gs_result gs_udp_transport(gs_udp *u, gs_transport *out);
+/* Frees a gs_udp: with its net made, destroys that net (as
+   gs_net_destroy, which frees the gs_udp with it); without (its
+   gs_net_create failed or never came), closes the socket and frees it.
+   Refused from a callback of its world (the threads may wait on the lock
+   it holds). */
 GS_API void gs_udp_close(gs_udp *u);
-/* The net of this socket (for gs_net_peer_stats); NULL for a NULL u. It
-   goes with gs_udp_close. */
-GS_API gs_net *gs_udp_net(gs_udp *u);
-/* Adds or replaces a peer's address ("HOST:PORT", IPv4 or IPv6; a port
-   outside 0..65535 is GS_ERR_INVALID_ARG, as in gs_udp_desc.bind): from
-   then on, datagrams that name this host as their sender are taken from
-   this address only. GS_ERR_INVALID_ARG for an address that does not
-   parse (the reason in gs_world_error), GS_ERR_CAPACITY past 16 peers,
-   gs_net_add_peer's errors otherwise (then the address is not kept). */
-GS_API gs_result gs_udp_add_peer(gs_udp *u, uint32_t host, const char *addr);
-/* Forgets a peer and its address, as gs_net_remove_peer (its result). */
-GS_API gs_result gs_udp_remove_peer(gs_udp *u, uint32_t host);
-/* Poll mode: receives every waiting datagram and sends what is due at wall
-   time now (refused as gs_net_update refuses it; GS_ERR_BUSY from a
-   callback of the world). Pass gs_udp_now(): what it receives is
-   delivered at that clock's reading, and one net needs one clock
-   (another shows as GS_PEER_CLOCK_BACK). In thread mode it only wakes the
-   scatter thread. */
-GS_API gs_result gs_udp_poll(gs_udp *u, double now);
 /* The wall clock gs_udp uses (CLOCK_MONOTONIC seconds). */
 GS_API double gs_udp_now(void);
 #endif
@@ -11431,14 +11499,14 @@ GS__PRIVATE gs_peer_health gs__peer_judge(const gs_net *net, int p, char *buf, s
     char more[160];
     if (since_world >= GS_PEER_QUIET) {
         snprintf(buf, cap, "nothing sent: gs_net_update has not run for %.1f s of world time "
-                 "(%s; call it each frame after gs_world_advance, or gs_udp_poll in poll mode)",
+                 "(%s; call it each frame after gs_world_advance, or gs_net_poll)",
                  since_world, net->updated ? "since its last call" : "never called");
         return GS_PEER_NO_UPDATE;
     }
     if (net->clock_backwards && (net->clock_behind ||
                                  net->clock_max - net->clock_back_from < GS_PEER_QUIET)) {
         snprintf(buf, cap, "the clock went back %.3f s (from %.3f s to %.3f s; %lu time%s so "
-                 "far): gs_net_update, gs_net_deliver and gs_udp_poll need one clock that only "
+                 "far): gs_net_update, gs_net_deliver and gs_net_poll need one clock that only "
                  "moves forward (gs_udp receives at gs_udp_now())",
                  net->clock_back_from - net->clock_back_to, net->clock_back_from,
                  net->clock_back_to, (unsigned long)net->clock_backwards,
@@ -11447,7 +11515,7 @@ GS__PRIVATE gs_peer_health gs__peer_judge(const gs_net *net, int p, char *buf, s
     }
     if (t - net->update_now >= GS_PEER_QUIET) {
         snprintf(buf, cap, "nothing sent: gs_net_update has not run for %.1f s (%s; "
-                 "gs_net_deliver has; call it each frame, or gs_udp_poll in poll mode)",
+                 "gs_net_deliver has; call it each frame, or gs_net_poll)",
                  t - net->update_now, net->updated ? "since its last call" : "never called");
         return GS_PEER_NO_UPDATE;
     }
@@ -11476,7 +11544,7 @@ GS__PRIVATE gs_peer_health gs__peer_judge(const gs_net *net, int p, char *buf, s
     if (unheard >= GS_PEER_QUIET) {
         if (d->taken_at < 0.0)
             snprintf(buf, cap, "nothing received from this peer in the %.1f s since it was "
-                     "added: does it run and call gs_net_update (or gs_udp_poll), has it added "
+                     "added: does it run and call gs_net_update (or gs_net_poll), has it added "
                      "this host (%lu) as a peer, and does the link reach it?", unheard,
                      (unsigned long)w->host_id);
         else
@@ -11509,6 +11577,8 @@ GS_API gs_net_desc gs_net_desc_default(void) {
     return d;
 }
 
+GS__PRIVATE void gs__net_free(gs_world *w, gs_net *net);
+
 GS_API gs_result gs_net_create(gs_world *w, const gs_net_desc *desc,
                                gs_net **out) {
     gs__check c;
@@ -11528,7 +11598,9 @@ GS_API gs_result gs_net_create(gs_world *w, const gs_net_desc *desc,
     /* divided first: a bandwidth near DBL_MAX must not make it inf */
     if (d.max_rate == 0.0 && gs__finite(d.bandwidth))
         d.max_rate = fmax(20000.0, 2.0 * (d.bandwidth / GS_WIRE_MAX_DATAGRAM));
-    if (!d.send) gs__check_fail(&c, GS_ERR_INVALID_ARG, "send is NULL");
+    if (!d.transport.send)
+        gs__check_fail(&c, GS_ERR_INVALID_ARG, "transport.send is NULL (fill the transport "
+                       "with gs_simnet_transport, gs_udp_transport or your own send)");
     gs__check_positive(&c, "bandwidth", d.bandwidth);
     gs__check_nonneg(&c, "time_window", d.time_window);
     gs__check_int(&c, "max_peers", d.max_peers, 1, GS__MAX_PEERS);
@@ -11557,22 +11629,34 @@ GS_API gs_result gs_net_create(gs_world *w, const gs_net_desc *desc,
         return GS_ERR_NO_MEMORY;
     }
     w->net = net;
+    if (d.transport.attach) { /* last: it may add peers, start threads */
+        gs_result r2 = d.transport.attach(d.transport.user, net);
+        if (r2 != GS_OK) {
+            gs__net_free(w, net);
+            return r2;
+        }
+    }
     *out = net;
     return GS_OK;
 }
 
 /* Is the net inside one of its own calls (user code under its lock), or
-   is the simnet it joined running? Then it must not be freed. Read
-   without the lock: destroying a net whose other threads still run is
-   refused by its own contract already (close its gs_udp first). */
+   is the simnet it joined running? Then it must not be freed. Read under
+   the lock: a transport's thread (gs_udp's scatter) may be in an update,
+   which holds the lock throughout, so that under it `inside` is this
+   thread's own; the thread is stopped by the detach that follows. */
 GS__PRIVATE int gs__net_in_use(const gs_net *net) {
-    return net && (net->inside || net->held);
+    int busy;
+    if (!net) return 0;
+    gs__lock((gs_net *)net);
+    busy = net->inside || net->held;
+    gs__unlock((gs_net *)net);
+    return busy;
 }
 
 /* Refused from a callback, as gs_world_destroy. */
 GS_API void gs_net_destroy(gs_net *net) {
     gs_world *w;
-    int i, p;
     if (!net) return;
     w = net->world;
     if (gs__world_locked(w) || gs__net_in_use(net)) {
@@ -11580,6 +11664,14 @@ GS_API void gs_net_destroy(gs_net *net) {
                  "world or the net, or while its simnet runs; refused, nothing freed");
         return;
     }
+    if (net->d.transport.detach) net->d.transport.detach(net->d.transport.user, net);
+    gs__net_free(w, net);
+}
+
+/* Frees a net with its transport detached (or never attached): the
+   ghosts' queues, the key, the net. */
+GS__PRIVATE void gs__net_free(gs_world *w, gs_net *net) {
+    int i, p;
     for (i = 0; i < w->agent_count; ++i) { /* queues belong to peers */
         gs__ghost *g = gs__ghost_of(w->agents[i]);
         for (p = 0; g && p < GS__MAX_PEERS; ++p) {
@@ -11643,7 +11735,18 @@ GS__PRIVATE void gs__net_drop_queues(gs_world *w, int p) {
     }
 }
 
-GS_API gs_result gs_net_add_peer(gs_net *net, uint32_t host) {
+/* The transport's side of adding a peer: its address kept (or refused). */
+GS__PRIVATE gs_result gs__transport_add(gs_net *net, uint32_t host, const char *addr) {
+    const gs_transport *t = &net->d.transport;
+    if (t->add_peer) return t->add_peer(t->user, host, addr);
+    if (addr)
+        return gs__fail(net->world, GS_ERR_INVALID_ARG, "gs_net_add_peer: host %lu: this "
+                        "net's transport uses no addresses (give NULL, not \"%s\")",
+                        (unsigned long)host, addr);
+    return GS_OK;
+}
+
+GS_API gs_result gs_net_add_peer(gs_net *net, uint32_t host, const char *addr) {
     gs_world *w;
     int p, i, count = 0;
     gs_result r = gs__net_unlocked(net, "gs_net_add_peer");
@@ -11652,16 +11755,22 @@ GS_API gs_result gs_net_add_peer(gs_net *net, uint32_t host) {
     if (host == 0 || host == w->host_id)
         return gs__fail(w, GS_ERR_INVALID_ARG, "gs_net_add_peer: host %lu is 0 or this host",
                         (unsigned long)host);
-    if (gs__peer_slot(net, host) >= 0) return GS_OK;
+    if (gs__peer_slot(net, host) >= 0) return gs__transport_add(net, host, addr);
     for (p = 0; p < GS__MAX_PEERS; ++p) count += net->peers[p].used;
     for (p = 0; p < GS__MAX_PEERS && net->peers[p].used; ++p) {}
     if (p == GS__MAX_PEERS || count >= net->d.max_peers)
         return gs__fail(w, GS_ERR_CAPACITY, "gs_net_add_peer: max_peers (%d) reached",
                         net->d.max_peers);
+    /* the address first, then the net: a datagram in between is refused
+       as from an unknown sender, never taken from the wrong address */
+    r = gs__transport_add(net, host, addr);
+    if (r != GS_OK) return r;
     for (i = 0; i < w->agent_count; ++i) {
         gs__ghost *g = gs__ghost_of(w->agents[i]);
         if (g && gs__ghost_add_peer(g, p) != GS_OK) {
             gs__net_drop_queues(w, p); /* the queues made so far go too */
+            if (net->d.transport.remove_peer)
+                net->d.transport.remove_peer(net->d.transport.user, host);
             return gs__fail(w, GS_ERR_NO_MEMORY, "gs_net_add_peer: out of memory "
                             "for the ghosts' queues of host %lu", (unsigned long)host);
         }
@@ -11690,6 +11799,8 @@ GS_API gs_result gs_net_remove_peer(gs_net *net, uint32_t host) {
     net->peers[p].used = 0;
     gs__net_drop_queues(w, p);
     gs__unlock(net);
+    if (net->d.transport.remove_peer) /* after the net: see add */
+        return net->d.transport.remove_peer(net->d.transport.user, host);
     return GS_OK;
 }
 
@@ -11748,7 +11859,7 @@ GS_API const char *gs_world_diagnose(gs_world *w) {
     if (!net) {
         if (ghosts)
             gs__diag_line(w, "%d ghost%s and no net: nothing is sent or received "
-                          "(gs_net_create, gs_simnet_join or gs_udp_open)", ghosts,
+                          "(gs_net_create)", ghosts,
                           ghosts == 1 ? "" : "s");
         return w->diag;
     }
@@ -11756,8 +11867,8 @@ GS_API const char *gs_world_diagnose(gs_world *w) {
     for (p = 0; p < GS__MAX_PEERS; ++p) peers += net->peers[p].used;
     gs__unlock(net);
     if (!peers)
-        gs__diag_line(w, "a net and no peers: nothing is sent (gs_net_add_peer, gs_udp_add_peer, "
-                      "or gs_simnet_join the other worlds)");
+        gs__diag_line(w, "a net and no peers: nothing is sent (gs_net_add_peer, "
+                      "or the other worlds' nets on the same simnet)");
     if (!ghosts)
         gs__diag_line(w, "a net and no ghosts: nothing is sent, and every snapshot is refused "
                       "(GS_REJECT_OBJECT) (gs_ghost_attach or gs_scene_attach_ghosts)");
@@ -11850,7 +11961,7 @@ GS__PRIVATE void gs__datagram_flush(gs_net *net, double now, size_t *size) {
         const unsigned char *d;
         if (!pe->used || !gs__peer_budget(net, pe, wire, now)) continue;
         d = gs__datagram_to_peer(net, pe, now, *size, &n);
-        r = net->d.send(net->d.send_user, pe->host, d, n);
+        r = net->d.transport.send(net->d.transport.user, pe->host, d, n);
         if (r != GS_OK) { /* not sent: the peer sees no gap in the sequence */
             pe->st.send_failures++;
             if (net->send_error == GS_OK) {
@@ -12399,6 +12510,22 @@ GS_API gs_result gs_net_update(gs_net *net, double now) {
 
 /* ---- receiving ---- */
 
+GS_API gs_result gs_net_poll(gs_net *net, double now) {
+    gs_result r;
+    if (!net) return GS_ERR_INVALID_ARG;
+    if (!gs__finite(now)) return GS_ERR_NOT_FINITE;
+    if (!gs__wire_time_ok(now)) return GS_ERR_INVALID_ARG; /* as gs_net_update */
+    if (net->d.transport.poll) {
+        /* the poll delivers into queues that a weight rule may be
+           blending: it belongs to the world's thread, outside callbacks */
+        r = gs__net_unlocked(net, "gs_net_poll");
+        if (r != GS_OK) return r;
+        r = net->d.transport.poll(net->d.transport.user, net, now);
+        if (r != GS_OK) return r;
+    }
+    return net->d.transport.sends_itself ? GS_OK : gs_net_update(net, now);
+}
+
 /* Wrap-safe: a is newer than b. */
 GS__PRIVATE int gs__seq_newer(uint32_t a, uint32_t b) {
     return (int32_t)(a - b) > 0;
@@ -12924,11 +13051,21 @@ typedef struct gs__flight {
     unsigned char *data;
 } gs__flight;
 
+/* A slot's life: handed out by gs_simnet_transport, joined at its net's
+   create, gone at its net's destroy (never given again: datagrams still
+   in flight to it are dropped). */
+enum { GS__SIM_RESERVED, GS__SIM_JOINED, GS__SIM_GONE };
+
 typedef struct gs__sim_host {
     gs_simnet *sim;
     gs_world *world;
     gs_net *net;
     uint32_t host;
+    int state;             /* GS__SIM_RESERVED, _JOINED, _GONE */
+    int handed;            /* reserved and given out: not to give again
+                              (a failed create gives it back) */
+    gs_clock_fn prev_clock; /* the world's session clock before it joined */
+    void *prev_clock_user;
     double busy_until[GS__SIM_MAX_HOSTS]; /* bandwidth: link free again at */
     gs_sim_clock clock;  /* the host's own clock (rate 1, offset 0 at first) */
 } gs__sim_host;
@@ -12937,7 +13074,7 @@ struct gs_simnet {
     gs_allocator alloc;
     uint64_t rng;
     double now;
-    int hosts;
+    int hosts;          /* slots handed out (joined or not) */
     gs__sim_host host[GS__SIM_MAX_HOSTS];
     gs_link_desc link[GS__SIM_MAX_HOSTS][GS__SIM_MAX_HOSTS];
     gs__flight *heap;   /* a binary min-heap on (at, order) */
@@ -13023,8 +13160,21 @@ GS_API gs_result gs_simnet_create(const gs_simnet_desc *desc, gs_simnet **out) {
 }
 
 /* From a callback inside gs_simnet_run: ignored (the run goes on in it). */
+GS__PRIVATE gs_result gs__sim_dead_send(void *user, uint32_t host, const void *data,
+                                        size_t size);
+
 GS_API void gs_simnet_destroy(gs_simnet *s) {
-    if (s && !s->running) s->alloc.free(s, s->alloc.user);
+    int i;
+    if (!s || s->running) return;
+    /* nets that outlive it keep no pointer into it */
+    for (i = 0; i < s->hosts; ++i) {
+        gs__sim_host *h = &s->host[i];
+        if (h->state != GS__SIM_JOINED) continue;
+        memset(&h->net->d.transport, 0, sizeof h->net->d.transport);
+        h->net->d.transport.send = gs__sim_dead_send;
+        gs__sync_set_clock(h->world, h->prev_clock, h->prev_clock_user);
+    }
+    s->alloc.free(s, s->alloc.user);
 }
 
 GS__PRIVATE int gs__flight_less(const gs__flight *a, const gs__flight *b) {
@@ -13060,7 +13210,7 @@ GS__PRIVATE gs__flight gs__heap_pop(gs_simnet *s) {
 GS__PRIVATE int gs__sim_slot(const gs_simnet *s, uint32_t host) {
     int i;
     for (i = 0; i < s->hosts; ++i)
-        if (s->host[i].host == host) return i;
+        if (s->host[i].state == GS__SIM_JOINED && s->host[i].host == host) return i;
     return -1;
 }
 
@@ -13102,7 +13252,16 @@ GS__PRIVATE gs_result gs__sim_send(void *user, uint32_t host, const void *data, 
     gs_simnet *s = from->sim;
     int to = gs__sim_slot(s, host);
     const gs_link_desc *l;
-    if (to < 0 || size > GS_WIRE_MAX_DATAGRAM) return GS_ERR_INVALID_ARG;
+    if (size > GS_WIRE_MAX_DATAGRAM) return GS_ERR_INVALID_ARG;
+    if (to < 0) {
+        int i;
+        for (i = 0; i < s->hosts; ++i) /* a host whose net went: lost on the way */
+            if (s->host[i].state == GS__SIM_GONE && s->host[i].host == host) {
+                s->dropped++;
+                return GS_OK;
+            }
+        return GS_ERR_INVALID_ARG; /* never on this simnet: a send failure */
+    }
     l = &s->link[from - s->host][to];
     if (gs__link_cut(l, s->now) || gs__sim_rand(s) < l->loss) {
         s->dropped++;
@@ -13118,72 +13277,110 @@ GS__PRIVATE gs_result gs__sim_send(void *user, uint32_t host, const void *data, 
 
 GS__PRIVATE double gs__sim_clock_fn(void *user);
 
-GS__PRIVATE gs_result gs__sim_join(gs_simnet *s, gs_world *w, const gs_net_desc *desc,
-                                   gs_net **out);
-GS_API gs_result gs_simnet_join(gs_simnet *s, gs_world *w, const gs_net_desc *desc,
-                                gs_net **out) {
-    gs_result r;
-    if (!s) return GS_ERR_INVALID_ARG;
-    if (!w || !out) return gs__sim_fail(s, GS_ERR_INVALID_ARG, "gs_simnet_join: w and out "
-                                        "are required");
-    *out = NULL;
-    r = gs__sim_join(s, w, desc, out);
-    if (r != GS_OK) gs__sim_fail(s, r, "%s", gs_world_error(w));
-    return r;
+GS__PRIVATE gs_result gs__sim_dead_send(void *user, uint32_t host, const void *data,
+                                        size_t size) {
+    (void)user;
+    (void)host;
+    (void)data;
+    (void)size;
+    return GS_ERR_INVALID_ARG; /* its simnet is destroyed */
 }
 
-GS__PRIVATE gs_result gs__sim_join(gs_simnet *s, gs_world *w, const gs_net_desc *desc,
-                                   gs_net **out) {
-    gs_net_desc d;
-    gs__sim_host *h;
-    gs_result r;
+/* The transport's attach: the host joins, linked both ways to every host
+   joined so far. */
+GS__PRIVATE gs_result gs__sim_attach(void *user, gs_net *net) {
+    gs__sim_host *h = (gs__sim_host *)user;
+    gs_simnet *s = h->sim;
+    gs_world *w = net->world;
+    gs_result r = GS_OK;
     uint32_t had = 0;
-    int i, k;
+    int i, k, slot = (int)(h - s->host);
     if (s->running)
-        return gs__fail(w, GS_ERR_BUSY, "gs_simnet_join: the simnet is running");
-    if (s->hosts == GS__SIM_MAX_HOSTS || gs__sim_slot(s, w->host_id) >= 0)
-        return gs__fail(w, GS_ERR_INVALID_ARG, "gs_simnet_join: host %lu already joined or "
-                        "the simnet is full", (unsigned long)w->host_id);
-    memset(&d, 0, sizeof d);
-    if (desc) d = *desc;
-    h = &s->host[s->hosts];
-    memset(h, 0, sizeof *h);
-    h->sim = s;
+        r = gs__fail(w, GS_ERR_BUSY, "gs_net_create: the simnet is running");
+    else if (h->state != GS__SIM_RESERVED)
+        r = gs__fail(w, GS_ERR_INVALID_ARG, "gs_net_create: this simnet transport made a "
+                     "net already (one gs_simnet_transport per host)");
+    else if (gs__sim_slot(s, w->host_id) >= 0)
+        r = gs__fail(w, GS_ERR_INVALID_ARG, "gs_net_create: host %lu has joined this simnet "
+                     "already", (unsigned long)w->host_id);
+    if (r != GS_OK) {
+        if (h->state == GS__SIM_RESERVED) h->handed = 0;
+        gs__sim_fail(s, r, "%s", gs_world_error(w));
+        return r;
+    }
     h->world = w;
+    h->net = net;
     h->host = w->host_id;
-    h->clock.rate = 1.0;
-    d.send = gs__sim_send;
-    d.send_user = h;
-    r = gs_net_create(w, &d, &h->net);
-    if (r != GS_OK) return r;
+    h->clock = gs_sim_clock_default();
     /* validated by doing, then undone: the hosts before the one that
        refused forget the new host again (unless they had it already) */
     for (i = 0; i < s->hosts; ++i) {
         gs__sim_host *o = &s->host[i];
+        if (o->state != GS__SIM_JOINED) continue;
         if (gs__peer_slot(o->net, h->host) >= 0) had |= 1u << i;
-        r = gs_net_add_peer(h->net, o->host);
+        r = gs_net_add_peer(net, o->host, NULL);
         if (r != GS_OK) break;
-        r = gs_net_add_peer(o->net, h->host);
+        r = gs_net_add_peer(o->net, h->host, NULL);
         if (r != GS_OK) { /* its message is on the other world: bring it here */
-            gs__fail(w, r, "gs_simnet_join: host %lu: %s", (unsigned long)o->host,
+            gs__fail(w, r, "gs_net_create: simnet host %lu: %s", (unsigned long)o->host,
                      gs_world_error(o->world));
             break;
         }
     }
     if (r != GS_OK) {
         for (k = 0; k < i; ++k)
-            if (!(had & (1u << k))) gs_net_remove_peer(s->host[k].net, h->host);
-        gs_net_destroy(h->net);
+            if (s->host[k].state == GS__SIM_JOINED && !(had & (1u << k)))
+                gs_net_remove_peer(s->host[k].net, h->host);
+        h->world = NULL;
         h->net = NULL;
+        h->host = 0;
+        h->handed = 0;
+        gs__sim_fail(s, r, "%s", gs_world_error(w));
         return r;
     }
     for (i = 0; i < s->hosts; ++i) {
-        memset(&s->link[i][s->hosts], 0, sizeof(gs_link_desc));
-        memset(&s->link[s->hosts][i], 0, sizeof(gs_link_desc));
+        memset(&s->link[i][slot], 0, sizeof(gs_link_desc));
+        memset(&s->link[slot][i], 0, sizeof(gs_link_desc));
     }
-    s->hosts++;
+    h->state = GS__SIM_JOINED;
+    h->prev_clock = w->sync->d.now;
+    h->prev_clock_user = w->sync->d.now_user;
     gs__sync_set_clock(w, gs__sim_clock_fn, h);
-    *out = h->net;
+    return GS_OK;
+}
+
+/* The transport's detach (the net goes): the host leaves for good. */
+GS__PRIVATE void gs__sim_detach(void *user, gs_net *net) {
+    gs__sim_host *h = (gs__sim_host *)user;
+    (void)net;
+    if (h->state != GS__SIM_JOINED) return;
+    gs__sync_set_clock(h->world, h->prev_clock, h->prev_clock_user);
+    h->state = GS__SIM_GONE; /* h->host stays: what is sent to it is lost */
+    h->net = NULL;
+    h->world = NULL;
+}
+
+GS_API gs_result gs_simnet_transport(gs_simnet *s, gs_transport *out) {
+    gs__sim_host *h = NULL;
+    int i;
+    if (!s) return GS_ERR_INVALID_ARG;
+    if (!out) return gs__sim_fail(s, GS_ERR_INVALID_ARG, "gs_simnet_transport: out is NULL");
+    memset(out, 0, sizeof *out);
+    for (i = 0; i < s->hosts && !h; ++i) /* one given back by a failed create */
+        if (s->host[i].state == GS__SIM_RESERVED && !s->host[i].handed) h = &s->host[i];
+    if (!h && s->hosts == GS__SIM_MAX_HOSTS)
+        return gs__sim_fail(s, GS_ERR_CAPACITY, "gs_simnet_transport: the simnet holds its "
+                            "%d hosts already", GS__SIM_MAX_HOSTS);
+    if (!h) h = &s->host[s->hosts++];
+    memset(h, 0, sizeof *h);
+    h->sim = s;
+    h->state = GS__SIM_RESERVED;
+    h->handed = 1;
+    h->clock.rate = 1.0;
+    out->user = h;
+    out->send = gs__sim_send;
+    out->attach = gs__sim_attach;
+    out->detach = gs__sim_detach;
     return GS_OK;
 }
 
@@ -13198,7 +13395,7 @@ GS_API gs_result gs_simnet_link(gs_simnet *s, uint32_t a, uint32_t b,
     j = gs__sim_slot(s, b);
     if (i < 0 || j < 0)
         return gs__sim_fail(s, GS_ERR_INVALID_ARG, "gs_simnet_link: host %lu has not joined "
-                            "this simnet (gs_simnet_join its world first; a link names two "
+                            "this simnet (gs_net_create its world's net on it first; a link names two "
                             "joined hosts)", (unsigned long)(i < 0 ? a : b));
     if (!(desc->latency >= 0.0) || !(desc->jitter >= 0.0) || !(desc->loss >= 0.0) ||
         !(desc->loss <= 1.0) || !(desc->duplicate >= 0.0) || !(desc->duplicate <= 1.0) ||
@@ -13255,9 +13452,13 @@ GS__PRIVATE void gs__sim_deliver_due(gs_simnet *s) {
     while (s->count > 0 && s->heap[0].at <= s->now) {
         gs__flight f = gs__heap_pop(s);
         gs__sim_host *to = &s->host[f.to];
-        gs_net_deliver(to->net, f.data, f.size, gs__sim_host_now(to), NULL);
+        if (to->state == GS__SIM_JOINED) {
+            gs_net_deliver(to->net, f.data, f.size, gs__sim_host_now(to), NULL);
+            s->delivered++;
+        } else {
+            s->dropped++; /* its net went while it flew */
+        }
         s->free_slots[s->nfree++] = (int)((f.data - s->pool) / GS_WIRE_MAX_DATAGRAM);
-        s->delivered++;
     }
 }
 
@@ -13275,12 +13476,15 @@ GS_API gs_result gs_simnet_run(gs_simnet *s, double seconds, double frame) {
     if (s->running) /* from a callback of one of its worlds */
         return gs__sim_fail(s, GS_ERR_BUSY, "gs_simnet_run: called from inside its own run");
     s->running = 1;
-    for (i = 0; i < s->hosts; ++i) s->host[i].net->held = 1;
+    for (i = 0; i < s->hosts; ++i)
+        if (s->host[i].state == GS__SIM_JOINED) s->host[i].net->held = 1;
     end = s->now + seconds;
     while (s->now < end - 0.5 * frame) {
         s->now += frame;
         for (i = 0; i < s->hosts; ++i) {
-            gs_result r = gs_world_advance(s->host[i].world, frame, NULL);
+            gs_result r;
+            if (s->host[i].state != GS__SIM_JOINED) continue;
+            r = gs_world_advance(s->host[i].world, frame, NULL);
             if (r != GS_OK && first == GS_OK) {
                 first = r;
                 gs__sim_fail(s, r, "gs_simnet_run: host %lu at %.6g s: %s",
@@ -13291,7 +13495,8 @@ GS_API gs_result gs_simnet_run(gs_simnet *s, double seconds, double frame) {
         }
         gs__sim_deliver_due(s);
     }
-    for (i = 0; i < s->hosts; ++i) s->host[i].net->held = 0;
+    for (i = 0; i < s->hosts; ++i)
+        if (s->host[i].state == GS__SIM_JOINED) s->host[i].net->held = 0;
     s->running = 0;
     return first;
 }
@@ -13341,13 +13546,13 @@ typedef struct gs__udp_out {
 /* s: the scatter thread's tick while ghosts publish */
 #define GS__UDP_TICK 0.001
 /* s: with no publish for this long, it sleeps up to GS__UDP_IDLE at a time,
-   until a publish or gs_udp_poll wakes it */
+   until a publish or gs_net_poll wakes it */
 #define GS__UDP_ACTIVE 0.1
 #define GS__UDP_IDLE 0.02
 
 struct gs_udp {
     gs_world *world;
-    gs_net *net;
+    gs_net *net;             /* NULL until its net's attach */
     int fd;
     int threads;
     int stop;
@@ -13598,7 +13803,7 @@ GS__PRIVATE int gs__udp_published(gs_udp *u) {
 
 /* The paper's scatter thread: sends what is due, every millisecond while
    ghosts publish (as the paper's scatter, woken at each step, would) and
-   when woken by gs_udp_poll. After GS__UDP_ACTIVE without a publish it
+   when woken by gs_net_poll. After GS__UDP_ACTIVE without a publish it
    sleeps up to GS__UDP_IDLE at a time, and the next publish wakes it.
    It sleeps when idle because a tick every millisecond with nothing due
    costs a host that only receives a wake-up a millisecond: bench/transport,
@@ -13639,11 +13844,11 @@ GS__PRIVATE gs_result gs__udp_socket(gs_udp *u, const gs_udp_desc *d) {
     socklen_t len;
     int rcv = d->rcvbuf ? d->rcvbuf : gs_udp_desc_default().rcvbuf;
     if (!gs__udp_resolve(d->bind, &addr, &len))
-        return gs__fail(u->world, GS_ERR_INVALID_ARG, "gs_udp_open: bind address \"%s\" is "
+        return gs__fail(u->world, GS_ERR_INVALID_ARG, "gs_udp_create: bind address \"%s\" is "
                         "not HOST:PORT or [IPV6]:PORT", d->bind ? d->bind : "(null)");
     u->fd = socket(addr.ss_family, SOCK_DGRAM, 0);
     if (u->fd < 0)
-        return gs__fail(u->world, GS_ERR_SYSTEM, "gs_udp_open: socket: %s", strerror(errno));
+        return gs__fail(u->world, GS_ERR_SYSTEM, "gs_udp_create: socket: %s", strerror(errno));
     setsockopt(u->fd, SOL_SOCKET, SO_RCVBUF, &rcv, sizeof rcv);
     if (d->threads) { /* the gather thread's longest wait (poll mode never waits) */
         struct timeval tv;
@@ -13651,7 +13856,7 @@ GS__PRIVATE gs_result gs__udp_socket(gs_udp *u, const gs_udp_desc *d) {
         tv.tv_usec = GS__UDP_WAIT;
         if (setsockopt(u->fd, SOL_SOCKET, SO_RCVTIMEO, &tv, sizeof tv) != 0) {
             /* without it the gather thread could wait forever: no close */
-            gs_result r = gs__fail(u->world, GS_ERR_SYSTEM, "gs_udp_open: SO_RCVTIMEO: %s",
+            gs_result r = gs__fail(u->world, GS_ERR_SYSTEM, "gs_udp_create: SO_RCVTIMEO: %s",
                                    strerror(errno));
             close(u->fd);
             u->fd = -1;
@@ -13659,7 +13864,7 @@ GS__PRIVATE gs_result gs__udp_socket(gs_udp *u, const gs_udp_desc *d) {
         }
     }
     if (bind(u->fd, (const struct sockaddr *)&addr, len) != 0) {
-        gs_result r = gs__fail(u->world, GS_ERR_SYSTEM, "gs_udp_open: bind %s: %s", d->bind,
+        gs_result r = gs__fail(u->world, GS_ERR_SYSTEM, "gs_udp_create: bind %s: %s", d->bind,
                                strerror(errno));
         close(u->fd);
         u->fd = -1;
@@ -13670,11 +13875,11 @@ GS__PRIVATE gs_result gs__udp_socket(gs_udp *u, const gs_udp_desc *d) {
 
 GS__PRIVATE gs_result gs__udp_start(gs_udp *u) {
     if (pthread_create(&u->gather, NULL, gs__udp_gather, u) != 0)
-        return gs__fail(u->world, GS_ERR_SYSTEM, "gs_udp_open: cannot start the gather thread");
+        return gs__fail(u->world, GS_ERR_SYSTEM, "gs_net_create: gs_udp cannot start the gather thread");
     if (pthread_create(&u->scatter, NULL, gs__udp_scatter, u) != 0) {
         __atomic_store_n(&u->stop, 1, __ATOMIC_RELEASE);
         pthread_join(u->gather, NULL);
-        return gs__fail(u->world, GS_ERR_SYSTEM, "gs_udp_open: cannot start the scatter thread");
+        return gs__fail(u->world, GS_ERR_SYSTEM, "gs_net_create: gs_udp cannot start the scatter thread");
     }
     return GS_OK;
 }
@@ -13683,21 +13888,33 @@ GS_API gs_udp_desc gs_udp_desc_default(void) {
     gs_udp_desc d;
     memset(&d, 0, sizeof d);
     d.rcvbuf = 4 << 20;
-    d.net = gs_net_desc_default();
     return d;
 }
 
-GS_API gs_result gs_udp_open(gs_world *w, const gs_udp_desc *desc, gs_udp **out) {
-    gs_net_desc nd;
-    gs_net_lock lk;
+/* The socket and the mutexes go (the threads are stopped or never ran). */
+GS__PRIVATE void gs__udp_free(gs_udp *u) {
+    gs_world *w = u->world;
+    if (u->fd >= 0) close(u->fd);
+    pthread_cond_destroy(&u->wake);
+    pthread_mutex_destroy(&u->send_mu);
+    pthread_mutex_destroy(&u->wake_mu);
+    pthread_mutex_destroy(&u->mu);
+    gs__free(w, u);
+}
+
+GS_API gs_result gs_udp_create(gs_world *w, const gs_udp_desc *desc, gs_udp **out) {
     gs_udp *u;
     gs_result r;
-    if (!w || !desc || !out) return GS_ERR_INVALID_ARG;
-    *out = NULL;
+    if (out) *out = NULL;
+    r = gs__world_unlocked(w, "gs_udp_create");
+    if (r != GS_OK) return r;
+    if (!desc || !out)
+        return gs__fail(w, GS_ERR_INVALID_ARG, "gs_udp_create: desc and out are required");
     u = (gs_udp *)gs__alloc(w, sizeof *u);
-    if (!u) return gs__fail(w, GS_ERR_NO_MEMORY, "gs_udp_open: out of memory");
+    if (!u) return gs__fail(w, GS_ERR_NO_MEMORY, "gs_udp_create: out of memory");
     memset(u, 0, sizeof *u);
     u->world = w;
+    u->fd = -1;
     u->threads = desc->threads;
     {   /* recursive: a weight rule runs under it, and its calls into the
            net (stats; the refused ones see net->inside) take it again */
@@ -13711,29 +13928,51 @@ GS_API gs_result gs_udp_open(gs_world *w, const gs_udp_desc *desc, gs_udp **out)
     pthread_mutex_init(&u->send_mu, NULL);
     pthread_cond_init(&u->wake, NULL);
     r = gs__udp_socket(u, desc);
-    nd = desc->net;
-    nd.send = gs__udp_send;
-    nd.send_user = u;
-    if (r == GS_OK) r = gs_net_create(w, &nd, &u->net);
-    if (r == GS_OK) {
-        lk.lock = gs__udp_lock;
-        lk.unlock = gs__udp_unlock;
-        lk.user = u;
-        gs_net_set_lock(u->net, lk);
-        if (u->threads) r = gs__udp_start(u);
-    }
     if (r != GS_OK) {
-        if (u->net) gs_net_destroy(u->net);
-        if (u->fd > 0) close(u->fd);
-        pthread_cond_destroy(&u->wake);
-        pthread_mutex_destroy(&u->send_mu);
-        pthread_mutex_destroy(&u->wake_mu);
-        pthread_mutex_destroy(&u->mu);
-        gs__free(w, u);
+        gs__udp_free(u);
         return r;
     }
     *out = u;
     return GS_OK;
+}
+
+/* The transport's attach: the net's lock becomes the socket's mutex, and
+   the threads start. */
+GS__PRIVATE gs_result gs__udp_attach(void *user, gs_net *net) {
+    gs_udp *u = (gs_udp *)user;
+    gs_net_lock lk;
+    gs_result r = GS_OK;
+    if (u->net)
+        return gs__fail(net->world, GS_ERR_INVALID_ARG, "gs_net_create: this gs_udp has a "
+                        "net already (one net per gs_udp)");
+    if (net->world != u->world)
+        return gs__fail(net->world, GS_ERR_INVALID_ARG, "gs_net_create: this gs_udp was "
+                        "made for another world (gs_udp_create's w)");
+    lk.lock = gs__udp_lock;
+    lk.unlock = gs__udp_unlock;
+    lk.user = u;
+    u->net = net;
+    gs_net_set_lock(net, lk);
+    if (u->threads) r = gs__udp_start(u);
+    if (r != GS_OK) {
+        memset(&net->lock, 0, sizeof net->lock);
+        u->net = NULL;
+    }
+    return r;
+}
+
+/* The transport's detach (its net goes): the threads stop, then the
+   gs_udp is freed, as the net owns it. */
+GS__PRIVATE void gs__udp_detach(void *user, gs_net *net) {
+    gs_udp *u = (gs_udp *)user;
+    if (u->threads) {
+        __atomic_store_n(&u->stop, 1, __ATOMIC_RELEASE);
+        gs__udp_kick(u);
+        pthread_join(u->gather, NULL);
+        pthread_join(u->scatter, NULL);
+    }
+    memset(&net->lock, 0, sizeof net->lock); /* the mutex goes with u */
+    gs__udp_free(u);
 }
 
 /* From a callback of its world (a weight rule holds the lock that its
@@ -13747,89 +13986,77 @@ GS_API void gs_udp_close(gs_udp *u) {
                  "refused, nothing closed");
         return;
     }
-    if (u->threads) {
-        __atomic_store_n(&u->stop, 1, __ATOMIC_RELEASE);
-        gs__udp_kick(u);
-        pthread_join(u->gather, NULL);
-        pthread_join(u->scatter, NULL);
-    }
-    gs_net_destroy(u->net);
-    close(u->fd);
-    pthread_cond_destroy(&u->wake);
-    pthread_mutex_destroy(&u->send_mu);
-    pthread_mutex_destroy(&u->wake_mu);
-    pthread_mutex_destroy(&u->mu);
-    gs__free(w, u);
+    if (u->net) gs_net_destroy(u->net); /* which frees u (its detach) */
+    else gs__udp_free(u);
 }
 
-GS_API gs_net *gs_udp_net(gs_udp *u) { return u ? u->net : NULL; }
-
-GS_API gs_result gs_udp_add_peer(gs_udp *u, uint32_t host, const char *addr) {
+/* The transport's add_peer: adds or replaces the peer's address (the net
+   adds the peer after it, see gs_net_add_peer). */
+GS__PRIVATE gs_result gs__udp_add_peer(void *user, uint32_t host, const char *addr) {
+    gs_udp *u = (gs_udp *)user;
     struct sockaddr_storage a;
     socklen_t len;
-    int p, slot = -1, was_new = 0;
-    gs_result r = gs__world_unlocked(u ? u->world : NULL, "gs_udp_add_peer");
-    if (r != GS_OK) return r;
+    int p, slot = -1;
+    if (!addr)
+        return gs__fail(u->world, GS_ERR_INVALID_ARG, "gs_net_add_peer: host %lu: a gs_udp "
+                        "peer needs its address (\"HOST:PORT\" or \"[IPV6]:PORT\"), not NULL",
+                        (unsigned long)host);
     if (!gs__udp_resolve(addr, &a, &len))
-        return gs__fail(u->world, GS_ERR_INVALID_ARG, "gs_udp_add_peer: address \"%s\" is not "
-                        "HOST:PORT or [IPV6]:PORT", addr ? addr : "(null)");
-    /* the address first, then the net: a datagram in between is refused
-       as from an unknown sender, never taken from the wrong address */
+        return gs__fail(u->world, GS_ERR_INVALID_ARG, "gs_net_add_peer: address \"%s\" is not "
+                        "HOST:PORT or [IPV6]:PORT", addr);
     pthread_mutex_lock(&u->mu);
     for (p = 0; p < GS__MAX_PEERS; ++p) {
         if (u->peers[p].used && u->peers[p].host == host) { slot = p; break; }
         if (!u->peers[p].used && slot < 0) slot = p;
     }
-    if (slot >= 0 && !u->peers[slot].used) {
+    if (slot >= 0) {
         u->peers[slot].host = host;
         u->peers[slot].addr = a;
         u->peers[slot].len = len;
         u->peers[slot].used = 1;
-        was_new = 1;
-    } else if (slot >= 0) {
-        u->peers[slot].addr = a;
-        u->peers[slot].len = len;
     }
     pthread_mutex_unlock(&u->mu);
     if (slot < 0)
-        return gs__fail(u->world, GS_ERR_CAPACITY, "gs_udp_add_peer: no room for host %lu",
+        return gs__fail(u->world, GS_ERR_CAPACITY, "gs_net_add_peer: no room for host %lu",
                         (unsigned long)host);
-    r = gs_net_add_peer(u->net, host);
-    if (r != GS_OK && was_new) {
-        pthread_mutex_lock(&u->mu);
-        u->peers[slot].used = 0;
-        pthread_mutex_unlock(&u->mu);
-    }
-    return r;
+    return GS_OK;
 }
 
-GS_API gs_result gs_udp_remove_peer(gs_udp *u, uint32_t host) {
-    gs_result r;
+/* The transport's remove_peer: the address goes (after the net's peer). */
+GS__PRIVATE gs_result gs__udp_remove_peer(void *user, uint32_t host) {
+    gs_udp *u = (gs_udp *)user;
     int p;
-    if (!u) return GS_ERR_INVALID_ARG;
-    r = gs_net_remove_peer(u->net, host); /* the net first: see add */
-    if (r == GS_ERR_BUSY) return r;
     pthread_mutex_lock(&u->mu);
     for (p = 0; p < GS__MAX_PEERS; ++p)
         if (u->peers[p].used && u->peers[p].host == host) u->peers[p].used = 0;
     pthread_mutex_unlock(&u->mu);
-    return r;
+    return GS_OK;
 }
 
-GS_API gs_result gs_udp_poll(gs_udp *u, double now) {
-    gs_result r;
+/* The transport's poll: poll mode receives every waiting datagram; with
+   the threads it only wakes the scatter thread. */
+GS__PRIVATE gs_result gs__udp_poll(void *user, gs_net *net, double now) {
+    gs_udp *u = (gs_udp *)user;
+    (void)net;
+    (void)now; /* what it receives is delivered at gs_udp_now() */
+    if (u->threads) gs__udp_kick(u);
+    else gs__udp_drain(u, 4096);
+    return GS_OK;
+}
+
+GS_API gs_result gs_udp_transport(gs_udp *u, gs_transport *out) {
     if (!u) return GS_ERR_INVALID_ARG;
-    if (!gs__finite(now)) return GS_ERR_NOT_FINITE;
-    if (u->threads) {
-        gs__udp_kick(u);
-        return GS_OK;
-    }
-    /* poll mode belongs to the world's thread: it delivers into queues
-       that a weight rule may be blending */
-    r = gs__world_unlocked(u->world, "gs_udp_poll");
-    if (r != GS_OK) return r;
-    gs__udp_drain(u, 4096);
-    return gs_net_update(u->net, now);
+    if (!out) return gs__fail(u->world, GS_ERR_INVALID_ARG, "gs_udp_transport: out is NULL");
+    memset(out, 0, sizeof *out);
+    out->user = u;
+    out->send = gs__udp_send;
+    out->add_peer = gs__udp_add_peer;
+    out->remove_peer = gs__udp_remove_peer;
+    out->attach = gs__udp_attach;
+    out->poll = gs__udp_poll;
+    out->detach = gs__udp_detach;
+    out->sends_itself = u->threads != 0;
+    return GS_OK;
 }
 #endif /* GHOSTSIM_NO_UDP */
 

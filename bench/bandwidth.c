@@ -37,6 +37,7 @@
    snapshots timed are deltas. The ratios to f64 come from the same run. */
 #define GHOSTSIM_IMPLEMENTATION
 #include "ghostsim.h"
+#include "tests/net_helpers.h"
 #include "bench_util.h"
 
 #define FRAME (1.0 / 60.0)
@@ -144,7 +145,7 @@ static result run_scene(int scene, int enc, int quick) {
     if (gs_simnet_create(&smd, &sim) != GS_OK) return res;
     for (i = 0; i < 2; ++i) {
         if (host_scene(&h[i], (uint32_t)i + 1, scene, enc) != 0 ||
-            gs_simnet_join(sim, h[i].w, &nd, &h[i].net) != GS_OK) {
+            test_join(sim, h[i].w, &nd, &h[i].net) != GS_OK) {
             fprintf(stderr, "bandwidth: %s %s: setup failed\n", sc_name[scene], enc_name[enc]);
             return res;
         }
@@ -215,13 +216,13 @@ static void cpu_times(int enc, double *enc_us, double *dec_us, double *bytes) {
     }
     gs_net_desc nd;
     memset(&nd, 0, sizeof nd);
-    nd.send = keep;
-    nd.send_user = c;
+    nd.transport.send = keep;
+    nd.transport.user = c;
     nd.bandwidth = 1e9;
     for (i = 0; i < 2; ++i) {
         host_scene(&c->h[i], (uint32_t)i + 1, SC_PAPER_PUSH, enc);
         gs_net_create(c->h[i].w, &nd, &c->h[i].net);
-        gs_net_add_peer(c->h[i].net, (uint32_t)(2 - i));
+        gs_net_add_peer(c->h[i].net, (uint32_t)(2 - i), NULL);
     }
     *bytes = 0.0;
     for (k = 0; k < reps; ++k) {

@@ -105,11 +105,11 @@ static void side_make(side *s, uint32_t id, size_t n, double send_rate, outbox *
     cd.user = &s->u;
     if ((r = gs_custom_create(s->w, &cd, &s->a)) != GS_OK) die("gs_custom_create", s->w, r);
     memset(&nd, 0, sizeof nd);
-    nd.send = keep_send;
-    nd.send_user = o;
+    nd.transport.send = keep_send;
+    nd.transport.user = o;
     nd.bandwidth = 1e12;
     if ((r = gs_net_create(s->w, &nd, &s->net)) != GS_OK) die("gs_net_create", s->w, r);
-    if ((r = gs_net_add_peer(s->net, id == 1 ? 2 : 1)) != GS_OK) die("gs_net_add_peer", s->w, r);
+    if ((r = gs_net_add_peer(s->net, id == 1 ? 2 : 1, NULL)) != GS_OK) die("gs_net_add_peer", s->w, r);
     gd.object_id = 1;
     gd.send_rate = send_rate;
     gd.queue_size = 1;

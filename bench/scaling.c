@@ -23,6 +23,7 @@
    per host are least-squares slopes. */
 #define GHOSTSIM_IMPLEMENTATION
 #include "ghostsim.h"
+#include "tests/net_helpers.h"
 #include "bench_util.h"
 
 #include <string.h>
@@ -372,7 +373,7 @@ static void host_set_make(host_set *s, int H)
         if ((r = gs_ghost_attach(a, &gd)) != GS_OK) die("gs_ghost_attach", s->w[i], r);
         memset(&nd, 0, sizeof nd);
         nd.bandwidth = 1e9;
-        if ((r = gs_simnet_join(s->sim, s->w[i], &nd, &net)) != GS_OK) die("gs_simnet_join", s->w[i], r);
+        if ((r = test_join(s->sim, s->w[i], &nd, &net)) != GS_OK) die("gs_net_create on the simnet", s->w[i], r);
     }
     gs_simnet_run(s->sim, 2 * FRAME, FRAME);
 }

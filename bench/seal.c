@@ -98,13 +98,13 @@ static void side_make(side *s, uint32_t id, int n, int sealed) {
     gd.owner = 2;
     if ((r = gs_ghost_attach(s->a, &gd)) != GS_OK) die("ghost", s->w, r);
     memset(&nd, 0, sizeof nd);
-    nd.send = keep_send;
-    nd.send_user = &s->out;
+    nd.transport.send = keep_send;
+    nd.transport.user = &s->out;
     nd.bandwidth = 1e12;
     nd.max_rate = 1e12;
     nd.key = sealed ? KEY : NULL;
     if ((r = gs_net_create(s->w, &nd, &s->net)) != GS_OK) die("net", s->w, r);
-    if ((r = gs_net_add_peer(s->net, 3 - id)) != GS_OK) die("peer", s->w, r);
+    if ((r = gs_net_add_peer(s->net, 3 - id, NULL)) != GS_OK) die("peer", s->w, r);
 }
 
 static void side_free(side *s) { gs_world_destroy(s->w); }

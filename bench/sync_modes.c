@@ -28,6 +28,7 @@
 
 #define GHOSTSIM_IMPLEMENTATION
 #include "../ghostsim.h"
+#include "../tests/net_helpers.h"
 
 #include <string.h>
 
@@ -182,7 +183,7 @@ static int run(const profile *pr, int mode, int nhosts, double push, double afte
     }
     for (k = 0; k < nhosts; ++k) {
         gs_net *net;
-        if (gs_simnet_join(sim, h[k].w, NULL, &net) != GS_OK) goto done;
+        if (test_join(sim, h[k].w, NULL, &net) != GS_OK) goto done;
     }
     for (k = 0; k < nhosts; ++k)
         for (j = 0; j < nhosts; ++j)

@@ -37,6 +37,7 @@
    JSON says whether the default budget (1e7 B/s per peer) would hold. */
 #define GHOSTSIM_IMPLEMENTATION
 #include "ghostsim.h"
+#include "tests/net_helpers.h"
 #include "bench_util.h"
 
 #include <string.h>
@@ -186,15 +187,15 @@ static phase_result run_phases(int n, int H, gs_encoding enc, int frames)
         memset(&nd, 0, sizeof nd);
         host_make(&hs[i], (uint32_t)i + 1, n, enc);
         hs[i].b = &b;
-        nd.send = bus_send;
-        nd.send_user = &hs[i];
+        nd.transport.send = bus_send;
+        nd.transport.user = &hs[i];
         nd.bandwidth = 1e9;
         if ((r = gs_net_create(hs[i].w, &nd, &hs[i].net)) != GS_OK) die("gs_net_create", hs[i].w, r);
         steps_done[i] = 0;
     }
     for (i = 0; i < H; ++i)
         for (j = 0; j < H; ++j)
-            if (i != j && (r = gs_net_add_peer(hs[i].net, (uint32_t)j + 1)) != GS_OK)
+            if (i != j && (r = gs_net_add_peer(hs[i].net, (uint32_t)j + 1, NULL)) != GS_OK)
                 die("gs_net_add_peer", hs[i].w, r);
     for (f = -1; f < frames; ++f) { /* frame -1 warms up, untimed */
         int timed = f >= 0;
@@ -300,8 +301,8 @@ static void simset_make(simset *s, int n, int H, gs_encoding enc)
         memset(&nd, 0, sizeof nd);
         nd.bandwidth = 1e9;
         host_make(&s->hs[i], (uint32_t)i + 1, n, enc);
-        if ((r = gs_simnet_join(s->sim, s->hs[i].w, &nd, &s->hs[i].net)) != GS_OK)
-            die("gs_simnet_join", s->hs[i].w, r);
+        if ((r = test_join(s->sim, s->hs[i].w, &nd, &s->hs[i].net)) != GS_OK)
+            die("gs_net_create on the simnet", s->hs[i].w, r);
     }
 }
 

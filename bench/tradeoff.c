@@ -26,6 +26,7 @@
    figures; only the timings vary. */
 #define GHOSTSIM_IMPLEMENTATION
 #include "ghostsim.h"
+#include "tests/net_helpers.h"
 #include "bench/bench_util.h"
 
 #include <float.h>
@@ -696,7 +697,7 @@ static void run_session(const session_cfg *c, session_result *r) {
     gs_world_advance(h[1].w, SETTLE, NULL);
     for (k = 0; k < HOSTS; ++k) {
         gs_net *net;
-        if (gs_simnet_join(sim, h[k].w, NULL, &net) != GS_OK) goto done;
+        if (test_join(sim, h[k].w, NULL, &net) != GS_OK) goto done;
     }
     if (tl->out1 > tl->out0) {
         link.outage_start[0] = tl->out0;

@@ -36,6 +36,7 @@
    message over the window. */
 #define GHOSTSIM_IMPLEMENTATION
 #include "ghostsim.h"
+#include "tests/net_helpers.h"
 #include "bench/bench_util.h"
 
 #include <arpa/inet.h>
@@ -242,7 +243,7 @@ static gs_result blob_set(void *user, const double *in) {
 typedef struct gs_side {
     gs_world *w;
     gs_agent *a;
-    gs_udp *u;
+    gs_net *u;
     blob b;
 } gs_side;
 
@@ -251,6 +252,7 @@ static int gs_side_open(gs_side *s, uint32_t host, int values, int port, int thr
     gs_custom_desc cd;
     gs_ghost_desc gd = gs_ghost_desc_default();
     gs_udp_desc ud;
+    gs_net_desc nd = gs_net_desc_default();
     char bind[64];
     int i;
     memset(&cd, 0, sizeof cd);
@@ -274,22 +276,22 @@ static int gs_side_open(gs_side *s, uint32_t host, int values, int port, int thr
     ud.bind = bind;
     ud.threads = threads;
     ud.rcvbuf = RCVBUF;
-    ud.net.bandwidth = 1e12; /* no budget: the transport's own limit */
-    if (gs_udp_open(s->w, &ud, &s->u) != GS_OK) {
-        fprintf(stderr, "transport: gs_udp_open: %s\n", gs_world_error(s->w));
+    nd.bandwidth = 1e12; /* no budget: the transport's own limit */
+    if (test_udp_open(s->w, &ud, &nd, &s->u) != GS_OK) {
+        fprintf(stderr, "transport: gs_net_create on gs_udp: %s\n", gs_world_error(s->w));
         return 0;
     }
     return 1;
 }
 
 static void gs_side_close(gs_side *s) {
-    if (s->u) gs_udp_close(s->u);
+    if (s->u) gs_net_destroy(s->u);
     if (s->w) gs_world_destroy(s->w);
 }
 
-static uint64_t gs_delivered(gs_udp *u, uint32_t from) {
+static uint64_t gs_delivered(gs_net *u, uint32_t from) {
     gs_peer_stats ps;
-    if (gs_net_peer_stats(gs_udp_net(u), from, &ps) != GS_OK) return 0;
+    if (gs_net_peer_stats(u, from, &ps) != GS_OK) return 0;
     return ps.datagrams_received;
 }
 
@@ -317,13 +319,13 @@ static run_result run_gs(const run_cfg *cfg) {
     if (!gs_side_open(&rx, 2, cfg->values, prx, 1) || !gs_side_open(&tx, 1, cfg->values, ptx, 0))
         goto done;
     snprintf(addr, sizeof addr, "127.0.0.1:%d", prx);
-    gs_udp_add_peer(tx.u, 2, addr);
+    gs_net_add_peer(tx.u, 2, addr);
     snprintf(addr, sizeof addr, "127.0.0.1:%d", ptx);
-    gs_udp_add_peer(rx.u, 1, addr);
+    gs_net_add_peer(rx.u, 1, addr);
     r.rcvbuf = requested_rcvbuf();
     {
         gs_peer_stats ps;
-        gs_net_peer_stats(gs_udp_net(tx.u), 2, &ps);
+        gs_net_peer_stats(tx.u, 2, &ps);
         sent0 = ps.datagrams_sent;
     }
     w.start = bu_now();
@@ -332,22 +334,22 @@ static run_result run_gs(const run_cfg *cfg) {
         double now;
         gs_agent_step(tx.a);
         now = gs_udp_now();
-        gs_net_update(gs_udp_net(tx.u), now);
+        gs_net_update(tx.u, now);
         if (w.phase == 1 && now - w.t0 < cfg->window) continue; /* no lock taken */
-        gs_net_peer_stats(gs_udp_net(tx.u), 2, &ps);
+        gs_net_peer_stats(tx.u, 2, &ps);
         if (!window_tick(&w, cfg, gs_delivered(rx.u, 1), ps.datagrams_sent - sent0, now)) break;
     }
     window_result(&w, &r);
     {
         /* every sent datagram must have been one message of the right size */
         gs_peer_stats ps;
-        gs_net_peer_stats(gs_udp_net(tx.u), 2, &ps);
+        gs_net_peer_stats(tx.u, 2, &ps);
         if (ps.datagrams_sent && ps.bytes_sent / ps.datagrams_sent != (uint64_t)cfg->size) {
             fprintf(stderr, "transport: ghostsim datagrams are %llu B, expected %d\n",
                     (unsigned long long)(ps.bytes_sent / ps.datagrams_sent), cfg->size);
             r.ok = 0;
         }
-        gs_net_peer_stats(gs_udp_net(rx.u), 1, &ps);
+        gs_net_peer_stats(rx.u, 1, &ps);
         if (ps.rejected_total) {
             fprintf(stderr, "transport: the receiver refused %llu datagrams\n",
                     (unsigned long long)ps.rejected_total);
@@ -506,11 +508,11 @@ static int lib_open(lib_pair *lp, int values) {
         gd.send_rate = 1e9;
         gd.weight = gs_weight_exp; /* the rule of the figures recorded so far */
         if (gs_ghost_attach(lp->a[h], &gd) != GS_OK) return 0;
-        nd.send = lib_send;
-        nd.send_user = lp;
+        nd.transport.send = lib_send;
+        nd.transport.user = lp;
         nd.bandwidth = 1e12;
         if (gs_net_create(lp->w[h], &nd, &lp->net[h]) != GS_OK) return 0;
-        if (gs_net_add_peer(lp->net[h], h == 0 ? 2u : 1u) != GS_OK) return 0;
+        if (gs_net_add_peer(lp->net[h], h == 0 ? 2u : 1u, NULL) != GS_OK) return 0;
     }
     return 1;
 }

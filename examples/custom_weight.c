@@ -35,6 +35,7 @@ int main(void) {
     if (gs_simnet_create(NULL, &sim) != GS_OK) return 1;
     for (h = 0; h < 3; ++h) {
         gs_world_desc wd = gs_world_desc_default();
+        gs_net_desc nd = gs_net_desc_default();
         gs_cloth_desc cd = gs_cloth_desc_default();
         gs_ghost_desc gd = gs_ghost_desc_default();
         wd.host_id = (uint32_t)h + 1;
@@ -49,7 +50,8 @@ int main(void) {
         gs_world_set_gravity(w[h], (gs_vec3){0.0, 0.0, 0.0});
         if (gs_cloth_create(w[h], &cd, &cloth[h]) != GS_OK ||
             gs_ghost_attach(cloth[h], &gd) != GS_OK ||
-            gs_simnet_join(sim, w[h], NULL, &net) != GS_OK) {
+            gs_simnet_transport(sim, &nd.transport) != GS_OK ||
+            gs_net_create(w[h], &nd, &net) != GS_OK) { /* joins the simnet */
             fprintf(stderr, "custom_weight: %s\n", gs_world_error(w[h]));
             return 1;
         }

@@ -47,6 +47,7 @@ int main(void) {
     if (gs_simnet_create(NULL, &sim) != GS_OK) return 1;
     for (h = 0; h < HOSTS; ++h) {
         gs_world_desc wd = gs_world_desc_default();
+        gs_net_desc nd = gs_net_desc_default();
         double st[14];
         wd.host_id = (uint32_t)h + 1;
         if (gs_world_create(&wd, &world[h]) != GS_OK) return 1;
@@ -58,7 +59,9 @@ int main(void) {
         gs_agent_get_state(scene[h].spheres[0], st, 14); /* the nudge: 1 cm */
         st[1] += 0.01 * h;
         gs_agent_set_state(scene[h].spheres[0], st, 14);
-        if (gs_simnet_join(sim, world[h], NULL, &net) != GS_OK) return 1;
+        if (gs_simnet_transport(sim, &nd.transport) != GS_OK ||
+            gs_net_create(world[h], &nd, &net) != GS_OK) /* linked to those before */
+            return 1;
     }
     gs_simnet_link(sim, 1, 2, &wan);
     gs_simnet_link(sim, 2, 1, &wan);

@@ -24,7 +24,7 @@ int main(void) {
     const char *addr[2] = {"127.0.0.1:47001", "127.0.0.1:47002"};
     gs_world *w[2];
     gs_agent *cloth[2];
-    gs_udp *udp[2];
+    gs_net *net[2];
     int h, frame;
 
     for (h = 0; h < 2; ++h) {
@@ -32,6 +32,8 @@ int main(void) {
         gs_cloth_desc cd = gs_cloth_desc_default();
         gs_ghost_desc gd = gs_ghost_desc_default();
         gs_udp_desc ud = gs_udp_desc_default();
+        gs_net_desc nd = gs_net_desc_default();
+        gs_udp *u;
         wd.host_id = (uint32_t)h + 1;
         if (gs_world_create(&wd, &w[h]) != GS_OK) return 1;
         cd.nx = cd.ny = 12;
@@ -45,8 +47,10 @@ int main(void) {
         ud.threads = 1;
         if (gs_cloth_create(w[h], &cd, &cloth[h]) != GS_OK ||
             gs_ghost_attach(cloth[h], &gd) != GS_OK ||
-            gs_udp_open(w[h], &ud, &udp[h]) != GS_OK ||
-            gs_udp_add_peer(udp[h], 2 - (uint32_t)h, addr[1 - h]) != GS_OK) {
+            gs_udp_create(w[h], &ud, &u) != GS_OK ||      /* the socket first */
+            gs_udp_transport(u, &nd.transport) != GS_OK ||
+            gs_net_create(w[h], &nd, &net[h]) != GS_OK || /* the net owns u */
+            gs_net_add_peer(net[h], 2 - (uint32_t)h, addr[1 - h]) != GS_OK) {
             fprintf(stderr, "udp_pair: %s\n", gs_world_error(w[h]));
             return 1;
         }
@@ -57,16 +61,13 @@ int main(void) {
         nanosleep(&nap, NULL);
         if (frame % 30 == 0) {
             gs_peer_stats ps;
-            gs_net_peer_stats(gs_udp_net(udp[0]), 2, &ps);
+            gs_net_peer_stats(net[0], 2, &ps);
             printf("t = %.1f s  gap %.2e m  rtt %.2f ms  rx %llu  rejected %llu\n",
                    frame / 60.0, max_gap(cloth[0], cloth[1]), ps.rtt * 1e3,
                    (unsigned long long)ps.snapshots_received,
                    (unsigned long long)ps.rejected_total);
         }
     }
-    for (h = 0; h < 2; ++h) {
-        gs_udp_close(udp[h]);
-        gs_world_destroy(w[h]);
-    }
+    for (h = 0; h < 2; ++h) gs_world_destroy(w[h]); /* the net and its gs_udp too */
     return 0;
 }

@@ -432,7 +432,7 @@ static void draw_square(vw_canvas *c, vw_point ctr, double half, double z, vw_rg
 typedef struct vw_peer {
     gs_world *world;
     gs_scene scene;
-    gs_udp *udp;
+    gs_net *net;         /* on UDP; it owns its gs_udp */
     double *state;       /* the largest render state of any agent */
     vw_point *cloth_px;  /* the cloth's particles on screen */
     int *cloth_ok;       /* 1 where the particle is in front of the eye */
@@ -454,8 +454,7 @@ static int peer_buffers(vw_peer *p) {
 }
 
 static void peer_close(vw_peer *p) {
-    gs_udp_close(p->udp); /* its threads use the net: before the world */
-    gs_world_destroy(p->world);
+    gs_world_destroy(p->world); /* its net too, which stops the UDP threads */
     free(p->state);
     free(p->cloth_px);
     free(p->cloth_ok);
@@ -466,19 +465,24 @@ static void peer_close(vw_peer *p) {
    use), 2 (a bad address on the command line). */
 static int peer_open_udp(vw_peer *p, const vw_options *o) {
     gs_udp_desc ud = gs_udp_desc_default();
+    gs_net_desc nd = gs_net_desc_default();
+    gs_udp *u = NULL;
     gs_result r;
     int i;
     ud.bind = o->listen;
     ud.threads = 1;
-    r = gs_udp_open(p->world, &ud, &p->udp);
+    r = gs_udp_create(p->world, &ud, &u); /* the socket, then its net */
+    if (r == GS_OK) r = gs_udp_transport(u, &nd.transport);
+    if (r == GS_OK) r = gs_net_create(p->world, &nd, &p->net);
     if (r != GS_OK) {
+        if (u && !p->net) gs_udp_close(u);
         fprintf(stderr, "viewer: cannot listen on %s: %s\n", o->listen, gs_world_error(p->world));
         if (r == GS_ERR_SYSTEM && strstr(gs_world_error(p->world), "in use"))
             fprintf(stderr, "viewer: another program holds that port; pick another --listen\n");
         return r == GS_ERR_INVALID_ARG ? 2 : 1;
     }
     for (i = 0; i < o->peer_count; ++i) {
-        r = gs_udp_add_peer(p->udp, o->peer_id[i], o->peer_addr[i]);
+        r = gs_net_add_peer(p->net, o->peer_id[i], o->peer_addr[i]);
         if (r != GS_OK) {
             fprintf(stderr, "viewer: peer %u at %s: %s\n", (unsigned)o->peer_id[i],
                     o->peer_addr[i], gs_world_error(p->world));
@@ -534,7 +538,7 @@ static void peer_advance(vw_peer *p, double seconds, double now) {
                 gs_world_error(p->world));
         p->warned = 1;
     }
-    gs_udp_poll(p->udp, now); /* thread mode: wakes the scatter thread */
+    gs_net_poll(p->net, now); /* thread mode: wakes the scatter thread, sends */
 }
 
 static void set_probe(vw_peer *p, gs_vec3 target) {
@@ -786,7 +790,7 @@ static void print_peer_stats(vw_peer *p, const vw_options *o) {
     printf(" m\n");
     for (i = 0; i < o->peer_count; ++i) {
         gs_peer_stats ps;
-        if (gs_net_peer_stats(gs_udp_net(p->udp), o->peer_id[i], &ps) != GS_OK) continue;
+        if (gs_net_peer_stats(p->net, o->peer_id[i], &ps) != GS_OK) continue;
         printf("viewer: host %u <- peer %u: %llu snapshots, %llu datagrams, lost %llu, "
                "rejected %llu, rtt %.2f ms, remote t %.3f s\n",
                (unsigned)o->id, (unsigned)o->peer_id[i],
@@ -943,7 +947,7 @@ static void window_title(vw_window *win, vw_peer *p, const vw_options *o) {
                  (unsigned)o->id, gs_world_time(p->world));
     for (i = 0; i < o->peer_count && n > 0 && (size_t)n < sizeof title; ++i) {
         gs_peer_stats ps;
-        if (gs_net_peer_stats(gs_udp_net(p->udp), o->peer_id[i], &ps) != GS_OK) continue;
+        if (gs_net_peer_stats(p->net, o->peer_id[i], &ps) != GS_OK) continue;
         n += snprintf(title + n, sizeof title - (size_t)n, " | peer %u: rx %llu rtt %.1f ms",
                       (unsigned)o->peer_id[i], (unsigned long long)ps.snapshots_received,
                       ps.rtt * 1e3);

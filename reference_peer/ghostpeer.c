@@ -354,7 +354,7 @@ typedef struct peer_host {
     options o;
     gs_world *w;
     gs_scene sc;
-    gs_udp *udp;
+    gs_net *net;         /* on UDP; it owns its gs_udp */
     double wall0, mono0;   /* clocks at the start */
     FILE *trace;
     uint64_t rx_seen[MAX_PEERS];
@@ -388,6 +388,8 @@ static int build(peer_host *h) {
     gs_scene_desc sd = gs_scene_desc_default();
     gs_ghost_desc gd = gs_ghost_desc_default();
     gs_udp_desc ud;
+    gs_net_desc nd = gs_net_desc_default();
+    gs_udp *u;
     int i;
     wd.host_id = o->id;
     if (o->replay || o->session)
@@ -412,14 +414,18 @@ static int build(peer_host *h) {
     gd.delta = o->delta;
     gd.heartbeat_rate = o->heartbeat_rate;
     if (gs_scene_attach_ghosts(&h->sc, &gd) != GS_OK) return fail(h, "ghost");
-    ud = gs_udp_desc_default(); /* its rcvbuf and net are what zero gave */
+    ud = gs_udp_desc_default(); /* its rcvbuf and the net's are what zero gave */
     ud.bind = o->listen;
     ud.threads = 1;
-    ud.net.key = o->has_key ? o->key : NULL;
-    if (gs_udp_open(h->w, &ud, &h->udp) != GS_OK)
+    nd.key = o->has_key ? o->key : NULL;
+    u = NULL; /* the socket first, then the net on it, which then owns it */
+    if (gs_udp_create(h->w, &ud, &u) != GS_OK || gs_udp_transport(u, &nd.transport) != GS_OK ||
+        gs_net_create(h->w, &nd, &h->net) != GS_OK) {
+        if (u) gs_udp_close(u);
         return fail(h, o->has_key ? "cannot listen with --key" : "cannot listen");
+    }
     for (i = 0; i < o->npeers; ++i)
-        if (gs_udp_add_peer(h->udp, o->peers[i].id, o->peers[i].addr) != GS_OK)
+        if (gs_net_add_peer(h->net, o->peers[i].id, o->peers[i].addr) != GS_OK)
             return fail(h, "bad --peer address");
     return 0;
 }
@@ -490,7 +496,7 @@ static void print_json_string(const char *s) {
 }
 
 static void print_line(peer_host *h, int final) {
-    gs_net *net = gs_udp_net(h->udp);
+    gs_net *net = h->net;
     double d[6 + 3 * GS_SCENE_MAX_SPHERES];
     int nd = digest(h, d), i;
     gs_unknown_stats unknown;
@@ -566,7 +572,7 @@ static void watch_peers(peer_host *h, double elapsed) {
     int i;
     for (i = 0; i < h->o.npeers; ++i) {
         gs_peer_stats ps;
-        if (gs_net_peer_stats(gs_udp_net(h->udp), h->o.peers[i].id, &ps) != GS_OK) continue;
+        if (gs_net_peer_stats(h->net, h->o.peers[i].id, &ps) != GS_OK) continue;
         if (ps.snapshots_received > 0 && h->announced[i] != 2) {
             fprintf(stderr, "ghostpeer %u: peer %u at %s is up\n", (unsigned)h->o.id,
                     (unsigned)h->o.peers[i].id, h->o.peers[i].addr);
@@ -608,7 +614,7 @@ static int run(peer_host *h) {
         if (r != GS_OK && r != GS_ERR_UNSTABLE)
             fprintf(stderr, "ghostpeer %u: %s\n", (unsigned)h->o.id, gs_world_error(h->w));
         last = pnow;
-        gs_udp_poll(h->udp, pnow); /* wakes the scatter thread */
+        gs_net_poll(h->net, pnow); /* wakes the scatter thread */
         if (now >= next_stats) {
             print_line(h, 0);
             watch_peers(h, elapsed);
@@ -658,8 +664,7 @@ int main(int argc, char **argv) {
         rc = run(&h);
     }
     if (h.trace) fclose(h.trace);
-    if (h.udp) gs_udp_close(h.udp);
-    gs_world_destroy(h.w);
+    gs_world_destroy(h.w); /* its net too, which stops the UDP threads */
     memset(h.o.key, 0, sizeof h.o.key);
     return rc;
 }

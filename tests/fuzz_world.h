@@ -197,13 +197,13 @@ static gs_result fuzz_world_create_keyed(fuzz_world *f, uint32_t host, double ti
     if ((r = fuzz_agents(f)) != GS_OK || (r = fuzz_ghosts(f)) != GS_OK) return r;
     memset(&nd, 0, sizeof nd);
     nd.session = FUZZ_SESSION;
-    nd.send = send;
-    nd.send_user = user;
+    nd.transport.send = send;
+    nd.transport.user = user;
     nd.time_window = time_window;
     nd.key = key;
     if ((r = gs_net_create(f->w, &nd, &f->net)) != GS_OK) return r;
     for (i = 0; i < 3; ++i)
-        if (hosts[i] != host && (r = gs_net_add_peer(f->net, hosts[i])) != GS_OK) return r;
+        if (hosts[i] != host && (r = gs_net_add_peer(f->net, hosts[i], NULL)) != GS_OK) return r;
     return GS_OK;
 }
 

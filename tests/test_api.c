@@ -16,6 +16,7 @@
 #include <string.h>
 
 #include "ghostsim.h"
+#include "net_helpers.h"
 
 /* ---- the weight rule names the object ---- */
 
@@ -107,7 +108,7 @@ static void test_weight_rule_names_object(void **state) {
         gd.rule_for = rule_for;
         gd.rule_for_user = &r[h];
         assert_int_equal(gs_scene_attach_ghosts(&sc[h], &gd), GS_OK);
-        assert_int_equal(gs_simnet_join(sim, w[h], NULL, &net), GS_OK);
+        assert_int_equal(test_join(sim, w[h], NULL, &net), GS_OK);
     }
     assert_int_equal(gs_simnet_run(sim, 0.5, 1.0 / 60.0), GS_OK);
     for (h = 0; h < 2; ++h) {
@@ -158,7 +159,7 @@ static void test_weight_in_single_ghost(void **state) {
         gd.weight = recording_cs;
         gd.weight_user = &s[h];
         assert_int_equal(gs_ghost_attach(sc[h].cloth, &gd), GS_OK);
-        assert_int_equal(gs_simnet_join(sim, w[h], NULL, &net), GS_OK);
+        assert_int_equal(test_join(sim, w[h], NULL, &net), GS_OK);
     }
     assert_int_equal(gs_simnet_run(sim, 0.3, 1.0 / 60.0), GS_OK);
     for (h = 0; h < 2; ++h) {
@@ -193,11 +194,11 @@ static gs_world *world_with_peers(uint32_t id, const uint32_t *peers) {
     gs_world *w;
     gs_net *net;
     wd.host_id = id;
-    nd.send = drop_send;
+    nd.transport.send = drop_send;
     assert_int_equal(gs_world_create(&wd, &w), GS_OK);
     if (peers) {
         assert_int_equal(gs_net_create(w, &nd, &net), GS_OK);
-        for (; *peers; ++peers) assert_int_equal(gs_net_add_peer(net, *peers), GS_OK);
+        for (; *peers; ++peers) assert_int_equal(gs_net_add_peer(net, *peers, NULL), GS_OK);
     }
     return w;
 }
@@ -284,7 +285,7 @@ static void test_desc_defaults(void **state) {
     assert_int_equal(nd.session, 1);
     assert_true(nd.bandwidth == 1e7);
     assert_int_equal(nd.max_peers, 16);
-    assert_true(nd.send == NULL && nd.key == NULL && nd.time_window == 0.0 && nd.max_rate == 0.0);
+    assert_true(nd.transport.send == NULL && nd.transport.user == NULL && nd.key == NULL && nd.time_window == 0.0 && nd.max_rate == 0.0);
     assert_true(ld.latency == 0.0 && ld.jitter == 0.0 && ld.loss == 0.0 && ld.duplicate == 0.0 &&
                 ld.reorder == 0.0 && ld.bandwidth == 0.0);
     for (i = 0; i < GS_MAX_OUTAGES; ++i) assert_true(ld.outage_start[i] == ld.outage_end[i]);
@@ -300,15 +301,13 @@ static void test_desc_defaults(void **state) {
     assert_null(ud.bind);
     assert_int_equal(ud.threads, 0);
     assert_int_equal(ud.rcvbuf, 4 << 20);
-    assert_int_equal(ud.net.session, nd.session);
-    assert_true(ud.net.bandwidth == nd.bandwidth);
     /* zeroed descs take the same defaults */
     assert_int_equal(gs_world_create(NULL, &w), GS_OK);
     memset(&nz, 0, sizeof nz);
-    nz.send = drop_send;
+    nz.transport.send = drop_send;
     assert_int_equal(gs_net_create(w, &nz, &net), GS_OK);
-    for (i = 2; i < 2 + 16; ++i) assert_int_equal(gs_net_add_peer(net, (uint32_t)i), GS_OK);
-    assert_int_equal(gs_net_add_peer(net, 99), GS_ERR_CAPACITY); /* max_peers 16 */
+    for (i = 2; i < 2 + 16; ++i) assert_int_equal(gs_net_add_peer(net, (uint32_t)i, NULL), GS_OK);
+    assert_int_equal(gs_net_add_peer(net, 99, NULL), GS_ERR_CAPACITY); /* max_peers 16 */
     memset(&cz, 0, sizeof cz);
     cz.step = custom_step;
     assert_int_equal(gs_custom_create(w, &cz, &a), GS_OK);
@@ -371,11 +370,11 @@ static gs_world *flaky_host(flaky *f, gs_net **net) {
     sd.probe_count = GS_NONE;
     assert_int_equal(gs_scene_create(w, &sd, &sc), GS_OK);
     assert_int_equal(gs_scene_attach_ghosts(&sc, NULL), GS_OK);
-    nd.send = flaky_send;
-    nd.send_user = f;
+    nd.transport.send = flaky_send;
+    nd.transport.user = f;
     assert_int_equal(gs_net_create(w, &nd, net), GS_OK);
-    assert_int_equal(gs_net_add_peer(*net, 2), GS_OK);
-    assert_int_equal(gs_net_add_peer(*net, 3), GS_OK);
+    assert_int_equal(gs_net_add_peer(*net, 2, NULL), GS_OK);
+    assert_int_equal(gs_net_add_peer(*net, 3, NULL), GS_OK);
     return w;
 }
 
@@ -492,7 +491,7 @@ static void test_stats_shape(void **state) {
         assert_int_equal(gs_world_create(&wd, &w[h]), GS_OK);
         assert_int_equal(gs_scene_create(w[h], &sd, &sc[h]), GS_OK);
         assert_int_equal(gs_scene_attach_ghosts(&sc[h], NULL), GS_OK);
-        assert_int_equal(gs_simnet_join(sim, w[h], NULL, &net), GS_OK);
+        assert_int_equal(test_join(sim, w[h], NULL, &net), GS_OK);
     }
     lossy.loss = 0.3;
     lossy.duplicate = 0.2;

@@ -34,6 +34,7 @@
 #include <string.h>
 
 #include "ghostsim.h"
+#include "net_helpers.h"
 
 #define FRAME 0.005  /* s; ghostpeer's frame */
 #define NUDGE 0.01   /* m */
@@ -67,7 +68,7 @@ static void pair_open(pair *p) {
         assert_int_equal(gs_world_create(&wd, &p->w[h]), GS_OK);
         assert_int_equal(gs_scene_create(p->w[h], &sd, &p->sc[h]), GS_OK);
         assert_int_equal(gs_scene_attach_ghosts(&p->sc[h], &gd), GS_OK);
-        assert_int_equal(gs_simnet_join(p->sim, p->w[h], NULL, &net), GS_OK);
+        assert_int_equal(test_join(p->sim, p->w[h], NULL, &net), GS_OK);
     }
     assert_int_equal(gs_simnet_link(p->sim, 1, 2, &link), GS_OK);
     assert_int_equal(gs_simnet_link(p->sim, 2, 1, &link), GS_OK);

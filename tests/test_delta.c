@@ -27,6 +27,7 @@
 #define GHOSTSIM_STATIC
 #define GHOSTSIM_IMPLEMENTATION /* the test reads the ghosts' baseline rings */
 #include "ghostsim.h"
+#include "net_helpers.h"
 
 #define FRAME (1.0 / 60.0)
 #define MAXQ 512
@@ -89,11 +90,11 @@ static void host_make(pair *pr, int i) {
     assert_int_equal(gs_scene_create(pr->w[i], &sd, &pr->sc[i]), GS_OK);
     assert_int_equal(gs_scene_attach_ghosts(&pr->sc[i], &gd), GS_OK);
     memset(&nd, 0, sizeof nd);
-    nd.send = hold;
-    nd.send_user = pr;
+    nd.transport.send = hold;
+    nd.transport.user = pr;
     nd.bandwidth = 1e9;
     assert_int_equal(gs_net_create(pr->w[i], &nd, &pr->net[i]), GS_OK);
-    assert_int_equal(gs_net_add_peer(pr->net[i], (uint32_t)(2 - i)), GS_OK);
+    assert_int_equal(gs_net_add_peer(pr->net[i], (uint32_t)(2 - i), NULL), GS_OK);
 }
 
 static void host_drop(pair *pr, int i) {
@@ -360,7 +361,7 @@ static void delta_simnet(int hosts) {
         assert_int_equal(gs_scene_attach_ghosts(&sc[i], &gd), GS_OK);
         memset(&nd, 0, sizeof nd);
         nd.bandwidth = 1e9;
-        assert_int_equal(gs_simnet_join(sim, w[i], &nd, &net[i]), GS_OK);
+        assert_int_equal(test_join(sim, w[i], &nd, &net[i]), GS_OK);
     }
     memset(&ld, 0, sizeof ld);
     ld.latency = 0.03;

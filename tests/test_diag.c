@@ -28,6 +28,7 @@
 #include <string.h>
 
 #include "ghostsim.h"
+#include "net_helpers.h"
 
 #define FRAME (1.0 / 60.0)
 #define BOX 256 /* datagrams a host keeps between two carries */
@@ -102,12 +103,12 @@ static host *host_new(uint32_t id, uint32_t peer, const host_opts *o) {
     }
     if (o->no_net) return h;
     memset(&nd, 0, sizeof nd);
-    nd.send = keep_send;
-    nd.send_user = h;
+    nd.transport.send = keep_send;
+    nd.transport.user = h;
     nd.session = o->session;
     nd.key = o->key;
     assert_int_equal(gs_net_create(h->w, &nd, &h->net), GS_OK);
-    if (!o->no_peer) assert_int_equal(gs_net_add_peer(h->net, peer), GS_OK);
+    if (!o->no_peer) assert_int_equal(gs_net_add_peer(h->net, peer, NULL), GS_OK);
     return h;
 }
 
@@ -317,8 +318,7 @@ static void test_ghosts_and_no_net(void **state) {
     o.no_net = 1;
     a = host_new(1, 2, &o);
     assert_string_equal(gs_world_diagnose(a->w),
-                        "1 ghost and no net: nothing is sent or received (gs_net_create, "
-                        "gs_simnet_join or gs_udp_open)");
+                        "1 ghost and no net: nothing is sent or received (gs_net_create)");
     o.object = 0; /* a world of its own: nothing to say */
     c = host_new(3, 2, &o);
     assert_string_equal(gs_world_diagnose(c->w), "");
@@ -565,8 +565,8 @@ static void test_simnet_clock_step_back(void **state) {
     b = host_new(2, 1, &o);
     assert_int_equal(gs_simnet_create(NULL, &sim), GS_OK);
     memset(&nd, 0, sizeof nd);
-    assert_int_equal(gs_simnet_join(sim, a->w, &nd, &na), GS_OK);
-    assert_int_equal(gs_simnet_join(sim, b->w, &nd, &nb), GS_OK);
+    assert_int_equal(test_join(sim, a->w, &nd, &na), GS_OK);
+    assert_int_equal(test_join(sim, b->w, &nd, &nb), GS_OK);
     memset(&c, 0, sizeof c);
     c.offset = 10.0; /* a clock never reads below 0 (it would be refused) */
     c.step_at = 1.0;
@@ -590,7 +590,7 @@ static void test_simnet_error_text(void **state) {
     gs_link_desc l;
     gs_sim_clock c;
     host_opts o = plain;
-    host *a;
+    host *a, *a2;
     gs_net *na = NULL;
     gs_net_desc nd;
     (void)state;
@@ -601,15 +601,17 @@ static void test_simnet_error_text(void **state) {
     l.latency = 0.05;
     assert_int_equal(gs_simnet_link(sim, 1, 2, &l), GS_ERR_INVALID_ARG);
     assert_contains(gs_simnet_error(sim), "host 1 has not joined this simnet");
-    assert_contains(gs_simnet_error(sim), "gs_simnet_join its world first");
+    assert_contains(gs_simnet_error(sim), "gs_net_create its world's net on it first");
     o.no_net = 1;
     a = host_new(1, 2, &o);
     memset(&nd, 0, sizeof nd);
-    assert_int_equal(gs_simnet_join(sim, a->w, &nd, &na), GS_OK);
+    assert_int_equal(test_join(sim, a->w, &nd, &na), GS_OK);
     assert_int_equal(gs_simnet_link(sim, 1, 2, &l), GS_ERR_INVALID_ARG);
     assert_contains(gs_simnet_error(sim), "host 2 has not joined");
-    assert_int_equal(gs_simnet_join(sim, a->w, &nd, &na), GS_ERR_INVALID_ARG);
-    assert_contains(gs_simnet_error(sim), "host 1 already joined");
+    a2 = host_new(1, 2, &o); /* another world with the same host id */
+    assert_int_equal(test_join(sim, a2->w, &nd, &na), GS_ERR_INVALID_ARG);
+    assert_contains(gs_simnet_error(sim), "host 1 has joined this simnet already");
+    assert_contains(gs_world_error(a2->w), "host 1 has joined this simnet already");
     memset(&c, 0, sizeof c);
     assert_int_equal(gs_simnet_set_clock(sim, 9, &c), GS_ERR_INVALID_ARG);
     assert_contains(gs_simnet_error(sim), "host 9 has not joined");
@@ -620,6 +622,7 @@ static void test_simnet_error_text(void **state) {
     assert_contains(gs_simnet_error(sim), "loss 2");
     gs_simnet_destroy(sim);
     host_free(a);
+    host_free(a2);
 }
 
 /* ---- a custom step that fails ---- */

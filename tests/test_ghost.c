@@ -28,6 +28,7 @@
 #include <string.h>
 
 #include "ghostsim.h"
+#include "net_helpers.h"
 
 /* An agent's counters by value (gs_agent_get_stats fills an out-pointer). */
 static gs_agent_stats agent_stats(const gs_agent *a) {
@@ -114,10 +115,10 @@ static gs_world *world_new(uint32_t id) {
 static void host_net(host *h, const uint32_t *peers) {
     gs_net_desc nd;
     memset(&nd, 0, sizeof nd);
-    nd.send = keep_send;
-    nd.send_user = h;
+    nd.transport.send = keep_send;
+    nd.transport.user = h;
     assert_int_equal(gs_net_create(h->w, &nd, &h->net), GS_OK);
-    for (; *peers; ++peers) assert_int_equal(gs_net_add_peer(h->net, *peers), GS_OK);
+    for (; *peers; ++peers) assert_int_equal(gs_net_add_peer(h->net, *peers, NULL), GS_OK);
 }
 
 /* A host with a toy at time t0 and state x, ghost `gd` (NULL: no ghost),
@@ -1436,7 +1437,7 @@ static void latency_trap(int raw_time, trap_run *out) {
         /* the literal formula has no deadband; the default has its own */
         gd.time_deadband = raw_time ? -1.0 : 0.0;
         assert_int_equal(gs_ghost_attach(c[h], &gd), GS_OK);
-        assert_int_equal(gs_simnet_join(sim, w[h], NULL, &net), GS_OK);
+        assert_int_equal(test_join(sim, w[h], NULL, &net), GS_OK);
     }
     assert_int_equal(gs_simnet_link(sim, 1, 2, &link), GS_OK);
     assert_int_equal(gs_simnet_link(sim, 2, 1, &link), GS_OK);
@@ -1517,7 +1518,7 @@ static void test_net_lock_is_balanced(void **state) {
         assert_int_equal(gs_cloth_create(w[h], &cd, &c[h]), GS_OK);
         gd.object_id = 1;
         assert_int_equal(gs_ghost_attach(c[h], &gd), GS_OK);
-        assert_int_equal(gs_simnet_join(sim, w[h], NULL, &net[h]), GS_OK);
+        assert_int_equal(test_join(sim, w[h], NULL, &net[h]), GS_OK);
     }
     lk.lock = cl_lock;
     lk.unlock = cl_unlock;

@@ -21,6 +21,7 @@
 #include <unistd.h>
 
 #include "ghostsim.h"
+#include "net_helpers.h"
 
 /* ---- an allocator that counts, refuses on demand, and refuses anything
    over a gigabyte (as an allocator on a small machine would) ---- */
@@ -149,8 +150,8 @@ static gs_net *make_net(gs_world *w, sink *s) {
     gs_net_desc nd;
     gs_net *net = NULL;
     memset(&nd, 0, sizeof nd);
-    nd.send = sink_send;
-    nd.send_user = s;
+    nd.transport.send = sink_send;
+    nd.transport.user = s;
     assert_int_equal(gs_net_create(w, &nd, &net), GS_OK);
     return net;
 }
@@ -293,10 +294,10 @@ static gs_result meddling_step(void *user, double t, double dt) {
     gd.object_id = 99;
     p->attach = gs_ghost_attach(p->probe, &gd);
     p->detach = gs_ghost_detach(p->other);
-    p->add_peer = gs_net_add_peer(p->net, 3);
+    p->add_peer = gs_net_add_peer(p->net, 3, NULL);
     p->remove_peer = gs_net_remove_peer(p->net, 2);
     memset(&nd, 0, sizeof nd);
-    nd.send = sink_send;
+    nd.transport.send = sink_send;
     p->net_create = gs_net_create(p->w, &nd, &net2);
     p->advance = gs_world_advance(p->w, 1.0, NULL);
     p->destroy_other = gs_agent_destroy(p->other);
@@ -336,7 +337,7 @@ static void test_hostile_custom_step_calls(void **state) {
     sp.probe = make_probe(w);
     sp.cloth = make_cloth(w);
     sp.net = make_net(w, &sk);
-    assert_int_equal(gs_net_add_peer(sp.net, 2), GS_OK);
+    assert_int_equal(gs_net_add_peer(sp.net, 2, NULL), GS_OK);
     gd.object_id = 1;
     assert_int_equal(gs_ghost_attach(sp.other, &gd), GS_OK);
     g0 = gs_world_gravity(w);
@@ -371,7 +372,7 @@ static void test_hostile_custom_step_calls(void **state) {
     assert_int_equal(other.steps, 5);
     /* after the advance the same calls work */
     assert_int_equal(gs_world_set_gravity(w, g0), GS_OK);
-    assert_int_equal(gs_net_add_peer(sp.net, 3), GS_OK);
+    assert_int_equal(gs_net_add_peer(sp.net, 3, NULL), GS_OK);
     gs_world_destroy(w);
     assert_int_equal(cnt.allocs, cnt.frees);
 }
@@ -469,7 +470,7 @@ static double meddling_rule(const gs_weight_in *in, void *user) {
     n = snapshot_datagram(buf, 2, 50, 7, 0.0);
     gs_net_destroy(p->net); /* refused: the blend holds it */
     gs_world_destroy(p->w); /* refused */
-    p->add_peer = gs_net_add_peer(p->net, 3);
+    p->add_peer = gs_net_add_peer(p->net, 3, NULL);
     p->remove_peer = gs_net_remove_peer(p->net, 2);
     p->gravity = gs_world_set_gravity(p->w, g);
     p->ground = gs_world_set_ground(p->w, 1, 0.0, gs_material_default());
@@ -517,7 +518,7 @@ static void test_hostile_weight_rule_calls(void **state) {
     assert_int_equal(gs_custom_create(w, &d, &rp.agent), GS_OK);
     rp.probe = make_probe(w);
     rp.net = make_net(w, &sk);
-    assert_int_equal(gs_net_add_peer(rp.net, 2), GS_OK);
+    assert_int_equal(gs_net_add_peer(rp.net, 2, NULL), GS_OK);
     gd.object_id = 7;
     gd.weight = meddling_rule;
     gd.weight_user = &rp;
@@ -574,7 +575,7 @@ static gs_result meddling_send(void *user, uint32_t host, const void *data, size
     (void)size;
     if (s->calls++) return GS_OK;
     s->update = gs_net_update(s->net, 5.0);
-    s->add_peer = gs_net_add_peer(s->net, 3);
+    s->add_peer = gs_net_add_peer(s->net, 3, NULL);
     s->remove_peer = gs_net_remove_peer(s->net, 2);
     gs_net_destroy(s->net);
     gs_world_destroy(s->w);
@@ -598,10 +599,10 @@ static void test_hostile_send_callback_calls(void **state) {
     d = pend_desc(&v);
     assert_int_equal(gs_custom_create(w, &d, &a), GS_OK);
     memset(&nd, 0, sizeof nd);
-    nd.send = meddling_send;
-    nd.send_user = &sp;
+    nd.transport.send = meddling_send;
+    nd.transport.user = &sp;
     assert_int_equal(gs_net_create(w, &nd, &sp.net), GS_OK);
-    assert_int_equal(gs_net_add_peer(sp.net, 2), GS_OK);
+    assert_int_equal(gs_net_add_peer(sp.net, 2, NULL), GS_OK);
     gd.object_id = 1;
     assert_int_equal(gs_ghost_attach(a, &gd), GS_OK);
     assert_int_equal(gs_world_advance(w, 0.05, NULL), GS_OK);
@@ -622,7 +623,7 @@ static void test_hostile_send_callback_calls(void **state) {
    net must neither deadlock on it nor touch the queues being blended. A
    deadlock would hang: the alarm turns it into a failure. */
 typedef struct udp_rule {
-    gs_udp *u;
+    gs_net *u;
     int done;
     gs_result peer_stats, update, poll, add_peer, remove_peer;
 } udp_rule;
@@ -632,12 +633,12 @@ static double udp_meddling_rule(const gs_weight_in *in, void *user) {
     gs_peer_stats ps;
     if (r->done || in->local) return 1.0;
     r->done = 1;
-    r->peer_stats = gs_net_peer_stats(gs_udp_net(r->u), 2, &ps);
-    r->update = gs_net_update(gs_udp_net(r->u), 3.0);
-    r->poll = gs_udp_poll(r->u, 3.0);
-    r->add_peer = gs_udp_add_peer(r->u, 4, "127.0.0.1:9");
-    r->remove_peer = gs_udp_remove_peer(r->u, 2);
-    gs_udp_close(r->u); /* refused */
+    r->peer_stats = gs_net_peer_stats(r->u, 2, &ps);
+    r->update = gs_net_update(r->u, 3.0);
+    r->poll = gs_net_poll(r->u, 3.0);
+    r->add_peer = gs_net_add_peer(r->u, 4, "127.0.0.1:9");
+    r->remove_peer = gs_net_remove_peer(r->u, 2);
+    gs_net_destroy(r->u); /* refused */
     return 1.0;
 }
 
@@ -662,14 +663,14 @@ static void test_hostile_udp_weight_rule(void **state) {
     assert_int_equal(gs_custom_create(w, &d, &a), GS_OK);
     ud.bind = "127.0.0.1:0";
     ud.threads = 0;
-    assert_int_equal(gs_udp_open(w, &ud, &ur.u), GS_OK);
-    assert_int_equal(gs_udp_add_peer(ur.u, 2, "127.0.0.1:9"), GS_OK);
+    assert_int_equal(test_udp_open(w, &ud, NULL, &ur.u), GS_OK);
+    assert_int_equal(gs_net_add_peer(ur.u, 2, "127.0.0.1:9"), GS_OK);
     gd.object_id = 7;
     gd.weight = udp_meddling_rule;
     gd.weight_user = &ur;
     assert_int_equal(gs_ghost_attach(a, &gd), GS_OK);
     n = snapshot_datagram(buf, 2, 1, 7, 0.0);
-    assert_int_equal(gs_net_deliver(gs_udp_net(ur.u), buf, n, 1.0, NULL), GS_OK);
+    assert_int_equal(gs_net_deliver(ur.u, buf, n, 1.0, NULL), GS_OK);
     alarm(20);
     assert_int_equal(gs_world_advance(w, 0.02, NULL), GS_OK);
     alarm(0);
@@ -679,11 +680,11 @@ static void test_hostile_udp_weight_rule(void **state) {
     assert_int_equal(ur.poll, GS_ERR_BUSY);
     assert_int_equal(ur.add_peer, GS_ERR_BUSY);
     assert_int_equal(ur.remove_peer, GS_ERR_BUSY);
-    assert_int_equal(gs_net_peer_stats(gs_udp_net(ur.u), 2, &ps), GS_OK);
-    assert_int_equal(gs_net_peer_stats(gs_udp_net(ur.u), 4, &ps), GS_ERR_INVALID_ARG);
+    assert_int_equal(gs_net_peer_stats(ur.u, 2, &ps), GS_OK);
+    assert_int_equal(gs_net_peer_stats(ur.u, 4, &ps), GS_ERR_INVALID_ARG);
     assert_int_equal(gs_ghost_get_stats(a, &gst), GS_OK);
     assert_int_equal(gst.blends, 1);
-    gs_udp_close(ur.u);
+    gs_net_destroy(ur.u);
     assert_null(gs_world_net(w));
     gs_world_destroy(w);
     assert_int_equal(cnt.allocs, cnt.frees);
@@ -712,7 +713,7 @@ static gs_result sim_meddling_step(void *user, double t, double dt) {
     memset(&ld, 0, sizeof ld);
     p->run = gs_simnet_run(p->sim, 1.0, 0.01);
     p->link = gs_simnet_link(p->sim, 1, 2, &ld);
-    p->join = gs_simnet_join(p->sim, p->late, NULL, &net);
+    p->join = test_join(p->sim, p->late, NULL, &net);
     gs_world_destroy(p->other); /* refused: its simnet runs */
     snprintf(p->other_text, sizeof p->other_text, "%s", gs_world_error(p->other));
     gs_simnet_destroy(p->sim);  /* ignored */
@@ -737,7 +738,7 @@ static void test_hostile_simnet_calls(void **state) {
         wd.host_id = (uint32_t)h + 1;
         assert_int_equal(gs_world_create(&wd, &w[h]), GS_OK);
     }
-    for (h = 0; h < 2; ++h) assert_int_equal(gs_simnet_join(sim, w[h], NULL, &net[h]), GS_OK);
+    for (h = 0; h < 2; ++h) assert_int_equal(test_join(sim, w[h], NULL, &net[h]), GS_OK);
     sp.sim = sim;
     sp.other = w[1];
     sp.late = w[2];
@@ -760,7 +761,7 @@ static void test_hostile_simnet_calls(void **state) {
     assert_true(v[1].steps >= 9); /* world 2 lived on and advanced */
     assert_non_null(strstr(sp.other_text, "refused"));
     /* after the run: joining works, destroying works */
-    assert_int_equal(gs_simnet_join(sim, w[2], NULL, &net[0]), GS_OK);
+    assert_int_equal(test_join(sim, w[2], NULL, &net[0]), GS_OK);
     gs_simnet_destroy(sim);
     for (h = 0; h < 3; ++h) gs_world_destroy(w[h]);
 }
@@ -805,10 +806,10 @@ static void test_hostile_simnet_join_rollback(void **state) {
     }
     memset(&small, 0, sizeof small);
     small.max_peers = 1;
-    assert_int_equal(gs_simnet_join(sim, w[0], NULL, &net[0]), GS_OK);
-    assert_int_equal(gs_simnet_join(sim, w[1], &small, &net[1]), GS_OK);
+    assert_int_equal(test_join(sim, w[0], NULL, &net[0]), GS_OK);
+    assert_int_equal(test_join(sim, w[1], &small, &net[1]), GS_OK);
     net[2] = (gs_net *)(void *)&small;
-    assert_int_equal(gs_simnet_join(sim, w[2], NULL, &net[2]), GS_ERR_CAPACITY);
+    assert_int_equal(test_join(sim, w[2], NULL, &net[2]), GS_ERR_CAPACITY);
     assert_null(net[2]);
     assert_true(has_text(w[2], "max_peers"));
     assert_null(gs_world_net(w[2]));
@@ -845,12 +846,12 @@ static void test_hostile_add_peer_rollback(void **state) {
     }
     before = live(&cnt);
     cnt.fail_at = 2; /* the second ghost's queue */
-    assert_int_equal(gs_net_add_peer(net, 2), GS_ERR_NO_MEMORY);
+    assert_int_equal(gs_net_add_peer(net, 2, NULL), GS_ERR_NO_MEMORY);
     assert_int_equal(live(&cnt), before);
     assert_int_equal(gs_net_peer_stats(net, 2, &ps), GS_ERR_INVALID_ARG);
     assert_true(has_text(w, "gs_net_add_peer"));
     cnt.fail_at = 0;
-    assert_int_equal(gs_net_add_peer(net, 2), GS_OK);
+    assert_int_equal(gs_net_add_peer(net, 2, NULL), GS_OK);
     assert_int_equal(live(&cnt), before + 2);
     gs_world_destroy(w);
     assert_int_equal(cnt.allocs, cnt.frees);
@@ -893,7 +894,7 @@ static void test_hostile_null_handles(void **state) {
     assert_int_equal(gs_ghost_detach(NULL), GS_ERR_INVALID_ARG);
     assert_int_equal(gs_ghost_get_stats(NULL, &gst), GS_ERR_INVALID_ARG);
     assert_int_equal(gs_ghost_render_state(NULL, st, 3), GS_ERR_INVALID_ARG);
-    assert_int_equal(gs_net_add_peer(NULL, 2), GS_ERR_INVALID_ARG);
+    assert_int_equal(gs_net_add_peer(NULL, 2, NULL), GS_ERR_INVALID_ARG);
     assert_int_equal(gs_net_remove_peer(NULL, 2), GS_ERR_INVALID_ARG);
     assert_int_equal(gs_net_update(NULL, 1.0), GS_ERR_INVALID_ARG);
     assert_int_equal(gs_net_deliver(NULL, st, 8, 1.0, NULL), GS_ERR_INVALID_ARG);
@@ -906,10 +907,10 @@ static void test_hostile_null_handles(void **state) {
     assert_int_equal(gs_probe_set_target(NULL, zero, one), GS_ERR_INVALID_ARG);
     assert_int_equal(gs_scene_attach_ghosts(NULL, NULL), GS_ERR_INVALID_ARG);
 #ifndef GHOSTSIM_NO_UDP
-    assert_int_equal(gs_udp_add_peer(NULL, 2, "127.0.0.1:9"), GS_ERR_INVALID_ARG);
-    assert_int_equal(gs_udp_remove_peer(NULL, 2), GS_ERR_INVALID_ARG);
-    assert_int_equal(gs_udp_poll(NULL, 1.0), GS_ERR_INVALID_ARG);
-    assert_null(gs_udp_net(NULL));
+    assert_int_equal(gs_net_add_peer(NULL, 2, "127.0.0.1:9"), GS_ERR_INVALID_ARG);
+    assert_int_equal(gs_net_remove_peer(NULL, 2), GS_ERR_INVALID_ARG);
+    assert_int_equal(gs_net_poll(NULL, 1.0), GS_ERR_INVALID_ARG);
+    assert_null(NULL);
     gs_udp_close(NULL);
 #endif
     memset(&sh, 0, sizeof sh);
@@ -940,7 +941,7 @@ static void test_hostile_null_handles(void **state) {
     d = pend_desc(&v);
     assert_int_equal(gs_custom_create(w, &d, &a), GS_OK);
     net = make_net(w, &sk);
-    assert_int_equal(gs_net_add_peer(net, 2), GS_OK);
+    assert_int_equal(gs_net_add_peer(net, 2, NULL), GS_OK);
     assert_int_equal(gs_net_unknown_stats(net, NULL), GS_ERR_INVALID_ARG);
     assert_int_equal(gs_net_peer_stats(net, 2, NULL), GS_ERR_INVALID_ARG);
     assert_int_equal(gs_net_deliver(net, NULL, 100, 1.0, NULL), GS_ERR_INVALID_ARG);
@@ -973,7 +974,7 @@ static void test_hostile_deliver_nan_now(void **state) {
     d = pend_desc(&v);
     assert_int_equal(gs_custom_create(w, &d, &a), GS_OK);
     net = make_net(w, &sk);
-    assert_int_equal(gs_net_add_peer(net, 2), GS_OK);
+    assert_int_equal(gs_net_add_peer(net, 2, NULL), GS_OK);
     gd.object_id = 7;
     assert_int_equal(gs_ghost_attach(a, &gd), GS_OK);
     n = snapshot_datagram(buf, 2, 1, 7, 0.0);
@@ -1026,7 +1027,7 @@ static void test_hostile_wire_add_size(void **state) {
 static void test_hostile_udp_port(void **state) {
 #ifndef GHOSTSIM_NO_UDP
     gs_world *w;
-    gs_udp *u = NULL;
+    gs_net *u = NULL;
     gs_udp_desc ud;
     static const char *bad[] = {"127.0.0.1:99999", "127.0.0.1:65536", "[::1]:100000",
                                 "127.0.0.1:123456789012345678901234567890", "127.0.0.1:8x"};
@@ -1036,15 +1037,15 @@ static void test_hostile_udp_port(void **state) {
     memset(&ud, 0, sizeof ud);
     for (i = 0; i < (int)(sizeof bad / sizeof bad[0]); ++i) {
         ud.bind = bad[i];
-        assert_int_equal(gs_udp_open(w, &ud, &u), GS_ERR_INVALID_ARG);
+        assert_int_equal(test_udp_open(w, &ud, NULL, &u), GS_ERR_INVALID_ARG);
         assert_null(u);
         assert_null(gs_world_net(w));
     }
     ud.bind = "127.0.0.1:0";
-    assert_int_equal(gs_udp_open(w, &ud, &u), GS_OK);
-    assert_int_equal(gs_udp_add_peer(u, 2, "127.0.0.1:99999"), GS_ERR_INVALID_ARG);
-    assert_int_equal(gs_udp_add_peer(u, 2, "127.0.0.1:65535"), GS_OK);
-    gs_udp_close(u);
+    assert_int_equal(test_udp_open(w, &ud, NULL, &u), GS_OK);
+    assert_int_equal(gs_net_add_peer(u, 2, "127.0.0.1:99999"), GS_ERR_INVALID_ARG);
+    assert_int_equal(gs_net_add_peer(u, 2, "127.0.0.1:65535"), GS_OK);
+    gs_net_destroy(u);
     gs_world_destroy(w);
 #else
     (void)state;
@@ -1061,14 +1062,14 @@ static void test_hostile_huge_bandwidth(void **state) {
     memset(&sk, 0, sizeof sk);
     assert_int_equal(gs_world_create(NULL, &w), GS_OK);
     memset(&nd, 0, sizeof nd);
-    nd.send = sink_send;
-    nd.send_user = &sk;
+    nd.transport.send = sink_send;
+    nd.transport.user = &sk;
     nd.bandwidth = INFINITY; /* the caller's own field is named */
     assert_int_equal(gs_net_create(w, &nd, &net), GS_ERR_NOT_FINITE);
     assert_true(has_text(w, "bandwidth"));
     nd.bandwidth = 1e308; /* finite: max_rate derived from it stays finite */
     assert_int_equal(gs_net_create(w, &nd, &net), GS_OK);
-    assert_int_equal(gs_net_add_peer(net, 2), GS_OK);
+    assert_int_equal(gs_net_add_peer(net, 2, NULL), GS_OK);
     assert_int_equal(gs_net_update(net, 1.0), GS_OK);
     gs_world_destroy(w);
 }

@@ -581,9 +581,9 @@ static void test_forged_snapshot(void **state) {
     gs_quat q;
     (void)state;
     memset(&nd, 0, sizeof nd);
-    nd.send = drop_send;
+    nd.transport.send = drop_send;
     assert_int_equal(gs_net_create(w, &nd, &net), GS_OK);
-    assert_int_equal(gs_net_add_peer(net, 2), GS_OK);
+    assert_int_equal(gs_net_add_peer(net, 2, NULL), GS_OK);
     gd.object_id = 100;
     gd.owner = 2;
     gd.weight = gs_weight_owner;

@@ -22,6 +22,7 @@
 #include <string.h>
 
 #include "ghostsim.h"
+#include "net_helpers.h"
 
 /* ---- a host: a world with one still point, a ghost and a net ---- */
 
@@ -78,10 +79,10 @@ static host *host_new(void) {
     gd.weight = gs_weight_exp;
     assert_int_equal(gs_ghost_attach(h->a, &gd), GS_OK);
     memset(&nd, 0, sizeof nd);
-    nd.send = count_send;
-    nd.send_user = h;
+    nd.transport.send = count_send;
+    nd.transport.user = h;
     assert_int_equal(gs_net_create(h->w, &nd, &h->net), GS_OK);
-    assert_int_equal(gs_net_add_peer(h->net, 2), GS_OK);
+    assert_int_equal(gs_net_add_peer(h->net, 2, NULL), GS_OK);
     return h;
 }
 
@@ -306,7 +307,7 @@ static void test_simnet_frame_progress(void **state) {
     assert_int_equal(gs_simnet_create(NULL, &sim), GS_OK);
     assert_int_equal(gs_world_create(NULL, &w), GS_OK);
     still_new(w, 0.01, x);
-    assert_int_equal(gs_simnet_join(sim, w, NULL, &net), GS_OK);
+    assert_int_equal(test_join(sim, w, NULL, &net), GS_OK);
     assert_int_equal(gs_simnet_run(sim, 1.0, 0.1), GS_OK);
     assert_int_equal(gs_simnet_run(sim, 1.0, 1e-17), GS_ERR_INVALID_ARG);
     assert_int_equal(gs_simnet_run(sim, 1.0, 0.5 * GS_MIN_DT), GS_ERR_INVALID_ARG);

@@ -38,6 +38,7 @@
 #endif
 
 #include "ghostsim.h"
+#include "net_helpers.h"
 
 /* Under valgrind (50x slower) the 20 s scene runs 2 s, for memory checks
    only; its distance bounds need the full run. */
@@ -171,7 +172,7 @@ static void pair_open(pair *p, uint64_t seed, const gs_link_desc *link, int ghos
         p->w[h] = world_new((uint32_t)h + 1);
         p->c[h] = cloth_new(p->w[h], 0.0);
         if (ghosts) ghost_on(p->c[h], 1);
-        assert_int_equal(gs_simnet_join(p->sim, p->w[h], NULL, &p->net[h]), GS_OK);
+        assert_int_equal(test_join(p->sim, p->w[h], NULL, &p->net[h]), GS_OK);
     }
     nudge_particle(p->c[1], 0, 0.01);
     if (link) link_both(p->sim, 1, 2, link);
@@ -309,7 +310,7 @@ static gs_result scene_open(scene_host *s, gs_simnet *sim, uint32_t id, int sphe
     r = gs_scene_create(s->w, &sd, &s->sc);
     gd.weight = weight ? weight : gs_weight_exp;
     if (r == GS_OK) r = gs_scene_attach_ghosts(&s->sc, &gd);
-    if (r == GS_OK) r = gs_simnet_join(sim, s->w, NULL, &s->net);
+    if (r == GS_OK) r = test_join(sim, s->w, NULL, &s->net);
     return r;
 }
 
@@ -579,13 +580,13 @@ static void test_late_joiner(void **state) {
         w[h] = world_new((uint32_t)h + 1);
         c[h] = cloth_new(w[h], 0.0);
         ghost_on(c[h], 1);
-        assert_int_equal(gs_simnet_join(sim, w[h], NULL, &net), GS_OK);
+        assert_int_equal(test_join(sim, w[h], NULL, &net), GS_OK);
     }
     assert_int_equal(gs_simnet_run(sim, 3.0, FRAME), GS_OK);
     w[3] = world_new(4);
     c[3] = cloth_new(w[3], 0.0);
     ghost_on(c[3], 1);
-    assert_int_equal(gs_simnet_join(sim, w[3], NULL, &net), GS_OK);
+    assert_int_equal(test_join(sim, w[3], NULL, &net), GS_OK);
     assert_true(gs_agent_time(c[3]) == 0.0 && gs_world_time(w[3]) == 0.0);
     for (k = 1; k <= 6 * 60; ++k) { /* 6 s after the join */
         double g;
@@ -667,10 +668,10 @@ static toy_host *toy_host_new(double t0, double window) {
     assert_int_equal(gs_agent_set_state(h->a, s, 4), GS_OK);
     ghost_on(h->a, 5);
     memset(&nd, 0, sizeof nd);
-    nd.send = drop_send;
+    nd.transport.send = drop_send;
     nd.time_window = window;
     assert_int_equal(gs_net_create(h->w, &nd, &h->net), GS_OK);
-    assert_int_equal(gs_net_add_peer(h->net, 2), GS_OK);
+    assert_int_equal(gs_net_add_peer(h->net, 2, NULL), GS_OK);
     return h;
 }
 
@@ -1048,7 +1049,7 @@ static void test_pace_with_reordering(void **state) {
         w[h] = world_new((uint32_t)h + 1);
         assert_int_equal(gs_custom_create(w[h], &cd, &a[h]), GS_OK);
         ghost_on(a[h], 5);
-        assert_int_equal(gs_simnet_join(sim, w[h], NULL, &net[h]), GS_OK);
+        assert_int_equal(test_join(sim, w[h], NULL, &net[h]), GS_OK);
     }
     memset(&l, 0, sizeof l);
     l.latency = 0.1;  /* s */
@@ -1120,10 +1121,10 @@ static void test_own_transport(void **state) {
         c[h] = cloth_new(w[h], 0.0);
         ghost_on(c[h], 1);
         memset(&nd, 0, sizeof nd);
-        nd.send = mailbox_send;
-        nd.send_user = &box[h];
+        nd.transport.send = mailbox_send;
+        nd.transport.user = &box[h];
         assert_int_equal(gs_net_create(w[h], &nd, &net[h]), GS_OK);
-        assert_int_equal(gs_net_add_peer(net[h], 2 - (uint32_t)h), GS_OK);
+        assert_int_equal(gs_net_add_peer(net[h], 2 - (uint32_t)h, NULL), GS_OK);
         assert_true(gs_world_net(w[h]) == net[h]);
     }
     nudge_particle(c[1], 0, 0.01);
@@ -1166,7 +1167,7 @@ static void test_net_errors(void **state) {
     memset(&nd, 0, sizeof nd);
     assert_int_equal(gs_net_create(w, &nd, &net), GS_ERR_INVALID_ARG); /* no send */
     assert_null(net);
-    nd.send = drop_send;
+    nd.transport.send = drop_send;
     nd.bandwidth = -1.0;
     assert_int_equal(gs_net_create(w, &nd, &net), GS_ERR_INVALID_ARG);
     nd.bandwidth = 0.0;
@@ -1176,23 +1177,23 @@ static void test_net_errors(void **state) {
     nd.max_peers = 2;
     assert_int_equal(gs_net_create(w, &nd, &net), GS_OK);
     assert_int_equal(gs_net_create(w, &nd, &net2), GS_ERR_INVALID_ARG); /* has one */
-    assert_int_equal(gs_net_add_peer(net, 0), GS_ERR_INVALID_ARG);
-    assert_int_equal(gs_net_add_peer(net, 1), GS_ERR_INVALID_ARG); /* itself */
-    assert_int_equal(gs_net_add_peer(net, 2), GS_OK);
-    assert_int_equal(gs_net_add_peer(net, 2), GS_OK); /* again: nothing new */
-    assert_int_equal(gs_net_add_peer(net, 3), GS_OK);
-    assert_int_equal(gs_net_add_peer(net, 4), GS_ERR_CAPACITY);
+    assert_int_equal(gs_net_add_peer(net, 0, NULL), GS_ERR_INVALID_ARG);
+    assert_int_equal(gs_net_add_peer(net, 1, NULL), GS_ERR_INVALID_ARG); /* itself */
+    assert_int_equal(gs_net_add_peer(net, 2, NULL), GS_OK);
+    assert_int_equal(gs_net_add_peer(net, 2, NULL), GS_OK); /* again: nothing new */
+    assert_int_equal(gs_net_add_peer(net, 3, NULL), GS_OK);
+    assert_int_equal(gs_net_add_peer(net, 4, NULL), GS_ERR_CAPACITY);
     assert_int_equal(gs_net_peer_stats(net, 4, &ps), GS_ERR_INVALID_ARG);
     assert_int_equal(gs_net_remove_peer(net, 3), GS_OK);
     assert_int_equal(gs_net_remove_peer(net, 3), GS_ERR_INVALID_ARG);
-    assert_int_equal(gs_net_add_peer(net, 4), GS_OK);
+    assert_int_equal(gs_net_add_peer(net, 4, NULL), GS_OK);
     assert_int_equal(gs_net_update(net, NAN), GS_ERR_NOT_FINITE);
     assert_int_equal(gs_net_update(net, 1.0), GS_OK);
     /* peers up to the limit, then capacity */
     nd.max_peers = 0; /* default 16 */
     assert_int_equal(gs_net_create(w2, &nd, &net2), GS_OK);
-    for (i = 0; i < 16; ++i) assert_int_equal(gs_net_add_peer(net2, 100 + (uint32_t)i), GS_OK);
-    assert_int_equal(gs_net_add_peer(net2, 200), GS_ERR_CAPACITY);
+    for (i = 0; i < 16; ++i) assert_int_equal(gs_net_add_peer(net2, 100 + (uint32_t)i, NULL), GS_OK);
+    assert_int_equal(gs_net_add_peer(net2, 200, NULL), GS_ERR_CAPACITY);
     gs_net_destroy(net2);
     assert_null(gs_world_net(w2));
     gs_world_destroy(w); /* with its net */
@@ -1211,8 +1212,8 @@ static void test_simnet_errors(void **state) {
     assert_int_equal(gs_simnet_create(&sd, &sim), GS_ERR_INVALID_ARG);
     assert_null(sim);
     assert_int_equal(gs_simnet_create(NULL, &sim), GS_OK);
-    assert_int_equal(gs_simnet_join(sim, w, NULL, &net), GS_OK);
-    assert_int_equal(gs_simnet_join(sim, w2, NULL, &net), GS_ERR_INVALID_ARG); /* host 1 again */
+    assert_int_equal(test_join(sim, w, NULL, &net), GS_OK);
+    assert_int_equal(test_join(sim, w2, NULL, &net), GS_ERR_INVALID_ARG); /* host 1 again */
     memset(&l, 0, sizeof l);
     assert_int_equal(gs_simnet_link(sim, 1, 5, &l), GS_ERR_INVALID_ARG); /* no host 5 */
     l.loss = 1.5;
@@ -1279,7 +1280,7 @@ static int loopback_addr(int v6, char *buf, size_t size) {
 typedef struct udp_pair {
     gs_world *w[2];
     gs_agent *c[2];
-    gs_udp *u[2];
+    gs_net *u[2];
 } udp_pair;
 
 /* Two worlds of one cloth each on two sockets; host 2's cloth, pins and
@@ -1303,19 +1304,19 @@ static void udp_pair_open(udp_pair *p, const char *a1, const char *a2, int threa
         memset(&ud, 0, sizeof ud);
         ud.bind = addr[h];
         ud.threads = threads;
-        r = gs_udp_open(p->w[h], &ud, &p->u[h]);
-        if (r != GS_OK) print_error("gs_udp_open %s: %s\n", addr[h], gs_world_error(p->w[h]));
+        r = test_udp_open(p->w[h], &ud, NULL, &p->u[h]);
+        if (r != GS_OK) print_error("udp net %s: %s\n", addr[h], gs_world_error(p->w[h]));
         assert_int_equal(r, GS_OK);
     }
     if (!no_peers)
         for (h = 0; h < 2; ++h)
-            assert_int_equal(gs_udp_add_peer(p->u[h], 2 - (uint32_t)h, addr[1 - h]), GS_OK);
+            assert_int_equal(gs_net_add_peer(p->u[h], 2 - (uint32_t)h, addr[1 - h]), GS_OK);
 }
 
 static void udp_pair_close(udp_pair *p) {
     int h;
     for (h = 0; h < 2; ++h) {
-        gs_udp_close(p->u[h]); /* joins the threads; before the world goes */
+        gs_net_destroy(p->u[h]); /* joins the threads; before the world goes */
         gs_world_destroy(p->w[h]);
     }
 }
@@ -1329,7 +1330,7 @@ static double udp_pair_run(udp_pair *p, int max_frames, double below, int *frame
     for (k = 1; k <= max_frames; ++k) {
         for (h = 0; h < 2; ++h) {
             assert_int_equal(gs_world_advance(p->w[h], FRAME, NULL), GS_OK);
-            assert_int_equal(gs_udp_poll(p->u[h], gs_udp_now()), GS_OK);
+            assert_int_equal(gs_net_poll(p->u[h], gs_udp_now()), GS_OK);
         }
         g = mesh_gap(p->c[0], p->c[1]);
         good = g < below ? good + 1 : 0;
@@ -1348,7 +1349,7 @@ static void udp_converge(const char *a1, const char *a2, int threads, const char
     double g;
     udp_pair_open(&p, a1, a2, threads, 0);
     g = udp_pair_run(&p, 240, 1e-4, &frames);
-    assert_int_equal(gs_net_peer_stats(gs_udp_net(p.u[0]), 2, &ps), GS_OK);
+    assert_int_equal(gs_net_peer_stats(p.u[0], 2, &ps), GS_OK);
     print_message("udp %s: gap %.2e m after %.2f s; rx %llu snapshots, rejected %llu, "
                   "rtt %.2f ms\n", label, g, frames * FRAME,
                   (unsigned long long)ps.snapshots_received,
@@ -1408,31 +1409,31 @@ static void test_udp_peers_at_run_time(void **state) {
     /* host 2 learns host 1 first: host 1 refuses it as an unknown sender
        (within 4 s: under valgrind on a busy machine the first datagram can
        take more than the quarter second it takes here alone) */
-    assert_int_equal(gs_udp_add_peer(p.u[1], 1, a[0]), GS_OK);
+    assert_int_equal(gs_net_add_peer(p.u[1], 1, a[0]), GS_OK);
     memset(&unk, 0, sizeof unk);
     for (i = 0; i < 16 && unk.rejected[GS_REJECT_SENDER] == 0; ++i) {
         udp_pair_run(&p, 15, 0.0, &frames);
-        assert_int_equal(gs_net_unknown_stats(gs_udp_net(p.u[0]), &unk), GS_OK);
+        assert_int_equal(gs_net_unknown_stats(p.u[0], &unk), GS_OK);
     }
     assert_true(unk.rejected[GS_REJECT_SENDER] > 0);
     /* then both: they converge */
-    assert_int_equal(gs_udp_add_peer(p.u[0], 2, a[1]), GS_OK);
+    assert_int_equal(gs_net_add_peer(p.u[0], 2, a[1]), GS_OK);
     g = udp_pair_run(&p, 240, 1e-4, &frames);
     print_message("udp peers at run time: gap %.2e m %.2f s after both knew each other\n", g,
                   frames * FRAME);
     assert_true(g < 1e-4);
     /* replacing a peer's address is allowed */
-    assert_int_equal(gs_udp_add_peer(p.u[0], 2, a[1]), GS_OK);
+    assert_int_equal(gs_net_add_peer(p.u[0], 2, a[1]), GS_OK);
     /* host 1 drops host 2: host 2 hears nothing more from host 1 */
-    assert_int_equal(gs_udp_remove_peer(p.u[0], 2), GS_OK);
-    assert_int_equal(gs_net_peer_stats(gs_udp_net(p.u[0]), 2, &ps), GS_ERR_INVALID_ARG);
+    assert_int_equal(gs_net_remove_peer(p.u[0], 2), GS_OK);
+    assert_int_equal(gs_net_peer_stats(p.u[0], 2, &ps), GS_ERR_INVALID_ARG);
     udp_pair_run(&p, 6, 0.0, &frames); /* let what was on the wire arrive */
-    assert_int_equal(gs_net_peer_stats(gs_udp_net(p.u[1]), 1, &ps), GS_OK);
+    assert_int_equal(gs_net_peer_stats(p.u[1], 1, &ps), GS_OK);
     rx = ps.datagrams_received;
     udp_pair_run(&p, 15, 0.0, &frames);
-    assert_int_equal(gs_net_peer_stats(gs_udp_net(p.u[1]), 1, &ps), GS_OK);
+    assert_int_equal(gs_net_peer_stats(p.u[1], 1, &ps), GS_OK);
     assert_int_equal(ps.datagrams_received, rx);
-    assert_int_equal(gs_udp_remove_peer(p.u[0], 2), GS_ERR_INVALID_ARG);
+    assert_int_equal(gs_net_remove_peer(p.u[0], 2), GS_ERR_INVALID_ARG);
     udp_pair_close(&p);
 }
 
@@ -1460,12 +1461,12 @@ static long voluntary_switches(void) {
 
 /* The scatter thread ticks every millisecond only while ghosts publish:
    an endpoint with nothing published for 0.1 s hardly wakes, and a ghost's
-   snapshots still go out at its rate with nobody calling gs_udp_poll.
+   snapshots still go out at its rate with nobody calling gs_net_poll.
    Ticking whatever was due, it made 569 switches in the 0.3 s below and
    cost bench/transport 15% of its rate on this project's 2-core machine. */
 static void test_udp_scatter_sleeps(void **state) {
     gs_world *w = world_new(1), *w2 = world_new(2);
-    gs_udp *u = NULL, *u2 = NULL;
+    gs_net *u = NULL, *u2 = NULL;
     gs_udp_desc ud;
     gs_ghost_desc gd = gs_ghost_desc_default();
     gs_agent *a = cloth_new(w, 0.0), *a2 = cloth_new(w2, 0.0);
@@ -1484,11 +1485,11 @@ static void test_udp_scatter_sleeps(void **state) {
     memset(&ud, 0, sizeof ud);
     ud.threads = 1;
     ud.bind = addr[0];
-    assert_int_equal(gs_udp_open(w, &ud, &u), GS_OK);
+    assert_int_equal(test_udp_open(w, &ud, NULL, &u), GS_OK);
     ud.bind = addr[1];
-    assert_int_equal(gs_udp_open(w2, &ud, &u2), GS_OK);
-    assert_int_equal(gs_udp_add_peer(u, 2, addr[1]), GS_OK);
-    assert_int_equal(gs_udp_add_peer(u2, 1, addr[0]), GS_OK);
+    assert_int_equal(test_udp_open(w2, &ud, NULL, &u2), GS_OK);
+    assert_int_equal(gs_net_add_peer(u, 2, addr[1]), GS_OK);
+    assert_int_equal(gs_net_add_peer(u2, 1, addr[0]), GS_OK);
     /* the ghosts' first B (at attach) goes out, and 0.1 s without a
        publish puts the scatter threads to sleep */
     sleep_until(gs_udp_now() + 0.2);
@@ -1504,8 +1505,8 @@ static void test_udp_scatter_sleeps(void **state) {
         assert_true(s1 - s0 < 120);
     }
 
-    /* 0.5 s of 5 ms frames and no gs_udp_poll: 20 Hz is 10 snapshots */
-    assert_int_equal(gs_net_peer_stats(gs_udp_net(u), 2, &ps), GS_OK);
+    /* 0.5 s of 5 ms frames and no gs_net_poll: 20 Hz is 10 snapshots */
+    assert_int_equal(gs_net_peer_stats(u, 2, &ps), GS_OK);
     s0 = (long)ps.snapshots_sent;
     t0 = gs_udp_now();
     for (k = 1; k <= 100; ++k) {
@@ -1513,7 +1514,7 @@ static void test_udp_scatter_sleeps(void **state) {
         sleep_until(t0 + 0.005 * k);
     }
     sleep_until(gs_udp_now() + 0.05);
-    assert_int_equal(gs_net_peer_stats(gs_udp_net(u), 2, &ps), GS_OK);
+    assert_int_equal(gs_net_peer_stats(u, 2, &ps), GS_OK);
     s1 = (long)ps.snapshots_sent - s0;
     print_message("udp 20 Hz ghost, no poll: %ld snapshots sent in 0.5 s\n", s1);
     /* 10, give or take one at either end of the window, and never more
@@ -1521,10 +1522,10 @@ static void test_udp_scatter_sleeps(void **state) {
        come in bursts, and a B published before the one held back by the
        rate went out replaces it (under valgrind, most of them) */
     assert_true(s1 <= 11 && s1 >= (UNDER_VALGRIND() ? 1 : 7));
-    assert_int_equal(gs_net_peer_stats(gs_udp_net(u2), 1, &ps), GS_OK);
+    assert_int_equal(gs_net_peer_stats(u2, 1, &ps), GS_OK);
     assert_true(ps.snapshots_received > 0);
-    gs_udp_close(u);
-    gs_udp_close(u2);
+    gs_net_destroy(u);
+    gs_net_destroy(u2);
     gs_world_destroy(w);
     gs_world_destroy(w2);
 }
@@ -1534,7 +1535,7 @@ static void test_udp_errors(void **state) {
     static const char *bad[] = {"nonsense", "127.0.0.1:", "[::1", "[::1]47110", "",
                                 "127.0.0.1:notaport", "300.1.2.3:47110"};
     gs_world *w = world_new(1), *w2 = world_new(2);
-    gs_udp *u = NULL, *u2 = NULL;
+    gs_net *u = NULL, *u2 = NULL;
     gs_udp_desc ud;
     size_t i;
     char a[64], port[16];
@@ -1542,12 +1543,12 @@ static void test_udp_errors(void **state) {
     assert_true(loopback_addr(0, a, sizeof a));
     strcpy(port, strchr(a, ':') + 1);
     memset(&ud, 0, sizeof ud);
-    assert_int_equal(gs_udp_open(w, &ud, &u), GS_ERR_INVALID_ARG); /* bind NULL */
+    assert_int_equal(test_udp_open(w, &ud, NULL, &u), GS_ERR_INVALID_ARG); /* bind NULL */
     assert_null(u);
     for (i = 0; i < sizeof bad / sizeof bad[0]; ++i) {
         gs_result r;
         ud.bind = bad[i];
-        r = gs_udp_open(w, &ud, &u);
+        r = test_udp_open(w, &ud, NULL, &u);
         if (r != GS_ERR_INVALID_ARG) print_error("bind \"%s\": %d\n", bad[i], (int)r);
         assert_int_equal(r, GS_ERR_INVALID_ARG);
         assert_null(u);
@@ -1557,21 +1558,21 @@ static void test_udp_errors(void **state) {
     /* a port in use */
     ud.bind = a;
     ud.threads = 1;
-    assert_int_equal(gs_udp_open(w, &ud, &u), GS_OK);
-    assert_int_equal(gs_udp_open(w2, &ud, &u2), GS_ERR_SYSTEM);
+    assert_int_equal(test_udp_open(w, &ud, NULL, &u), GS_OK);
+    assert_int_equal(test_udp_open(w2, &ud, NULL, &u2), GS_ERR_SYSTEM);
     assert_null(u2);
     print_message("port in use: \"%s\"\n", gs_world_error(w2));
     assert_non_null(strstr(gs_world_error(w2), port));
     assert_null(gs_world_net(w2));
     /* a bad peer address */
-    assert_int_equal(gs_udp_add_peer(u, 2, "nowhere"), GS_ERR_INVALID_ARG);
-    assert_int_equal(gs_udp_add_peer(u, 1, "127.0.0.1:47111"), GS_ERR_INVALID_ARG); /* itself */
-    assert_int_equal(gs_udp_poll(u, NAN), GS_ERR_NOT_FINITE);
-    gs_udp_close(u); /* joins its threads and frees the port: */
+    assert_int_equal(gs_net_add_peer(u, 2, "nowhere"), GS_ERR_INVALID_ARG);
+    assert_int_equal(gs_net_add_peer(u, 1, "127.0.0.1:47111"), GS_ERR_INVALID_ARG); /* itself */
+    assert_int_equal(gs_net_poll(u, NAN), GS_ERR_NOT_FINITE);
+    gs_net_destroy(u); /* joins its threads and frees the port: */
     ud.threads = 0;
-    assert_int_equal(gs_udp_open(w2, &ud, &u2), GS_OK);
-    assert_true(gs_world_net(w2) == gs_udp_net(u2));
-    gs_udp_close(u2);
+    assert_int_equal(test_udp_open(w2, &ud, NULL, &u2), GS_OK);
+    assert_true(gs_world_net(w2) == u2);
+    gs_net_destroy(u2);
     gs_world_destroy(w);
     gs_world_destroy(w2);
 }

@@ -46,6 +46,7 @@
 #endif
 
 #include "ghostsim.h"
+#include "net_helpers.h"
 #ifdef GHOSTSIM_SODIUM
 #include <sodium.h> /* the seal's cost against libsodium's alone */
 #endif
@@ -174,16 +175,16 @@ static host *host_try(uint32_t id, const host_opts *o, gs_result *r) {
     gd.time_deadband = -1.0;
     assert_int_equal(gs_ghost_attach(h->a, &gd), GS_OK);
     memset(&nd, 0, sizeof nd);
-    nd.send = box_send;
-    nd.send_user = &h->out;
+    nd.transport.send = box_send;
+    nd.transport.user = &h->out;
     nd.key = o ? o->key : NULL;
     nd.max_rate = o ? o->max_rate : 0.0;
     *r = gs_net_create(h->w, &nd, &h->net);
     if (*r != GS_OK) return h;
     if (o && o->peers[0])
-        for (i = 0; i < 3 && o->peers[i]; ++i) assert_int_equal(gs_net_add_peer(h->net, o->peers[i]), GS_OK);
+        for (i = 0; i < 3 && o->peers[i]; ++i) assert_int_equal(gs_net_add_peer(h->net, o->peers[i], NULL), GS_OK);
     else
-        assert_int_equal(gs_net_add_peer(h->net, 3 - id), GS_OK);
+        assert_int_equal(gs_net_add_peer(h->net, 3 - id, NULL), GS_OK);
     return h;
 }
 
@@ -883,7 +884,7 @@ static void test_seal_cost(void **state) {
 
 typedef struct udp_host {
     host *h;
-    gs_udp *u;
+    gs_net *u;
 } udp_host;
 
 /* Host id on a poll-mode socket at addr, with the toy and its ghost. */
@@ -892,6 +893,7 @@ static void udp_host_open(udp_host *x, uint32_t id, const char *addr) {
     gs_custom_desc cd;
     gs_ghost_desc gd = gs_ghost_desc_default();
     gs_udp_desc ud;
+    gs_net_desc nd = gs_net_desc_default();
     gs_result r;
     x->h = (host *)calloc(1, sizeof *x->h);
     assert_non_null(x->h);
@@ -914,14 +916,14 @@ static void udp_host_open(udp_host *x, uint32_t id, const char *addr) {
     assert_int_equal(gs_ghost_attach(x->h->a, &gd), GS_OK);
     memset(&ud, 0, sizeof ud);
     ud.bind = addr;
-    ud.net.key = TEST_KEY;
-    r = gs_udp_open(x->h->w, &ud, &x->u);
-    if (r != GS_OK) print_error("gs_udp_open %s: %s\n", addr, gs_world_error(x->h->w));
+    nd.key = TEST_KEY;
+    r = test_udp_open(x->h->w, &ud, &nd, &x->u);
+    if (r != GS_OK) print_error("udp net %s: %s\n", addr, gs_world_error(x->h->w));
     assert_int_equal(r, GS_OK);
 }
 
 static void udp_host_close(udp_host *x) {
-    gs_udp_close(x->u);
+    gs_net_destroy(x->u);
     gs_world_destroy(x->h->w);
     free(x->h);
 }
@@ -935,17 +937,17 @@ static void udp_round(udp_host *x, double v, udp_host *to, int times) {
         for (i = 0; i < 3; ++i) x->h->t.x[i] = v + i;
         assert_int_equal(gs_agent_step(x->h->a), GS_OK);
         nanosleep(&ts, NULL); /* the ghost is due again (1 ms) */
-        assert_int_equal(gs_udp_poll(x->u, gs_udp_now()), GS_OK);
+        assert_int_equal(gs_net_poll(x->u, gs_udp_now()), GS_OK);
     }
     for (k = 0; k < 5; ++k) {
         nanosleep(&ts, NULL);
-        assert_int_equal(gs_udp_poll(to->u, gs_udp_now()), GS_OK);
+        assert_int_equal(gs_net_poll(to->u, gs_udp_now()), GS_OK);
     }
 }
 
 static uint64_t udp_rejected(udp_host *x, uint32_t peer, gs_reject r) {
     gs_peer_stats ps;
-    assert_int_equal(gs_net_peer_stats(gs_udp_net(x->u), peer, &ps), GS_OK);
+    assert_int_equal(gs_net_peer_stats(x->u, peer, &ps), GS_OK);
     return ps.rejected[r];
 }
 
@@ -958,9 +960,9 @@ static void allow_list(const char *a, const char *b, const char *c, const char *
     udp_host_open(&x[0], 1, a);
     udp_host_open(&x[1], 2, b);
     udp_host_open(&x[2], 2, c);
-    assert_int_equal(gs_udp_add_peer(x[0].u, 2, b), GS_OK);
-    assert_int_equal(gs_udp_add_peer(x[1].u, 1, a), GS_OK);
-    assert_int_equal(gs_udp_add_peer(x[2].u, 1, a), GS_OK);
+    assert_int_equal(gs_net_add_peer(x[0].u, 2, b), GS_OK);
+    assert_int_equal(gs_net_add_peer(x[1].u, 1, a), GS_OK);
+    assert_int_equal(gs_net_add_peer(x[2].u, 1, a), GS_OK);
     /* the impostor speaks: refused by address, counted on peer 2, not blended */
     udp_round(&x[2], 66.0, &x[0], 1);
     assert_true(udp_rejected(&x[0], 2, GS_REJECT_ADDRESS) >= 1);
@@ -973,14 +975,14 @@ static void allow_list(const char *a, const char *b, const char *c, const char *
     assert_true(blended(x[0].h) >= 1);
     assert_true(x[0].h->t.x[0] == 7.0);
     /* host 2 moves to c at run time: now c is taken and b refused */
-    assert_int_equal(gs_udp_add_peer(x[0].u, 2, c), GS_OK);
+    assert_int_equal(gs_net_add_peer(x[0].u, 2, c), GS_OK);
     b0 = udp_rejected(&x[0], 2, GS_REJECT_ADDRESS);
     udp_round(&x[1], 8.0, &x[0], 1);
     assert_true(udp_rejected(&x[0], 2, GS_REJECT_ADDRESS) > b0);
     udp_round(&x[2], 9.0, &x[0], 3); /* in clear, past host 2's sequence */
     assert_int_equal(gs_agent_step(x[0].h->a), GS_OK);
     assert_true(x[0].h->t.x[0] == 9.0);
-    assert_int_equal(gs_net_peer_stats(gs_udp_net(x[0].u), 2, &ps), GS_OK);
+    assert_int_equal(gs_net_peer_stats(x[0].u, 2, &ps), GS_OK);
     print_message("allow-list %s: %llu refused by address, %llu datagrams taken\n", label,
                   (unsigned long long)ps.rejected[GS_REJECT_ADDRESS],
                   (unsigned long long)ps.datagrams_received);

@@ -18,6 +18,7 @@
 #include <string.h>
 
 #include "ghostsim.h"
+#include "net_helpers.h"
 
 #define FRAME (1.0 / 60.0)
 
@@ -149,7 +150,7 @@ static void session_join(session *s, gs_sync_clock clock, const gs_link_desc *li
     gd.object_id = 1;
     gd.weight = gs_weight_cs;
     assert_int_equal(gs_ghost_attach(s->a[h], &gd), GS_OK);
-    assert_int_equal(gs_simnet_join(s->sim, s->w[h], NULL, &net), GS_OK);
+    assert_int_equal(test_join(s->sim, s->w[h], NULL, &net), GS_OK);
     for (k = 0; k < h; ++k) {
         assert_int_equal(gs_simnet_link(s->sim, (uint32_t)h + 1, (uint32_t)k + 1, link), GS_OK);
         assert_int_equal(gs_simnet_link(s->sim, (uint32_t)k + 1, (uint32_t)h + 1, link), GS_OK);
@@ -303,7 +304,7 @@ static void test_session_slow_host(void **state) {
     gd.object_id = 1;
     gd.weight = gs_weight_cs;
     assert_int_equal(gs_ghost_attach(s.a[1], &gd), GS_OK);
-    assert_int_equal(gs_simnet_join(s.sim, s.w[1], NULL, &net), GS_OK);
+    assert_int_equal(test_join(s.sim, s.w[1], NULL, &net), GS_OK);
     assert_int_equal(gs_simnet_link(s.sim, 1, 2, &link), GS_OK);
     assert_int_equal(gs_simnet_link(s.sim, 2, 1, &link), GS_OK);
     s.n = 2;
@@ -504,7 +505,7 @@ static void test_history_with_blends(void **state) {
         w[k] = world_new((uint32_t)k + 1, GS_SYNC_CLOCK_LOCAL, 16);
         assert_int_equal(gs_scene_create(w[k], &sd, &sc[k]), GS_OK);
         assert_int_equal(gs_scene_attach_ghosts(&sc[k], &gd), GS_OK);
-        assert_int_equal(gs_simnet_join(sim, w[k], NULL, &net), GS_OK);
+        assert_int_equal(test_join(sim, w[k], NULL, &net), GS_OK);
     }
     assert_int_equal(gs_simnet_link(sim, 1, 2, &link), GS_OK);
     assert_int_equal(gs_simnet_link(sim, 2, 1, &link), GS_OK);
@@ -551,9 +552,9 @@ static void replay_host_new(replay_host *h, int history, int budget) {
     gd.object_id = 1;
     assert_int_equal(gs_ghost_attach(h->a, &gd), GS_OK);
     memset(&nd, 0, sizeof nd);
-    nd.send = no_send;
+    nd.transport.send = no_send;
     assert_int_equal(gs_net_create(h->w, &nd, &h->net), GS_OK);
-    assert_int_equal(gs_net_add_peer(h->net, 1), GS_OK);
+    assert_int_equal(gs_net_add_peer(h->net, 1, NULL), GS_OK);
 }
 
 /* Host 1's snapshot of the toy at simulation time t: [t, 1, -0.2]. */
@@ -699,7 +700,7 @@ static double converge_run(int replay, double *gap_out) {
         assert_int_equal(gs_scene_create(w[k], &sd, &sc[k]), GS_OK);
         assert_int_equal(gs_scene_attach_ghosts(&sc[k], &gd), GS_OK);
         assert_int_equal(gs_world_advance(w[k], 0.5, NULL), GS_OK); /* spheres land */
-        assert_int_equal(gs_simnet_join(sim, w[k], NULL, &net), GS_OK);
+        assert_int_equal(test_join(sim, w[k], NULL, &net), GS_OK);
     }
     assert_int_equal(gs_simnet_link(sim, 1, 2, &link), GS_OK);
     assert_int_equal(gs_simnet_link(sim, 2, 1, &link), GS_OK);

@@ -418,10 +418,10 @@ static host *host_new(uint32_t id, int n, gs_encoding e, double rest) {
     gd.time_deadband = -1.0; /* the formula as is: the test reads states */
     assert_int_equal(gs_ghost_attach(h->a, &gd), GS_OK);
     memset(&nd, 0, sizeof nd);
-    nd.send = keep_send;
-    nd.send_user = h;
+    nd.transport.send = keep_send;
+    nd.transport.user = h;
     assert_int_equal(gs_net_create(h->w, &nd, &h->net), GS_OK);
-    assert_int_equal(gs_net_add_peer(h->net, id == 1 ? 2 : 1), GS_OK);
+    assert_int_equal(gs_net_add_peer(h->net, id == 1 ? 2 : 1, NULL), GS_OK);
     return h;
 }
 static void host_free(host *h) {
@@ -583,11 +583,11 @@ static void test_budget_priority(void **state) {
         assert_int_equal(gs_ghost_attach(a, &gd), GS_OK);
     }
     memset(&nd, 0, sizeof nd);
-    nd.send = count_send;
-    nd.send_user = cnt;
+    nd.transport.send = count_send;
+    nd.transport.user = cnt;
     nd.bandwidth = 12000.0;
     assert_int_equal(gs_net_create(w, &nd, &net), GS_OK);
-    assert_int_equal(gs_net_add_peer(net, 2), GS_OK);
+    assert_int_equal(gs_net_add_peer(net, 2, NULL), GS_OK);
     for (f = 0; f < 600; ++f) {
         assert_int_equal(gs_world_advance(w, 1.0 / 60.0, NULL), GS_OK);
         assert_int_equal(gs_net_update(net, now += 1.0 / 60.0), GS_OK);
