@@ -11,7 +11,13 @@ that has no comment of its own: a comment must end on the line directly
 above the declaration's first line, or sit on its last line. A comment
 above a run of declarations documents only the first of them, so that
 each function says what it returns on failure. Exits 1 if any is
-missing, printing file:line and the name of each."""
+missing, printing file:line and the name of each.
+
+It also checks that README.md's quick start is the manual's first one
+(the header's QUICK START section, which tests/test_manual.c runs), line
+for line but for blank lines, so that the README's copy cannot drift."""
+import difflib
+import os
 import re
 import sys
 
@@ -51,6 +57,26 @@ def undocumented(lines):
     return missing
 
 
+def manual_quick_start(lines):
+    """The code lines of the header's first QUICK START section."""
+    start = next(i for i, l in enumerate(lines) if l.startswith('   QUICK START:'))
+    end = next(i for i in range(start + 1, len(lines))
+               if lines[i].startswith('   ') and not lines[i].startswith('    '))
+    code = [l[7:] for l in lines[start + 1:end] if l.startswith('       ')]
+    while code and code[0].startswith('//'):  # its note on how to build it
+        code.pop(0)
+    return [l.rstrip() for l in code if l.strip()]
+
+
+def readme_quick_start(path):
+    """The body of main() in README.md's quick start, unindented."""
+    with open(path, encoding='utf-8') as f:
+        text = f.read()
+    a = text.index('int main(void) {\n', text.index('## Quick start'))
+    b = text.index('\n}\n```', a)
+    return [l[4:].rstrip() for l in text[a:b].split('\n')[1:] if l.strip()]
+
+
 def main(argv):
     path = argv[1] if len(argv) > 1 else 'ghostsim.h'
     with open(path, encoding='utf-8') as f:
@@ -63,6 +89,16 @@ def main(argv):
         print('doc-check: %d of %d public declarations undocumented' % (len(missing), decls))
         return 1
     print('doc-check: all %d public declarations documented' % decls)
+    readme = os.path.join(os.path.dirname(os.path.abspath(path)), 'README.md')
+    if os.path.exists(readme):
+        ours, theirs = manual_quick_start(lines), readme_quick_start(readme)
+        if ours != theirs:
+            for line in difflib.unified_diff(ours, theirs, 'ghostsim.h', 'README.md',
+                                             lineterm=''):
+                print(line)
+            print('doc-check: README.md\'s quick start differs from the manual\'s')
+            return 1
+        print('doc-check: README.md\'s quick start is the manual\'s (%d lines)' % len(ours))
     return 0
 
 
