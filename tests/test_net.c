@@ -425,11 +425,11 @@ static void scene_print(const char *label, const scene_result *r) {
    client/server rule. Hosts in step are a tie that host 1 wins, so host 2
    copies host 1's snapshots, whose only error is how far host 1 moved in
    the 100 ms they spent on the wire: the gap falls as the scene comes to
-   rest (measured: below 1e-6 m from 38.7 s, 2e-8 m at 50 s; 31-35 s in
-   earlier versions and for simnet seeds 2-7). The exponential rule here blends two hosts that pull each
-   other toward their states of 100 ms ago; the scene never comes to rest
-   and they stay millimetres apart (measured 8e-3 m at 20 s, printed
-   below): see the README's "Convergence". */
+   rest (measured: below 1e-6 m from 32.35 s, 1e-7 m at 50 s; other
+   simnet seeds settle in 31-39 s). The exponential rule here blends two
+   hosts that pull each other toward their states of 100 ms ago; the scene
+   never comes to rest and they stay millimetres apart (measured 2e-3 m at
+   20 s, printed below): see the README's "Convergence". */
 static void test_scene_perfect_and_bad(void **state) {
     gs_link_desc bad = bad_link();
     scene_result *res = (scene_result *)calloc(3, sizeof *res);
