@@ -425,9 +425,9 @@ static void scene_print(const char *label, const scene_result *r) {
    client/server rule. Hosts in step are a tie that host 1 wins, so host 2
    copies host 1's snapshots, whose only error is how far host 1 moved in
    the 100 ms they spent on the wire: the gap falls as the scene comes to
-   rest (measured: below 1e-6 m from 32.35 s, 1e-7 m at 50 s; other
-   simnet seeds settle in 31-39 s). The exponential rule here blends two
-   hosts that pull each other toward their states of 100 ms ago; the scene
+   rest (measured: below 1e-6 m from 32.35 s, 1e-7 m at 50 s). The
+   exponential rule here blends two hosts that pull each other toward
+   their states of 100 ms ago; the scene
    never comes to rest and they stay millimetres apart (measured 2e-3 m at
    20 s, printed below): see the README's "Convergence". */
 static void test_scene_perfect_and_bad(void **state) {
