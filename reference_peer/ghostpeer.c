@@ -309,7 +309,8 @@ static void parse_args(int argc, char **argv, options *o) {
         else if (strcmp(f, "--rest-threshold") == 0)
             o->rest_threshold = parse_number(f, v, 0, 1.0);
         else if (strcmp(f, "--heartbeat-rate") == 0)
-            o->heartbeat_rate = parse_number(f, v, 0.01, 1000.0); else if (strcmp(f, "--stats-every") == 0) o->stats_every = parse_number(f, v, 1e-3, 3600);
+            o->heartbeat_rate = parse_number(f, v, 0.01, 1000.0);
+        else if (strcmp(f, "--stats-every") == 0) o->stats_every = parse_number(f, v, 1e-3, 3600);
         else if (strcmp(f, "--trace") == 0) o->trace = v;
         else if (strcmp(f, "--clock-step") == 0) {
             static const double lo[] = {0, -1e6}, hi[] = {1e7, 1e6};
