@@ -4904,18 +4904,145 @@ GS__PRIVATE void gs__xpbd_contacts(gs__mesh *m, double h) {
     for (i = 0; i < m->n; ++i) m->xn[i] = gs__xpbd_contact(m, i, m->xn[i], h);
 }
 
+/* The end of a substep over the transposed copy: v = (p - x) / h into
+   (xn, vn), with gs__mesh_sane's checks and bounds and the boxes of
+   gs__mesh_chunks in the same loop. Its outcome is kept in m (checked,
+   check_ok, lo, hi, boxes). */
+typedef struct gs__fin {
+    double w2, sum, lo[3], hi[3];
+} gs__fin;
+
+GS__PRIVATE void gs__fin_box(gs__mesh *m, size_t k, const double *lo, const double *hi,
+                             double vm, gs__fin *f) {
+    int c;
+    m->clo[k] = gs__v3(lo[0], lo[1], lo[2]);
+    m->chi[k] = gs__v3(hi[0], hi[1], hi[2]);
+    m->cvm[k] = vm;
+    for (c = 0; c < 3; ++c) {
+        f->lo[c] = lo[c] < f->lo[c] ? lo[c] : f->lo[c];
+        f->hi[c] = hi[c] > f->hi[c] ? hi[c] : f->hi[c];
+    }
+}
+
+/* Particles i..end (one box), scalar. */
+GS__PRIVATE void gs__xpbd_fin1(gs__mesh *m, size_t i, size_t end, size_t k, double ih,
+                               gs__fin *f) {
+    size_t st = gs__soa_stride((size_t)m->n);
+    const double *X = m->soa, *Y = X + st, *Z = Y + st, *PX = Z + st, *PY = PX + st, *PZ = PY + st;
+    double lo[3] = {HUGE_VAL, HUGE_VAL, HUGE_VAL}, hi[3] = {-HUGE_VAL, -HUGE_VAL, -HUGE_VAL};
+    double vm = 0.0, w2 = f->w2, sum = f->sum;
+    for (; i < end; ++i) {
+        gs_vec3 p = gs__v3(X[i], Y[i], Z[i]);
+        gs_vec3 v = gs__v3((p.x - PX[i]) * ih, (p.y - PY[i]) * ih, (p.z - PZ[i]) * ih);
+        double s2 = v.x * v.x + v.y * v.y + v.z * v.z, a;
+        m->xn[i] = p;
+        m->vn[i] = v;
+        w2 = s2 > w2 ? s2 : w2;
+        w2 = s2 == s2 ? w2 : s2; /* a NaN speed stays NaN */
+        sum += (p.x + p.y) + p.z;
+        a = fabs(v.x) > fabs(v.y) ? fabs(v.x) : fabs(v.y);
+        a = fabs(v.z) > a ? fabs(v.z) : a;
+        vm = a > vm ? a : vm; /* a NaN fails the check above: no box of it is used */
+        lo[0] = p.x < lo[0] ? p.x : lo[0]; lo[1] = p.y < lo[1] ? p.y : lo[1];
+        lo[2] = p.z < lo[2] ? p.z : lo[2]; hi[0] = p.x > hi[0] ? p.x : hi[0];
+        hi[1] = p.y > hi[1] ? p.y : hi[1]; hi[2] = p.z > hi[2] ? p.z : hi[2];
+    }
+    f->w2 = w2;
+    f->sum = sum;
+    gs__fin_box(m, k, lo, hi, vm, f);
+}
+
+#ifdef GS__MESH_AVX
+/* The largest (smallest) of four lanes, as the scalar loop's comparisons
+   take them (a NaN lane is dropped as there). */
+__attribute__((target("avx"))) GS__PRIVATE double gs__hmax4(__m256d v) {
+    double t[4], r;
+    int q;
+    _mm256_storeu_pd(t, v);
+    for (r = t[0], q = 1; q < 4; ++q) r = t[q] > r ? t[q] : r;
+    return r;
+}
+__attribute__((target("avx"))) GS__PRIVATE double gs__hmin4(__m256d v) {
+    double t[4], r;
+    int q;
+    _mm256_storeu_pd(t, v);
+    for (r = t[0], q = 1; q < 4; ++q) r = t[q] < r ? t[q] : r;
+    return r;
+}
+
+/* Four particles' x, y, z lanes as 12 doubles x0 y0 z0 x1 .. z3 at p. */
+GS__XINLINE void gs__st_aos4(double *p, __m256d x, __m256d y, __m256d z) {
+    __m256d t0 = _mm256_unpacklo_pd(x, y);          /* x0 y0 | x2 y2 */
+    __m256d u = _mm256_shuffle_pd(z, x, 0xA);       /* z0 x1 | z2 x3 */
+    __m256d w = _mm256_shuffle_pd(y, z, 0xF);       /* y1 z1 | y3 z3 */
+    _mm256_storeu_pd(p, _mm256_permute2f128_pd(t0, u, 0x20));
+    _mm256_storeu_pd(p + 4, _mm256_permute2f128_pd(w, t0, 0x30));
+    _mm256_storeu_pd(p + 8, _mm256_permute2f128_pd(u, w, 0x31));
+}
+
+/* gs__xpbd_fin1 four particles at a time over whole boxes: the same xn,
+   vn and boxes; the speed and the sum are per lane, which changes
+   neither check's outcome (the sum only asks "finite?", and its terms
+   are within GS_MAX_COORD). */
+__attribute__((target("avx"))) GS__PRIVATE void gs__xpbd_fin4(gs__mesh *m, size_t i, size_t k,
+                                                              double ih, gs__fin *f) {
+    size_t st = gs__soa_stride((size_t)m->n), end = i + GS__CHUNK;
+    const double *X = m->soa, *Y = X + st, *Z = Y + st, *PX = Z + st, *PY = PX + st, *PZ = PY + st;
+    __m256d hv = _mm256_set1_pd(ih), sign = _mm256_set1_pd(-0.0), w2 = _mm256_set1_pd(f->w2);
+    __m256d lx = _mm256_set1_pd(HUGE_VAL), ly = lx, lz = lx, hx = _mm256_set1_pd(-HUGE_VAL);
+    __m256d hy = hx, hz = hx, vm = _mm256_setzero_pd(), sum = _mm256_setzero_pd(), nan = vm;
+    double lo[3], hi[3], *xn = &m->xn[0].x, *vn = &m->vn[0].x;
+    for (; i < end; i += 4) {
+        __m256d px = _mm256_loadu_pd(X + i), py = _mm256_loadu_pd(Y + i), pz = _mm256_loadu_pd(Z + i);
+        __m256d vx = _mm256_mul_pd(_mm256_sub_pd(px, _mm256_loadu_pd(PX + i)), hv);
+        __m256d vy = _mm256_mul_pd(_mm256_sub_pd(py, _mm256_loadu_pd(PY + i)), hv);
+        __m256d vz = _mm256_mul_pd(_mm256_sub_pd(pz, _mm256_loadu_pd(PZ + i)), hv);
+        __m256d s2 = _mm256_add_pd(_mm256_add_pd(_mm256_mul_pd(vx, vx), _mm256_mul_pd(vy, vy)),
+                                   _mm256_mul_pd(vz, vz));
+        __m256d ax = _mm256_andnot_pd(sign, vx), ay = _mm256_andnot_pd(sign, vy);
+        __m256d a = _mm256_max_pd(_mm256_andnot_pd(sign, vz), _mm256_max_pd(ax, ay));
+        w2 = _mm256_max_pd(s2, w2);
+        nan = _mm256_or_pd(nan, _mm256_cmp_pd(s2, s2, _CMP_UNORD_Q));
+        sum = _mm256_add_pd(sum, _mm256_add_pd(_mm256_add_pd(px, py), pz));
+        vm = _mm256_max_pd(a, vm);
+        lx = _mm256_min_pd(px, lx); ly = _mm256_min_pd(py, ly); lz = _mm256_min_pd(pz, lz);
+        hx = _mm256_max_pd(px, hx); hy = _mm256_max_pd(py, hy); hz = _mm256_max_pd(pz, hz);
+        gs__st_aos4(xn + 3 * i, px, py, pz);
+        gs__st_aos4(vn + 3 * i, vx, vy, vz);
+    }
+    f->w2 = gs__hmax4(w2);
+    if (_mm256_movemask_pd(nan)) f->w2 = NAN;
+    f->sum += gs__hmax4(sum) + gs__hmin4(sum); /* a NaN or inf lane shows */
+    if (_mm256_movemask_pd(_mm256_cmp_pd(sum, sum, _CMP_UNORD_Q))) f->sum = NAN;
+    lo[0] = gs__hmin4(lx); lo[1] = gs__hmin4(ly); lo[2] = gs__hmin4(lz);
+    hi[0] = gs__hmax4(hx); hi[1] = gs__hmax4(hy); hi[2] = gs__hmax4(hz);
+    gs__fin_box(m, k, lo, hi, gs__hmax4(vm), f);
+}
+#endif
+
+/* Contacts as constraints on the pass's result, particle by particle
+   where one touches (ck set), into the transposed copy. */
+GS__PRIVATE void gs__xpbd_soa_contacts(gs__mesh *m, double h) {
+    size_t st = gs__soa_stride((size_t)m->n), i;
+    double *X = m->soa, *Y = X + st, *Z = Y + st;
+    for (i = 0; i < (size_t)m->n; ++i)
+        if (m->ck[i] != 0.0) {
+            gs_vec3 p = gs__xpbd_contact(m, (int)i, gs__v3(X[i], Y[i], Z[i]), h);
+            X[i] = p.x; Y[i] = p.y; Z[i] = p.z;
+        }
+}
+
 /* gs__int_xpbd over the blocks: the prediction goes into the transposed
-   copy, the pass runs there, and the velocities come out with
-   gs__mesh_sane's checks and bounds in the same loop (pinned particles
-   neither move nor gain speed, as the substep's pin pass leaves them). */
+   copy, the pass and the contacts run there, and the velocities come out
+   box by box with the checks (pinned particles neither move nor gain
+   speed, as the substep's pin pass leaves them). */
 GS__PRIVATE void gs__int_xpbd_blocks(gs__mesh *m, double h) {
     size_t n = (size_t)m->n, st = gs__soa_stride(n), i, k;
     double *X = m->soa, *Y = X + st, *Z = Y + st, *PX = Z + st, *PY = PX + st, *PZ = PY + st;
     const double *im = m->inv_mass;
     gs_vec3 g = m->base.world->gravity;
-    double ih = 1.0 / h, vmax2 = m->solver.max_speed * m->solver.max_speed, w2 = 0.0;
-    double sx = 0.0, sy = 0.0, sz = 0.0; /* three sums: three chains, not one */
-    double lx = HUGE_VAL, ly = HUGE_VAL, lz = HUGE_VAL, hx = -HUGE_VAL, hy = -HUGE_VAL, hz = -HUGE_VAL;
+    double ih = 1.0 / h, vmax2 = m->solver.max_speed * m->solver.max_speed;
+    gs__fin f;
     const gs_vec3 *x = m->x, *v0 = m->v, *ext = m->ext_active ? m->ext : NULL;
     for (i = 0; i < n; ++i) {
         gs_vec3 a = gs__madd(g, v0[i], -m->air), v = im[i] > 0.0 ? gs__madd(v0[i], a, h) : v0[i];
@@ -4924,40 +5051,27 @@ GS__PRIVATE void gs__int_xpbd_blocks(gs__mesh *m, double h) {
         PX[i] = x[i].x; PY[i] = x[i].y; PZ[i] = x[i].z;
     }
     gs__xpbd_blocks(m, h);
-    for (k = 0, i = 0; i < n; ++k) { /* box by box (gs__mesh_chunks) */
-        size_t end = i + GS__CHUNK < n ? i + GS__CHUNK : n;
-        double bx = HUGE_VAL, by = HUGE_VAL, bz = HUGE_VAL, tx = -HUGE_VAL, ty = -HUGE_VAL,
-               tz = -HUGE_VAL, vm = 0.0;
-        for (; i < end; ++i) {
-            gs_vec3 p = gs__v3(X[i], Y[i], Z[i]), v;
-            double s2, a;
-            if (ext) p = gs__xpbd_contact(m, (int)i, p, h);
-            v = gs__scale(gs__sub(p, x[i]), ih);
-            s2 = v.x * v.x + v.y * v.y + v.z * v.z;
-            m->xn[i] = p;
-            m->vn[i] = v;
-            w2 = s2 > w2 ? s2 : w2;
-            w2 = s2 == s2 ? w2 : s2; /* a NaN speed stays NaN */
-            sx += p.x; sy += p.y; sz += p.z;
-            a = fabs(v.x) > fabs(v.y) ? fabs(v.x) : fabs(v.y);
-            a = fabs(v.z) > a ? fabs(v.z) : a;
-            vm = a > vm ? a : vm; /* a NaN fails the check above: no box of it is used */
-            bx = p.x < bx ? p.x : bx; by = p.y < by ? p.y : by; bz = p.z < bz ? p.z : bz;
-            tx = p.x > tx ? p.x : tx; ty = p.y > ty ? p.y : ty; tz = p.z > tz ? p.z : tz;
+    if (ext) gs__xpbd_soa_contacts(m, h);
+    f.w2 = f.sum = 0.0;
+    f.lo[0] = f.lo[1] = f.lo[2] = HUGE_VAL;
+    f.hi[0] = f.hi[1] = f.hi[2] = -HUGE_VAL;
+    for (k = 0, i = 0; i < n; ++k, i += GS__CHUNK) { /* box by box (gs__mesh_chunks) */
+#ifdef GS__MESH_AVX
+        if (m->avx && i + GS__CHUNK <= n) {
+            gs__xpbd_fin4(m, i, k, ih, &f);
+            continue;
         }
-        m->clo[k] = gs__v3(bx, by, bz);
-        m->chi[k] = gs__v3(tx, ty, tz);
-        m->cvm[k] = vm;
-        lx = bx < lx ? bx : lx; ly = by < ly ? by : ly; lz = bz < lz ? bz : lz;
-        hx = tx > hx ? tx : hx; hy = ty > hy ? ty : hy; hz = tz > hz ? tz : hz;
+#endif
+        gs__xpbd_fin1(m, i, i + GS__CHUNK < n ? i + GS__CHUNK : n, k, ih, &f);
     }
     m->chunks_next = 1;
     m->checked = 1;
-    m->check_ok = w2 <= vmax2 && gs__finite(sx + sy + sz) && gs__in_range3(gs__v3(lx, ly, lz)) &&
-                  gs__in_range3(gs__v3(hx, hy, hz));
+    m->check_ok = f.w2 <= vmax2 && gs__finite(f.sum) &&
+                  gs__in_range3(gs__v3(f.lo[0], f.lo[1], f.lo[2])) &&
+                  gs__in_range3(gs__v3(f.hi[0], f.hi[1], f.hi[2]));
     if (m->check_ok) {
-        m->lo = gs__v3(lx - m->radius, ly - m->radius, lz - m->radius);
-        m->hi = gs__v3(hx + m->radius, hy + m->radius, hz + m->radius);
+        m->lo = gs__v3(f.lo[0] - m->radius, f.lo[1] - m->radius, f.lo[2] - m->radius);
+        m->hi = gs__v3(f.hi[0] + m->radius, f.hi[1] + m->radius, f.hi[2] + m->radius);
     }
 }
 
