@@ -21,59 +21,12 @@
 #include <unistd.h>
 
 #include "ghostsim.h"
+#include "alloc_helpers.h"
 #include "net_helpers.h"
 
-/* ---- an allocator that counts, refuses on demand, and refuses anything
-   over a gigabyte (as an allocator on a small machine would) ---- */
-
-typedef union block_head {
-    size_t size;
-    long double align_ld;
-    void *align_p;
-    long long align_ll;
-} block_head;
-
-typedef struct counter {
-    long allocs, frees;
-    long fail_at;  /* > 0: the fail_at-th allocation from now fails */
-    int lie;       /* 1: a request over a gigabyte gets 4 KiB (the ghost
-                      size test: the block is never written past that) */
-} counter;
-
-static void *count_alloc(size_t size, void *user) {
-    counter *c = (counter *)user;
-    block_head *h;
-    if (c->fail_at > 0 && --c->fail_at == 0) return NULL;
-    if (size > ((size_t)1 << 30)) {
-        if (!c->lie) return NULL;
-        size = 4096;
-    }
-    h = (block_head *)malloc(sizeof *h + size);
-    if (!h) return NULL;
-    h->size = size;
-    c->allocs++;
-    return h + 1;
-}
-
-static void count_free(void *ptr, void *user) {
-    if (!ptr) return;
-    ((counter *)user)->frees++;
-    free((block_head *)ptr - 1);
-}
-
-static gs_world *counted_world(counter *c, uint32_t host) {
-    gs_world_desc wd = gs_world_desc_default();
-    gs_world *w = NULL;
-    memset(c, 0, sizeof *c);
-    wd.host_id = host;
-    wd.allocator.alloc = count_alloc;
-    wd.allocator.free = count_free;
-    wd.allocator.user = c;
-    assert_int_equal(gs_world_create(&wd, &w), GS_OK);
-    return w;
-}
-
-static long live(const counter *c) { return c->allocs - c->frees; }
+/* ---- the counting allocator (alloc_helpers.h): it refuses on demand,
+   and anything over a gigabyte (as an allocator on a small machine
+   would) unless told to lie ---- */
 
 /* ---- a custom agent of two values ---- */
 
@@ -195,7 +148,7 @@ static void test_hostile_custom_size(void **state) {
     pend p;
     gs_custom_desc d;
     gs_agent *a = (gs_agent *)&p;
-    long before = live(&cnt);
+    long before = live_blocks(&cnt);
     size_t bad[3];
     int i;
     (void)state;
@@ -211,7 +164,7 @@ static void test_hostile_custom_size(void **state) {
         assert_null(a);
         assert_true(has_text(w, "state_size"));
         assert_int_equal(gs_world_agent_count(w), 0);
-        assert_int_equal(live(&cnt), before);
+        assert_int_equal(live_blocks(&cnt), before);
     }
     /* a size that fits in size_t (the agent keeps two copies of the state:
        16 bytes a value) but that no allocator gives */
@@ -220,7 +173,7 @@ static void test_hostile_custom_size(void **state) {
     assert_int_equal(gs_custom_create(w, &d, &a), GS_ERR_NO_MEMORY);
     assert_null(a);
     assert_int_equal(gs_world_agent_count(w), 0);
-    assert_int_equal(live(&cnt), before);
+    assert_int_equal(live_blocks(&cnt), before);
     gs_world_destroy(w);
     assert_int_equal(cnt.allocs, cnt.frees);
 }
@@ -243,14 +196,14 @@ static void test_hostile_ghost_size(void **state) {
     d.state_size = (size_t)1 << 59; /* 2^63 bytes: the allocator lies */
     assert_int_equal(gs_custom_create(w, &d, &a), GS_OK);
     cnt.lie = 0;
-    before = live(&cnt);
+    before = live_blocks(&cnt);
     gd.object_id = 5;
     /* the wire's chunk limit refuses it first; the ghost's own size check
        stays for a 32-bit size_t, where a state within the limit may still
        overflow the queues' bytes */
     assert_int_equal(gs_ghost_attach(a, &gd), GS_ERR_CAPACITY);
     assert_true(has_text(w, "GS_WIRE_MAX_OBJECT_CHUNKS"));
-    assert_int_equal(live(&cnt), before);
+    assert_int_equal(live_blocks(&cnt), before);
     gs_world_destroy(w);
     assert_int_equal(cnt.allocs, cnt.frees);
 #else
@@ -341,7 +294,7 @@ static void test_hostile_custom_step_calls(void **state) {
     gd.object_id = 1;
     assert_int_equal(gs_ghost_attach(sp.other, &gd), GS_OK);
     g0 = gs_world_gravity(w);
-    before = live(&cnt);
+    before = live_blocks(&cnt);
     assert_int_equal(gs_world_advance(w, 0.05, NULL), GS_OK);
     assert_int_equal(sp.done, 1);
     assert_int_equal(sp.set_other, GS_ERR_BUSY);
@@ -363,7 +316,7 @@ static void test_hostile_custom_step_calls(void **state) {
     /* nothing changed, nothing was allocated or freed */
     assert_true(sp.gravity_after.x == g0.x && sp.gravity_after.y == g0.y);
     assert_true(gs_world_gravity(w).y == g0.y);
-    assert_int_equal(live(&cnt), before);
+    assert_int_equal(live_blocks(&cnt), before);
     assert_ptr_equal(gs_world_net(w), sp.net);
     assert_int_equal(gs_world_agent_count(w), 4);
     assert_int_equal(gs_net_peer_stats(sp.net, 2, &ps), GS_OK);
@@ -844,15 +797,15 @@ static void test_hostile_add_peer_rollback(void **state) {
         gd.object_id = (uint32_t)i + 1;
         assert_int_equal(gs_ghost_attach(a[i], &gd), GS_OK);
     }
-    before = live(&cnt);
-    cnt.fail_at = 2; /* the second ghost's queue */
+    before = live_blocks(&cnt);
+    cnt.fail_once = 2; /* the second ghost's queue */
     assert_int_equal(gs_net_add_peer(net, 2, NULL), GS_ERR_NO_MEMORY);
-    assert_int_equal(live(&cnt), before);
+    assert_int_equal(live_blocks(&cnt), before);
     assert_int_equal(gs_net_peer_stats(net, 2, &ps), GS_ERR_INVALID_ARG);
     assert_true(has_text(w, "gs_net_add_peer"));
-    cnt.fail_at = 0;
+    cnt.fail_once = 0;
     assert_int_equal(gs_net_add_peer(net, 2, NULL), GS_OK);
-    assert_int_equal(live(&cnt), before + 2);
+    assert_int_equal(live_blocks(&cnt), before + 2);
     gs_world_destroy(w);
     assert_int_equal(cnt.allocs, cnt.frees);
 }

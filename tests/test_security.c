@@ -46,6 +46,7 @@
 #endif
 
 #include "ghostsim.h"
+#include "alloc_helpers.h"
 #include "net_helpers.h"
 #ifdef GHOSTSIM_SODIUM
 #include <sodium.h> /* the seal's cost against libsodium's alone */
@@ -57,34 +58,6 @@ static const unsigned char key_a[GS_WIRE_KEY_BYTES] = "ghostsim test key, 32 byt
 #ifdef GHOSTSIM_SODIUM
 static const unsigned char key_b[GS_WIRE_KEY_BYTES] = "another key, also 32 bytes long";
 #endif
-
-/* ---- a counting allocator: bytes live and the peak, through the world's
-   hook ---- */
-
-typedef struct counting {
-    size_t live, peak;
-    unsigned long calls;
-} counting;
-
-static void *count_alloc(size_t size, void *user) {
-    counting *c = (counting *)user;
-    size_t *p = (size_t *)malloc(size + 16);
-    if (!p) return NULL;
-    p[0] = size;
-    c->live += size;
-    c->calls++;
-    if (c->live > c->peak) c->peak = c->live;
-    return (char *)p + 16;
-}
-
-static void count_free(void *ptr, void *user) {
-    counting *c = (counting *)user;
-    size_t *p;
-    if (!ptr) return;
-    p = (size_t *)(void *)((char *)ptr - 16);
-    c->live -= p[0];
-    free(p);
-}
 
 /* ---- a host: a toy agent of n values under ghost 5, owned by host 2, on
    a transport of the test's own that keeps what it sends ---- */
@@ -132,7 +105,7 @@ typedef struct host {
     gs_net *net;
     toy t;
     box out;
-    counting mem;
+    counter mem; /* the world's allocations: bytes live and the peak */
     double now; /* s, this host's wall clock for gs_net_update */
 } host;
 
@@ -147,17 +120,12 @@ typedef struct host_opts {
    *r when the net cannot be made. */
 static host *host_try(uint32_t id, const host_opts *o, gs_result *r) {
     host *h = (host *)calloc(1, sizeof *h);
-    gs_world_desc wd = gs_world_desc_default();
     gs_custom_desc cd;
     gs_ghost_desc gd = gs_ghost_desc_default();
     gs_net_desc nd;
     int i;
     assert_non_null(h);
-    wd.host_id = id;
-    wd.allocator.alloc = count_alloc;
-    wd.allocator.free = count_free;
-    wd.allocator.user = &h->mem;
-    assert_int_equal(gs_world_create(&wd, &h->w), GS_OK);
+    h->w = counted_world(&h->mem, id);
     h->t.n = o && o->n ? o->n : 3;
     for (i = 0; i < h->t.n; ++i) h->t.x[i] = (double)(id * 100 + (uint32_t)i);
     memset(&cd, 0, sizeof cd);
@@ -724,7 +692,7 @@ static void test_flood(void **state) {
     host *h1, *h2;
     gs_reject why;
     gs_peer_stats ps;
-    counting before;
+    counter before;
     uint64_t rej0, b0, kinds[6] = {0, 0, 0, 0, 0, 0}, reasons[GS_REJECT_COUNT];
     long i, legit = 0, rss0, rss1;
     double now = 100.0, t0, t1, base = 0.0;
