@@ -16,6 +16,7 @@
 
 #include "ghostsim.h"
 #include "alloc_helpers.h"
+#include "world_helpers.h"
 
 /* An agent's counters by value (gs_agent_get_stats fills an out-pointer). */
 static gs_agent_stats agent_stats(const gs_agent *a) {
@@ -458,74 +459,38 @@ static void test_errors_mesh_create(void **state) {
 
 /* ---- gs_custom_create ---- */
 
-typedef struct counter_agent {
-    long steps, sets;
-    double v[2];
-} counter_agent;
-
-static gs_result ca_step(void *user, double t, double dt) {
-    (void)t;
-    (void)dt;
-    ((counter_agent *)user)->steps++;
-    return GS_OK;
-}
-static void ca_get(const void *user, double *out) {
-    const counter_agent *c = (const counter_agent *)user;
-    out[0] = c->v[0];
-    out[1] = c->v[1];
-}
-static gs_result ca_set(void *user, const double *in) {
-    counter_agent *c = (counter_agent *)user;
-    c->sets++;
-    c->v[0] = in[0];
-    c->v[1] = in[1];
-    return GS_OK;
-}
-
-static gs_custom_desc good_custom(counter_agent *c) {
-    gs_custom_desc d;
-    memset(&d, 0, sizeof d);
-    d.dt = 0.01;
-    d.state_size = 2;
-    d.step = ca_step;
-    d.get_state = ca_get;
-    d.set_state = ca_set;
-    d.user = c;
-    return d;
-}
-
 static void test_errors_custom_create(void **state) {
     counter cnt;
     gs_world *w = counted_world(&cnt, 1);
-    counter_agent c;
+    two_values c;
     gs_custom_desc d;
     gs_agent *out = NOT_NULL_AGENT;
     (void)state;
     memset(&c, 0, sizeof c);
     assert_int_equal(gs_custom_create(w, NULL, &out), GS_ERR_INVALID_ARG);
     assert_null(out);
-    d = good_custom(&c);
+    d = two_values_desc(&c);
     assert_int_equal(gs_custom_create(w, &d, NULL), GS_ERR_INVALID_ARG);
     assert_int_equal(gs_custom_create(NULL, &d, &out), GS_ERR_INVALID_ARG);
     assert_int_equal(gs_world_agent_count(w), 0);
 
-    d = good_custom(&c); d.dt = 0.5 * GS_MIN_DT; /* 0 is the default (test_api) */
+    d = two_values_desc(&c); d.dt = 0.5 * GS_MIN_DT; /* 0 is the default (test_api) */
     assert_true(custom_fails(w, &cnt, &d, GS_ERR_INVALID_ARG, "dt"));
-    d = good_custom(&c); d.dt = -0.01;
+    d = two_values_desc(&c); d.dt = -0.01;
     assert_true(custom_fails(w, &cnt, &d, GS_ERR_INVALID_ARG, "dt"));
-    d = good_custom(&c); d.dt = NAN;
+    d = two_values_desc(&c); d.dt = NAN;
     assert_true(custom_fails(w, &cnt, &d, GS_ERR_NOT_FINITE, "dt"));
-    d = good_custom(&c); d.dt = INFINITY;
+    d = two_values_desc(&c); d.dt = INFINITY;
     assert_true(custom_fails(w, &cnt, &d, GS_ERR_NOT_FINITE, "dt"));
-    d = good_custom(&c); d.step = NULL;
+    d = two_values_desc(&c); d.step = NULL;
     assert_true(custom_fails(w, &cnt, &d, GS_ERR_INVALID_ARG, "step"));
-    d = good_custom(&c); d.get_state = NULL;
+    d = two_values_desc(&c); d.get_state = NULL;
     assert_true(custom_fails(w, &cnt, &d, GS_ERR_INVALID_ARG, "get_state"));
-    d = good_custom(&c); d.set_state = NULL;
+    d = two_values_desc(&c); d.set_state = NULL;
     assert_true(custom_fails(w, &cnt, &d, GS_ERR_INVALID_ARG, "set_state"));
 
     /* state_size 0 needs neither */
-    d = good_custom(&c); d.state_size = 0; d.get_state = NULL;
+    d = two_values_desc(&c); d.state_size = 0; d.get_state = NULL;
     d.set_state = NULL;
     assert_int_equal(gs_custom_create(w, &d, &out), GS_OK);
     assert_int_equal(gs_agent_state_size(out), 1);
@@ -538,7 +503,7 @@ static void test_errors_custom_create(void **state) {
 static void test_errors_advance(void **state) {
     counter cnt;
     gs_world *w = counted_world(&cnt, 1);
-    counter_agent c;
+    two_values c;
     gs_custom_desc d;
     gs_agent *a;
     gs_advance_report rep;
@@ -547,7 +512,7 @@ static void test_errors_advance(void **state) {
     size_t i;
     (void)state;
     memset(&c, 0, sizeof c);
-    d = good_custom(&c);
+    d = two_values_desc(&c);
     assert_int_equal(gs_custom_create(w, &d, &a), GS_OK);
     assert_int_equal(gs_world_advance(w, 0.1, NULL), GS_OK);
     assert_int_equal(c.steps, 10);
@@ -580,7 +545,7 @@ static void test_errors_advance(void **state) {
 static void test_errors_state(void **state) {
     counter cnt;
     gs_world *w = counted_world(&cnt, 1);
-    counter_agent c;
+    two_values c;
     gs_custom_desc d;
     gs_cloth_desc cd = good_cloth();
     gs_agent *a, *cloth;
@@ -590,7 +555,7 @@ static void test_errors_state(void **state) {
     static const size_t where[] = {0, 1, 2};
     (void)state;
     memset(&c, 0, sizeof c);
-    d = good_custom(&c);
+    d = two_values_desc(&c);
     assert_int_equal(gs_custom_create(w, &d, &a), GS_OK);
     assert_int_equal(gs_agent_set_state(a, s, 3), GS_OK);
     assert_int_equal(c.sets, 1);
@@ -642,6 +607,7 @@ static void test_errors_state(void **state) {
 typedef struct busy_probe {
     gs_world *w;
     gs_agent *self, *other;
+    two_values other_values; /* other's state and counts */
     int done;
     gs_result advance, step_other, destroy_other, cloth, custom, mesh,
         step_self, destroy_self;
@@ -650,19 +616,17 @@ typedef struct busy_probe {
     long other_steps_before, other_steps_after;
 } busy_probe;
 
-static counter_agent g_other;
-
 static gs_result busy_step(void *user, double t, double dt) {
     busy_probe *p = (busy_probe *)user;
     gs_cloth_desc cd = good_cloth();
     gs_mesh_desc md = good_mesh();
-    counter_agent dummy;
-    gs_custom_desc xd = good_custom(&dummy);
+    two_values dummy;
+    gs_custom_desc xd = two_values_desc(&dummy);
     (void)t;
     (void)dt;
     if (p->done) return GS_OK;
     p->done = 1;
-    p->other_steps_before = g_other.steps;
+    p->other_steps_before = p->other_values.steps;
     p->cloth_out = p->custom_out = p->mesh_out = NOT_NULL_AGENT;
     p->advance = gs_world_advance(p->w, 0.1, NULL);
     p->step_other = gs_agent_step(p->other);
@@ -673,7 +637,7 @@ static gs_result busy_step(void *user, double t, double dt) {
     p->custom = gs_custom_create(p->w, &xd, &p->custom_out);
     p->mesh = gs_mesh_create(p->w, &md, &p->mesh_out);
     p->count_inside = gs_world_agent_count(p->w);
-    p->other_steps_after = g_other.steps;
+    p->other_steps_after = p->other_values.steps;
     return GS_OK;
 }
 
@@ -686,9 +650,8 @@ static void test_errors_busy(void **state) {
     long live;
     (void)state;
     memset(&p, 0, sizeof p);
-    memset(&g_other, 0, sizeof g_other);
     p.w = w;
-    d = good_custom(&g_other);
+    d = two_values_desc(&p.other_values);
     assert_int_equal(gs_custom_create(w, &d, &p.other), GS_OK);
     d.state_size = 0;
     d.get_state = NULL;
@@ -717,9 +680,9 @@ static void test_errors_busy(void **state) {
     assert_int_equal(live_blocks(&cnt), live);
     assert_true(fabs(gs_world_time(w) - 0.05) < 1e-12);
     st = agent_stats(p.other);
-    assert_int_equal(st.steps, (uint64_t)g_other.steps);
-    assert_int_equal(st.activations, (uint64_t)g_other.steps);
-    assert_int_equal(g_other.steps, 5);
+    assert_int_equal(st.steps, (uint64_t)p.other_values.steps);
+    assert_int_equal(st.activations, (uint64_t)p.other_values.steps);
+    assert_int_equal(p.other_values.steps, 5);
     assert_true(strstr(gs_world_error(w), "advancing") != NULL ||
                 strlen(gs_world_error(w)) > 0);
     /* and once the advance is over, the same calls work */
@@ -738,7 +701,7 @@ static void test_errors_world_setters(void **state) {
     counter cnt;
     gs_world *w = counted_world(&cnt, 1);
     gs_vec3 g, bad;
-    counter_agent c;
+    two_values c;
     gs_custom_desc d;
     gs_agent *a;
     gs_advance_report rep;
@@ -760,7 +723,7 @@ static void test_errors_world_setters(void **state) {
     assert_int_equal(gs_world_set_budget(w, -INFINITY), GS_ERR_NOT_FINITE);
     /* the budget stayed unbounded: a long advance still gets there */
     memset(&c, 0, sizeof c);
-    d = good_custom(&c);
+    d = two_values_desc(&c);
     assert_int_equal(gs_custom_create(w, &d, &a), GS_OK);
     assert_int_equal(gs_world_advance(w, 5.0, &rep), GS_OK);
     assert_int_equal(rep.reached, 1);

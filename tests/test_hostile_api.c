@@ -23,48 +23,11 @@
 #include "ghostsim.h"
 #include "alloc_helpers.h"
 #include "net_helpers.h"
+#include "world_helpers.h"
 
 /* ---- the counting allocator (alloc_helpers.h): it refuses on demand,
    and anything over a gigabyte (as an allocator on a small machine
    would) unless told to lie ---- */
-
-/* ---- a custom agent of two values ---- */
-
-typedef struct pend {
-    double v[2];
-    long steps;
-} pend;
-
-static gs_result pend_step(void *user, double t, double dt) {
-    pend *p = (pend *)user;
-    (void)t;
-    p->v[0] += dt;
-    p->steps++;
-    return GS_OK;
-}
-static void pend_get(const void *user, double *out) {
-    const pend *p = (const pend *)user;
-    out[0] = p->v[0];
-    out[1] = p->v[1];
-}
-static gs_result pend_set(void *user, const double *in) {
-    pend *p = (pend *)user;
-    p->v[0] = in[0];
-    p->v[1] = in[1];
-    return GS_OK;
-}
-
-static gs_custom_desc pend_desc(pend *p) {
-    gs_custom_desc d;
-    memset(&d, 0, sizeof d);
-    d.dt = 0.01;
-    d.state_size = 2;
-    d.step = pend_step;
-    d.get_state = pend_get;
-    d.set_state = pend_set;
-    d.user = p;
-    return d;
-}
 
 static gs_agent *make_probe(gs_world *w) {
     gs_probe_desc pd = gs_probe_desc_default();
@@ -145,7 +108,7 @@ static int has_text(const gs_world *w, const char *word) {
 static void test_hostile_custom_size(void **state) {
     counter cnt;
     gs_world *w = counted_world(&cnt, 1);
-    pend p;
+    two_values p;
     gs_custom_desc d;
     gs_agent *a = (gs_agent *)&p;
     long before = live_blocks(&cnt);
@@ -157,7 +120,7 @@ static void test_hostile_custom_size(void **state) {
     bad[1] = SIZE_MAX / sizeof(double) + 4;  /* 2^61 + 4 on 64 bits: 32 bytes */
     bad[2] = (SIZE_MAX - 8) / sizeof(double); /* the header tips it over */
     for (i = 0; i < 3; ++i) {
-        d = pend_desc(&p);
+        d = two_values_desc(&p);
         d.state_size = bad[i];
         a = (gs_agent *)&p;
         assert_int_equal(gs_custom_create(w, &d, &a), GS_ERR_OUT_OF_RANGE);
@@ -168,7 +131,7 @@ static void test_hostile_custom_size(void **state) {
     }
     /* a size that fits in size_t (the agent keeps two copies of the state:
        16 bytes a value) but that no allocator gives */
-    d = pend_desc(&p);
+    d = two_values_desc(&p);
     d.state_size = SIZE_MAX / 32;
     assert_int_equal(gs_custom_create(w, &d, &a), GS_ERR_NO_MEMORY);
     assert_null(a);
@@ -184,7 +147,7 @@ static void test_hostile_ghost_size(void **state) {
 #if SIZE_MAX > 0xffffffffu
     counter cnt;
     gs_world *w = counted_world(&cnt, 1);
-    pend p;
+    two_values p;
     gs_custom_desc d;
     gs_ghost_desc gd = gs_ghost_desc_default();
     gs_agent *a = NULL;
@@ -192,7 +155,7 @@ static void test_hostile_ghost_size(void **state) {
     (void)state;
     memset(&p, 0, sizeof p);
     cnt.lie = 1;
-    d = pend_desc(&p);
+    d = two_values_desc(&p);
     d.state_size = (size_t)1 << 59; /* 2^63 bytes: the allocator lies */
     assert_int_equal(gs_custom_create(w, &d, &a), GS_OK);
     cnt.lie = 0;
@@ -265,7 +228,7 @@ static void test_hostile_custom_step_calls(void **state) {
     counter cnt;
     gs_world *w = counted_world(&cnt, 1);
     step_probe sp;
-    pend other, mine;
+    two_values other, mine;
     gs_custom_desc d;
     gs_ghost_desc gd = gs_ghost_desc_default();
     gs_peer_stats ps;
@@ -278,9 +241,9 @@ static void test_hostile_custom_step_calls(void **state) {
     memset(&mine, 0, sizeof mine);
     memset(&sk, 0, sizeof sk);
     sp.w = w;
-    d = pend_desc(&other);
+    d = two_values_desc(&other);
     assert_int_equal(gs_custom_create(w, &d, &sp.other), GS_OK);
-    d = pend_desc(&mine);
+    d = two_values_desc(&mine);
     d.state_size = 0;
     d.get_state = NULL;
     d.set_state = NULL;
@@ -365,14 +328,14 @@ static void test_hostile_outside_advance_calls(void **state) {
     counter cnt;
     gs_world *w = counted_world(&cnt, 1);
     outside_probe o;
-    pend v;
+    two_values v;
     gs_custom_desc d;
     gs_agent *a;
     (void)state;
     memset(&o, 0, sizeof o);
     memset(&v, 0, sizeof v);
     o.w = w;
-    d = pend_desc(&v);
+    d = two_values_desc(&v);
     assert_int_equal(gs_custom_create(w, &d, &o.victim), GS_OK);
     d.state_size = 1;
     d.step = destroying_step;
@@ -451,7 +414,7 @@ static void test_hostile_weight_rule_calls(void **state) {
     counter cnt;
     gs_world *w = counted_world(&cnt, 1);
     rule_probe rp;
-    pend v;
+    two_values v;
     gs_custom_desc d;
     gs_ghost_desc gd = gs_ghost_desc_default();
     gs_ghost_stats gst;
@@ -467,7 +430,7 @@ static void test_hostile_weight_rule_calls(void **state) {
     memset(&sk, 0, sizeof sk);
     rp.w = w;
     rp.cnt = &cnt;
-    d = pend_desc(&v);
+    d = two_values_desc(&v);
     assert_int_equal(gs_custom_create(w, &d, &rp.agent), GS_OK);
     rp.probe = make_probe(w);
     rp.net = make_net(w, &sk);
@@ -539,7 +502,7 @@ static void test_hostile_send_callback_calls(void **state) {
     counter cnt;
     gs_world *w = counted_world(&cnt, 1);
     send_probe sp;
-    pend v;
+    two_values v;
     gs_custom_desc d;
     gs_ghost_desc gd = gs_ghost_desc_default();
     gs_net_desc nd;
@@ -549,7 +512,7 @@ static void test_hostile_send_callback_calls(void **state) {
     memset(&sp, 0, sizeof sp);
     memset(&v, 0, sizeof v);
     sp.w = w;
-    d = pend_desc(&v);
+    d = two_values_desc(&v);
     assert_int_equal(gs_custom_create(w, &d, &a), GS_OK);
     memset(&nd, 0, sizeof nd);
     nd.transport.send = meddling_send;
@@ -599,7 +562,7 @@ static void test_hostile_udp_weight_rule(void **state) {
     counter cnt;
     gs_world *w = counted_world(&cnt, 1);
     udp_rule ur;
-    pend v;
+    two_values v;
     gs_custom_desc d;
     gs_ghost_desc gd = gs_ghost_desc_default();
     gs_udp_desc ud;
@@ -612,7 +575,7 @@ static void test_hostile_udp_weight_rule(void **state) {
     memset(&ur, 0, sizeof ur);
     memset(&v, 0, sizeof v);
     memset(&ud, 0, sizeof ud);
-    d = pend_desc(&v);
+    d = two_values_desc(&v);
     assert_int_equal(gs_custom_create(w, &d, &a), GS_OK);
     ud.bind = "127.0.0.1:0";
     ud.threads = 0;
@@ -678,7 +641,7 @@ static void test_hostile_simnet_calls(void **state) {
     gs_net *net[2];
     gs_simnet *sim = NULL;
     sim_probe sp;
-    pend v[2];
+    two_values v[2];
     gs_custom_desc d;
     gs_agent *a;
     int h;
@@ -695,14 +658,14 @@ static void test_hostile_simnet_calls(void **state) {
     sp.sim = sim;
     sp.other = w[1];
     sp.late = w[2];
-    d = pend_desc(&v[0]);
+    d = two_values_desc(&v[0]);
     d.step = sim_meddling_step;
     d.user = &sp;
     d.state_size = 0;
     d.get_state = NULL;
     d.set_state = NULL;
     assert_int_equal(gs_custom_create(w[0], &d, &a), GS_OK);
-    d = pend_desc(&v[1]);
+    d = two_values_desc(&v[1]);
     assert_int_equal(gs_custom_create(w[1], &d, &a), GS_OK);
     assert_int_equal(gs_simnet_run(sim, 0.1, 0.02), GS_OK);
     assert_int_equal(sp.done, 1);
@@ -778,7 +741,7 @@ static void test_hostile_simnet_join_rollback(void **state) {
 static void test_hostile_add_peer_rollback(void **state) {
     counter cnt;
     gs_world *w = counted_world(&cnt, 1);
-    pend v[2];
+    two_values v[2];
     gs_custom_desc d;
     gs_ghost_desc gd = gs_ghost_desc_default();
     gs_agent *a[2];
@@ -792,7 +755,7 @@ static void test_hostile_add_peer_rollback(void **state) {
     memset(&sk, 0, sizeof sk);
     net = make_net(w, &sk);
     for (i = 0; i < 2; ++i) {
-        d = pend_desc(&v[i]);
+        d = two_values_desc(&v[i]);
         assert_int_equal(gs_custom_create(w, &d, &a[i]), GS_OK);
         gd.object_id = (uint32_t)i + 1;
         assert_int_equal(gs_ghost_attach(a[i], &gd), GS_OK);
@@ -816,7 +779,7 @@ static void test_hostile_null_handles(void **state) {
     gs_world *w;
     gs_net *net;
     gs_agent *a;
-    pend v;
+    two_values v;
     gs_custom_desc d;
     gs_shape_desc sh;
     gs_contact c;
@@ -891,7 +854,7 @@ static void test_hostile_null_handles(void **state) {
     }
     /* NULL outputs on live handles */
     assert_int_equal(gs_world_create(NULL, &w), GS_OK);
-    d = pend_desc(&v);
+    d = two_values_desc(&v);
     assert_int_equal(gs_custom_create(w, &d, &a), GS_OK);
     net = make_net(w, &sk);
     assert_int_equal(gs_net_add_peer(net, 2, NULL), GS_OK);
@@ -911,7 +874,7 @@ static void test_hostile_deliver_nan_now(void **state) {
     gs_world *w;
     gs_net *net;
     gs_agent *a;
-    pend v;
+    two_values v;
     gs_custom_desc d;
     gs_ghost_desc gd = gs_ghost_desc_default();
     gs_peer_stats ps;
@@ -924,7 +887,7 @@ static void test_hostile_deliver_nan_now(void **state) {
     memset(&v, 0, sizeof v);
     memset(&sk, 0, sizeof sk);
     assert_int_equal(gs_world_create(NULL, &w), GS_OK);
-    d = pend_desc(&v);
+    d = two_values_desc(&v);
     assert_int_equal(gs_custom_create(w, &d, &a), GS_OK);
     net = make_net(w, &sk);
     assert_int_equal(gs_net_add_peer(net, 2, NULL), GS_OK);

@@ -18,6 +18,7 @@
 
 #include "ghostsim.h"
 #include "alloc_helpers.h"
+#include "world_helpers.h"
 
 /* An agent's counters by value (gs_agent_get_stats fills an out-pointer). */
 static gs_agent_stats agent_stats(const gs_agent *a) {
@@ -114,14 +115,7 @@ static void rec_init(rec *r, int id) {
 
 /* A custom agent with a 2-double state backed by r. */
 static gs_agent *add_rec(gs_world *w, rec *r, double dt) {
-    gs_custom_desc cd;
-    memset(&cd, 0, sizeof cd);
-    cd.dt = dt;
-    cd.state_size = 2;
-    cd.step = rec_step;
-    cd.get_state = rec_get;
-    cd.set_state = rec_set;
-    cd.user = r;
+    gs_custom_desc cd = test_custom_desc(dt, 2, rec_step, rec_get, rec_set, r);
     assert_int_equal(gs_custom_create(w, &cd, &r->self), GS_OK);
     assert_non_null(r->self);
     return r->self;
@@ -837,16 +831,9 @@ static void test_world_failing_allocator(void **state) {
         }
         /* ten custom agents: the agent list grows past its first size */
         for (i = 0; i < 10; ++i) {
-            gs_custom_desc xd;
+            gs_custom_desc xd = test_custom_desc(0.01, 2, rec_step, rec_get, rec_set, &recs[i]);
             count = gs_world_agent_count(w);
             rec_init(&recs[i], i);
-            memset(&xd, 0, sizeof xd);
-            xd.dt = 0.01;
-            xd.state_size = 2;
-            xd.step = rec_step;
-            xd.get_state = rec_get;
-            xd.set_state = rec_set;
-            xd.user = &recs[i];
             a = (gs_agent *)&c;
             r = gs_custom_create(w, &xd, &a);
             if (r != GS_OK) {

@@ -1,0 +1,90 @@
+/* world_helpers.h - the tests' short ways to make a world and a custom
+   agent, and a custom agent of two values that counts what is done to it.
+   Include after cmocka.h and ghostsim.h (the makers assert that the
+   create calls succeed; tests of the failures call them directly). */
+#ifndef GS_TEST_WORLD_HELPERS_H
+#define GS_TEST_WORLD_HELPERS_H
+
+#include <string.h>
+
+#ifndef GS_TEST_UNUSED
+#if defined(__GNUC__) || defined(__clang__)
+#define GS_TEST_UNUSED __attribute__((unused))
+#else
+#define GS_TEST_UNUSED
+#endif
+#endif
+
+/* A world of the default desc but for its host id. */
+static GS_TEST_UNUSED gs_world *test_world_new(uint32_t host) {
+    gs_world_desc wd = gs_world_desc_default();
+    gs_world *w = NULL;
+    wd.host_id = host;
+    assert_int_equal(gs_world_create(&wd, &w), GS_OK);
+    return w;
+}
+
+/* A custom agent's desc: n values (time excluded) stepped every dt s by
+   step, read and written by get and set on user. */
+static GS_TEST_UNUSED gs_custom_desc test_custom_desc(double dt, size_t n,
+                                                      gs_result (*step)(void *, double, double),
+                                                      void (*get)(const void *, double *),
+                                                      gs_result (*set)(void *, const double *),
+                                                      void *user) {
+    gs_custom_desc d;
+    memset(&d, 0, sizeof d);
+    d.dt = dt;
+    d.state_size = n;
+    d.step = step;
+    d.get_state = get;
+    d.set_state = set;
+    d.user = user;
+    return d;
+}
+
+/* The custom agent of test_custom_desc's arguments, created in w. */
+static GS_TEST_UNUSED gs_agent *test_custom_new(gs_world *w, double dt, size_t n,
+                                                gs_result (*step)(void *, double, double),
+                                                void (*get)(const void *, double *),
+                                                gs_result (*set)(void *, const double *),
+                                                void *user) {
+    gs_custom_desc d = test_custom_desc(dt, n, step, get, set, user);
+    gs_agent *a = NULL;
+    assert_int_equal(gs_custom_create(w, &d, &a), GS_OK);
+    return a;
+}
+
+/* ---- a custom agent of two values: each step adds dt to v[0] (so a
+   step shows in the state) and counts itself; each set counts too ---- */
+
+typedef struct two_values {
+    double v[2];
+    long steps, sets;
+} two_values;
+
+static GS_TEST_UNUSED gs_result two_values_step(void *user, double t, double dt) {
+    two_values *p = (two_values *)user;
+    (void)t;
+    p->v[0] += dt;
+    p->steps++;
+    return GS_OK;
+}
+static GS_TEST_UNUSED void two_values_get(const void *user, double *out) {
+    const two_values *p = (const two_values *)user;
+    out[0] = p->v[0];
+    out[1] = p->v[1];
+}
+static GS_TEST_UNUSED gs_result two_values_set(void *user, const double *in) {
+    two_values *p = (two_values *)user;
+    p->sets++;
+    p->v[0] = in[0];
+    p->v[1] = in[1];
+    return GS_OK;
+}
+
+/* Its desc on p, stepped every 10 ms. */
+static GS_TEST_UNUSED gs_custom_desc two_values_desc(two_values *p) {
+    return test_custom_desc(0.01, 2, two_values_step, two_values_get, two_values_set, p);
+}
+
+#endif
