@@ -63,12 +63,8 @@ static gs_result sink_send(void *user, uint32_t host, const void *data, size_t s
 }
 
 static gs_net *make_net(gs_world *w, sink *s) {
-    gs_net_desc nd;
     gs_net *net = NULL;
-    memset(&nd, 0, sizeof nd);
-    nd.transport.send = sink_send;
-    nd.transport.user = s;
-    assert_int_equal(gs_net_create(w, &nd, &net), GS_OK);
+    assert_int_equal(send_only_net(w, NULL, sink_send, s, &net), GS_OK);
     return net;
 }
 
@@ -505,7 +501,6 @@ static void test_hostile_send_callback_calls(void **state) {
     two_values v;
     gs_custom_desc d;
     gs_ghost_desc gd = gs_ghost_desc_default();
-    gs_net_desc nd;
     gs_agent *a;
     gs_peer_stats ps;
     (void)state;
@@ -514,10 +509,7 @@ static void test_hostile_send_callback_calls(void **state) {
     sp.w = w;
     d = two_values_desc(&v);
     assert_int_equal(gs_custom_create(w, &d, &a), GS_OK);
-    memset(&nd, 0, sizeof nd);
-    nd.transport.send = meddling_send;
-    nd.transport.user = &sp;
-    assert_int_equal(gs_net_create(w, &nd, &sp.net), GS_OK);
+    assert_int_equal(send_only_net(w, NULL, meddling_send, &sp, &sp.net), GS_OK);
     assert_int_equal(gs_net_add_peer(sp.net, 2, NULL), GS_OK);
     gd.object_id = 1;
     assert_int_equal(gs_ghost_attach(a, &gd), GS_OK);
@@ -649,11 +641,7 @@ static void test_hostile_simnet_calls(void **state) {
     memset(&sp, 0, sizeof sp);
     memset(v, 0, sizeof v);
     assert_int_equal(gs_simnet_create(NULL, &sim), GS_OK);
-    for (h = 0; h < 3; ++h) {
-        gs_world_desc wd = gs_world_desc_default();
-        wd.host_id = (uint32_t)h + 1;
-        assert_int_equal(gs_world_create(&wd, &w[h]), GS_OK);
-    }
+    for (h = 0; h < 3; ++h) w[h] = world_new((uint32_t)h + 1);
     for (h = 0; h < 2; ++h) assert_int_equal(test_join(sim, w[h], NULL, &net[h]), GS_OK);
     sp.sim = sim;
     sp.other = w[1];
@@ -715,11 +703,7 @@ static void test_hostile_simnet_join_rollback(void **state) {
     int h;
     (void)state;
     assert_int_equal(gs_simnet_create(NULL, &sim), GS_OK);
-    for (h = 0; h < 3; ++h) {
-        gs_world_desc wd = gs_world_desc_default();
-        wd.host_id = (uint32_t)h + 1;
-        assert_int_equal(gs_world_create(&wd, &w[h]), GS_OK);
-    }
+    for (h = 0; h < 3; ++h) w[h] = world_new((uint32_t)h + 1);
     memset(&small, 0, sizeof small);
     small.max_peers = 1;
     assert_int_equal(test_join(sim, w[0], NULL, &net[0]), GS_OK);

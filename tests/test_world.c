@@ -115,7 +115,7 @@ static void rec_init(rec *r, int id) {
 
 /* A custom agent with a 2-double state backed by r. */
 static gs_agent *add_rec(gs_world *w, rec *r, double dt) {
-    gs_custom_desc cd = test_custom_desc(dt, 2, rec_step, rec_get, rec_set, r);
+    gs_custom_desc cd = custom_desc(dt, 2, rec_step, rec_get, rec_set, r);
     assert_int_equal(gs_custom_create(w, &cd, &r->self), GS_OK);
     assert_non_null(r->self);
     return r->self;
@@ -831,7 +831,7 @@ static void test_world_failing_allocator(void **state) {
         }
         /* ten custom agents: the agent list grows past its first size */
         for (i = 0; i < 10; ++i) {
-            gs_custom_desc xd = test_custom_desc(0.01, 2, rec_step, rec_get, rec_set, &recs[i]);
+            gs_custom_desc xd = custom_desc(0.01, 2, rec_step, rec_get, rec_set, &recs[i]);
             count = gs_world_agent_count(w);
             rec_init(&recs[i], i);
             a = (gs_agent *)&c;

@@ -1,5 +1,6 @@
-/* world_helpers.h - the tests' short ways to make a world and a custom
-   agent, and a custom agent of two values that counts what is done to it.
+/* world_helpers.h - the tests' short ways to make a vector, a quaternion,
+   a world and a custom agent, and a custom agent of two values that
+   counts what is done to it.
    Include after cmocka.h and ghostsim.h (the makers assert that the
    create calls succeed; tests of the failures call them directly). */
 #ifndef GS_TEST_WORLD_HELPERS_H
@@ -15,8 +16,20 @@
 #endif
 #endif
 
+static GS_TEST_UNUSED gs_vec3 v3(double x, double y, double z) {
+    gs_vec3 v;
+    v.x = x; v.y = y; v.z = z;
+    return v;
+}
+
+static GS_TEST_UNUSED gs_quat quat(double x, double y, double z, double w) {
+    gs_quat q;
+    q.x = x; q.y = y; q.z = z; q.w = w;
+    return q;
+}
+
 /* A world of the default desc but for its host id. */
-static GS_TEST_UNUSED gs_world *test_world_new(uint32_t host) {
+static GS_TEST_UNUSED gs_world *world_new(uint32_t host) {
     gs_world_desc wd = gs_world_desc_default();
     gs_world *w = NULL;
     wd.host_id = host;
@@ -26,7 +39,7 @@ static GS_TEST_UNUSED gs_world *test_world_new(uint32_t host) {
 
 /* A custom agent's desc: n values (time excluded) stepped every dt s by
    step, read and written by get and set on user. */
-static GS_TEST_UNUSED gs_custom_desc test_custom_desc(double dt, size_t n,
+static GS_TEST_UNUSED gs_custom_desc custom_desc(double dt, size_t n,
                                                       gs_result (*step)(void *, double, double),
                                                       void (*get)(const void *, double *),
                                                       gs_result (*set)(void *, const double *),
@@ -42,13 +55,13 @@ static GS_TEST_UNUSED gs_custom_desc test_custom_desc(double dt, size_t n,
     return d;
 }
 
-/* The custom agent of test_custom_desc's arguments, created in w. */
-static GS_TEST_UNUSED gs_agent *test_custom_new(gs_world *w, double dt, size_t n,
+/* The custom agent of custom_desc's arguments, created in w. */
+static GS_TEST_UNUSED gs_agent *custom_new(gs_world *w, double dt, size_t n,
                                                 gs_result (*step)(void *, double, double),
                                                 void (*get)(const void *, double *),
                                                 gs_result (*set)(void *, const double *),
                                                 void *user) {
-    gs_custom_desc d = test_custom_desc(dt, n, step, get, set, user);
+    gs_custom_desc d = custom_desc(dt, n, step, get, set, user);
     gs_agent *a = NULL;
     assert_int_equal(gs_custom_create(w, &d, &a), GS_OK);
     return a;
@@ -84,7 +97,7 @@ static GS_TEST_UNUSED gs_result two_values_set(void *user, const double *in) {
 
 /* Its desc on p, stepped every 10 ms. */
 static GS_TEST_UNUSED gs_custom_desc two_values_desc(two_values *p) {
-    return test_custom_desc(0.01, 2, two_values_step, two_values_get, two_values_set, p);
+    return custom_desc(0.01, 2, two_values_step, two_values_get, two_values_set, p);
 }
 
 #endif
