@@ -8,13 +8,7 @@
 #include <stdlib.h>
 #include <string.h>
 
-#ifndef GS_TEST_UNUSED
-#if defined(__GNUC__) || defined(__clang__)
-#define GS_TEST_UNUSED __attribute__((unused))
-#else
-#define GS_TEST_UNUSED
-#endif
-#endif
+#include "helpers.h"
 
 /* Each block is prefixed with its size, so that a free can be counted in
    bytes; the union keeps what follows aligned for any type. */

@@ -15,13 +15,7 @@
 #include <unistd.h>
 #endif
 
-#ifndef GS_TEST_UNUSED
-#if defined(__GNUC__) || defined(__clang__)
-#define GS_TEST_UNUSED __attribute__((unused))
-#else
-#define GS_TEST_UNUSED
-#endif
-#endif
+#include "helpers.h"
 
 /* The world's net on the simnet (desc NULL: the defaults; its transport
    is filled here): the host is linked to every host joined before. */

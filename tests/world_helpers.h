@@ -6,15 +6,7 @@
 #ifndef GS_TEST_WORLD_HELPERS_H
 #define GS_TEST_WORLD_HELPERS_H
 
-#include <string.h>
-
-#ifndef GS_TEST_UNUSED
-#if defined(__GNUC__) || defined(__clang__)
-#define GS_TEST_UNUSED __attribute__((unused))
-#else
-#define GS_TEST_UNUSED
-#endif
-#endif
+#include "helpers.h"
 
 static GS_TEST_UNUSED gs_vec3 v3(double x, double y, double z) {
     gs_vec3 v;
@@ -44,13 +36,10 @@ static GS_TEST_UNUSED gs_custom_desc custom_desc(double dt, size_t n,
                                                       void (*get)(const void *, double *),
                                                       gs_result (*set)(void *, const double *),
                                                       void *user) {
-    gs_custom_desc d;
-    memset(&d, 0, sizeof d);
+    gs_custom_desc d = gs_custom_desc_default();
     d.dt = dt;
     d.state_size = n;
-    d.step = step;
-    d.get_state = get;
-    d.set_state = set;
+    d.step = step; d.get_state = get; d.set_state = set;
     d.user = user;
     return d;
 }
