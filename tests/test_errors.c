@@ -18,14 +18,6 @@
 #include "alloc_helpers.h"
 #include "world_helpers.h"
 
-/* An agent's counters by value (gs_agent_get_stats fills an out-pointer). */
-static gs_agent_stats agent_stats(const gs_agent *a) {
-    gs_agent_stats st;
-    memset(&st, 0, sizeof st);
-    gs_agent_get_stats(a, &st);
-    return st;
-}
-
 /* ---- a counting allocator (alloc_helpers.h): a failed call must not
    leak or allocate ---- */
 

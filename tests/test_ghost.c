@@ -31,14 +31,6 @@
 #include "net_helpers.h"
 #include "world_helpers.h"
 
-/* An agent's counters by value (gs_agent_get_stats fills an out-pointer). */
-static gs_agent_stats agent_stats(const gs_agent *a) {
-    gs_agent_stats st;
-    memset(&st, 0, sizeof st);
-    gs_agent_get_stats(a, &st);
-    return st;
-}
-
 /* Blends of O(1) numbers: the library computes S + sum w (q - S) / sum w
    with weights scaled to a largest of 1, the test (w0 S + sum w q) / sum w:
    the two differ by a few roundings of ~1.1e-16 each, plus exp()'s last

@@ -47,13 +47,6 @@
 #if __has_include(<valgrind/valgrind.h>)
 #include <valgrind/valgrind.h>
 
-/* An agent's counters by value (gs_agent_get_stats fills an out-pointer). */
-static gs_agent_stats agent_stats(const gs_agent *a) {
-    gs_agent_stats st;
-    memset(&st, 0, sizeof st);
-    gs_agent_get_stats(a, &st);
-    return st;
-}
 #define UNDER_VALGRIND() (RUNNING_ON_VALGRIND != 0)
 #endif
 #endif

@@ -13,14 +13,6 @@
 #include "ghostsim.h"
 #include "world_helpers.h"
 
-/* An agent's counters by value (gs_agent_get_stats fills an out-pointer). */
-static gs_agent_stats agent_stats(const gs_agent *a) {
-    gs_agent_stats st;
-    memset(&st, 0, sizeof st);
-    gs_agent_get_stats(a, &st);
-    return st;
-}
-
 #define PI 3.14159265358979323846
 #define GRAVITY 9.81        /* m/s^2, the world's default |g| */
 #define FRAME (1.0 / 60.0)  /* s, one application frame */
@@ -97,14 +89,20 @@ static gs_shape_desc hull_shape(const gs_vec3 *p, int n) {
     return s;
 }
 
-static gs_rigid_desc sphere_desc(double r, double mass, gs_vec3 p, gs_vec3 v,
-                                 gs_material m) {
+/* A body of `shape`, mass (kg) and material at p, at rest. */
+static gs_rigid_desc body_desc(gs_shape_desc shape, double mass, gs_vec3 p, gs_material m) {
     gs_rigid_desc d = gs_rigid_desc_default();
-    d.shape = sphere_shape(r);
+    d.shape = shape;
     d.mass = mass;
     d.position = p;
-    d.velocity = v;
     d.material = m;
+    return d;
+}
+
+static gs_rigid_desc sphere_desc(double r, double mass, gs_vec3 p, gs_vec3 v,
+                                 gs_material m) {
+    gs_rigid_desc d = body_desc(sphere_shape(r), mass, p, m);
+    d.velocity = v;
     return d;
 }
 
@@ -125,11 +123,7 @@ static gs_agent *make_sphere(gs_world *w, double r, double mass, gs_vec3 p,
 
 static gs_agent *make_box(gs_world *w, gs_vec3 half, double mass, gs_vec3 p,
                           gs_material m) {
-    gs_rigid_desc d = gs_rigid_desc_default();
-    d.shape = box_shape(half);
-    d.mass = mass;
-    d.position = p;
-    d.material = m;
+    gs_rigid_desc d = body_desc(box_shape(half), mass, p, m);
     return make_rigid(w, &d);
 }
 

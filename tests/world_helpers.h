@@ -1,10 +1,12 @@
 /* world_helpers.h - the tests' short ways to make a vector, a quaternion,
-   a world and a custom agent, and a custom agent of two values that
-   counts what is done to it.
+   a world and a custom agent, to read an agent's counters, and a custom
+   agent of two values that counts what is done to it.
    Include after cmocka.h and ghostsim.h (the makers assert that the
    create calls succeed; tests of the failures call them directly). */
 #ifndef GS_TEST_WORLD_HELPERS_H
 #define GS_TEST_WORLD_HELPERS_H
+
+#include <string.h>
 
 #include "helpers.h"
 
@@ -18,6 +20,14 @@ static GS_TEST_UNUSED gs_quat quat(double x, double y, double z, double w) {
     gs_quat q;
     q.x = x; q.y = y; q.z = z; q.w = w;
     return q;
+}
+
+/* An agent's counters by value (gs_agent_get_stats fills an out-pointer). */
+static GS_TEST_UNUSED gs_agent_stats agent_stats(const gs_agent *a) {
+    gs_agent_stats st;
+    memset(&st, 0, sizeof st);
+    gs_agent_get_stats(a, &st);
+    return st;
 }
 
 /* A world of the default desc but for its host id. */
