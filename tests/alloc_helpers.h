@@ -19,8 +19,9 @@ typedef union block_head {
     long long align_ll;
 } block_head;
 
-/* Zero it (counted_world_desc does) before a world uses it; then set the
-   failure modes the test wants. */
+/* counted_world_desc resets it (all counts zero, nothing refused) before
+   a world uses it; then the test sets the failure modes it wants. A
+   counter merely zeroed refuses everything (fail_from 0). */
 typedef struct counter {
     long allocs, frees;    /* blocks given and taken back */
     unsigned long calls;   /* requests, refused ones included */
