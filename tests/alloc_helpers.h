@@ -19,9 +19,8 @@ typedef union block_head {
     long long align_ll;
 } block_head;
 
-/* counted_world_desc resets it (all counts zero, nothing refused) before
-   a world uses it; then the test sets the failure modes it wants. A
-   counter merely zeroed refuses everything (fail_from 0). */
+/* All zero is a counter that refuses nothing; counted_world_desc resets
+   it so, and the test then sets the failure modes it wants. */
 typedef struct counter {
     long allocs, frees;    /* blocks given and taken back */
     unsigned long calls;   /* requests, refused ones included */
@@ -29,8 +28,9 @@ typedef struct counter {
     size_t live, peak;     /* bytes given and not yet freed; their maximum */
     long fail_once;        /* > 0: the fail_once-th request from now fails,
                               the ones after it do not */
-    long fail_from;        /* >= 0: every request fails once `allocs`
-                              blocks have been given; -1 never */
+    long fail_from;        /* > 0: every request fails once fail_from - 1
+                              blocks have been given (1: all of them);
+                              0 never */
     int lie;               /* 1: a request over a gigabyte gets 4 KiB (a
                               test that never writes past that sees the
                               huge size taken); 0: it is refused, as an
@@ -42,7 +42,7 @@ static GS_TEST_UNUSED void *count_alloc(size_t size, void *user) {
     block_head *h;
     c->calls++;
     if ((c->fail_once > 0 && --c->fail_once == 0) ||
-        (c->fail_from >= 0 && c->allocs >= c->fail_from) ||
+        (c->fail_from > 0 && c->allocs >= c->fail_from - 1) ||
         (size > ((size_t)1 << 30) && !c->lie)) {
         c->refused++;
         return NULL;
@@ -77,7 +77,6 @@ static GS_TEST_UNUSED long live_blocks(const counter *c) { return c->allocs - c-
 static GS_TEST_UNUSED gs_world_desc counted_world_desc(counter *c) {
     gs_world_desc wd = gs_world_desc_default();
     memset(c, 0, sizeof *c);
-    c->fail_from = -1;
     wd.allocator.alloc = count_alloc;
     wd.allocator.free = count_free;
     wd.allocator.user = c;

@@ -803,7 +803,7 @@ static void test_world_failing_allocator(void **state) {
         gs_result r;
         rec recs[10];
         int i, count;
-        c.fail_from = n;
+        c.fail_from = n + 1; /* n blocks given, then refusals */
         r = gs_world_create(&wd, &w);
         if (r != GS_OK) {
             assert_int_equal(r, GS_ERR_NO_MEMORY);
