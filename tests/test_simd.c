@@ -9,8 +9,10 @@
    values allowed to differ are inside the checks: the sum that asks
    "finite?" and the largest speed are taken per lane, which changes
    neither check's outcome (the state compared here would differ if it
-   did). When the CPU has no AVX both runs are plain C and this holds
-   trivially.
+   did). Where the CPU has AVX-512VL the XPBD blocks take a copy of the
+   AVX loop built for it (gs__mesh.avx = 2): both it and the AVX loop
+   (avx = 1) are checked against plain C. When the CPU has no AVX both
+   runs are plain C and this holds trivially.
    This file compiles the implementation itself (GHOSTSIM_STATIC) to reach
    the private switch. */
 #include <setjmp.h>
@@ -28,7 +30,7 @@
 
 /* The paper's scene (gs_scene_create: its settle leaves the spheres on
    the cloth) with an n x n cloth under `it`; then the cloth's vector
-   paths on or off. */
+   paths at level avx at most (0 = off, 1 = AVX, 2 = AVX-512VL). */
 static gs_world *scene(gs_integrator it, int n, int avx, gs_scene *sc) {
     gs_world_desc wd = gs_world_desc_default();
     gs_scene_desc sd = gs_scene_desc_default();
@@ -38,14 +40,15 @@ static gs_world *scene(gs_integrator it, int n, int avx, gs_scene *sc) {
     sd.cloth_n = n;
     sd.cloth_integrator = it;
     assert_int_equal(gs_scene_create(w, &sd, sc), GS_OK);
-    gs__as_mesh(sc->cloth)->avx = avx && gs__as_mesh(sc->cloth)->avx;
+    if (gs__as_mesh(sc->cloth)->avx > avx) gs__as_mesh(sc->cloth)->avx = avx;
     return w;
 }
 
-/* 0.3 s of the scene both ways; the states must be the same bytes. */
-static void same_bits(gs_integrator it, int n) {
+/* 0.3 s of the scene at vector level `level` and in plain C; the states
+   must be the same bytes. */
+static void same_bits(gs_integrator it, int n, int level) {
     gs_scene sca, scb;
-    gs_world *a = scene(it, n, 1, &sca), *b = scene(it, n, 0, &scb);
+    gs_world *a = scene(it, n, level, &sca), *b = scene(it, n, 0, &scb);
     gs_agent *ca = sca.cloth, *cb = scb.cloth;
     gs_quat id = {0.0, 0.0, 0.0, 1.0};
     size_t sz = gs_agent_state_size(ca);
@@ -84,13 +87,19 @@ static void same_bits(gs_integrator it, int n) {
    and keeps the scene simple. */
 static void test_xpbd_avx_plain_same_bits(void **state) {
     (void)state;
-    same_bits(GS_INTEGRATOR_XPBD, 37);
-    same_bits(GS_INTEGRATOR_XPBD, 64);
+    same_bits(GS_INTEGRATOR_XPBD, 37, 1);
+    same_bits(GS_INTEGRATOR_XPBD, 64, 1);
+}
+
+static void test_xpbd_avx512_plain_same_bits(void **state) {
+    (void)state;
+    same_bits(GS_INTEGRATOR_XPBD, 37, 2);
+    same_bits(GS_INTEGRATOR_XPBD, 64, 2);
 }
 
 static void test_symplectic_avx_plain_same_bits(void **state) {
     (void)state;
-    same_bits(GS_INTEGRATOR_SYMPLECTIC_EULER, 17);
+    same_bits(GS_INTEGRATOR_SYMPLECTIC_EULER, 17, 1);
 }
 
 /* The gathered tails: every lane of a GATHER block is one of the
@@ -120,6 +129,7 @@ static void test_gather_lanes_disjoint(void **state) {
 int main(void) {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_xpbd_avx_plain_same_bits),
+        cmocka_unit_test(test_xpbd_avx512_plain_same_bits),
         cmocka_unit_test(test_symplectic_avx_plain_same_bits),
         cmocka_unit_test(test_gather_lanes_disjoint),
     };
