@@ -3798,6 +3798,11 @@ typedef struct gs__mesh {
     int chunks_ok;    /* the boxes are those of x and v (gs__mesh_chunks) */
     int chunks_next;  /* the integrator left the boxes of xn and vn there */
     int ext_active;   /* ext holds a non-zero force */
+    /* The particles a contact touched this substep, each once (tmark): a
+       substep clears and visits those, not the whole cloth (clearing ext
+       and ck for 16 384 particles was 6% of a 2-host scene's work). */
+    int *touched, ntouched;
+    unsigned char *tmark;
     int probe_touch;  /* in this step a probe that moves touched it: it
                          does not rest (gs__mesh_rest) */
     double radius;    /* m, particle radius for contacts */
@@ -3856,6 +3861,8 @@ GS__PRIVATE void gs__mesh_layout(gs__mesh *m, gs__carver *cv) {
     }
     m->perm = (int *)gs__carve(cv, (size_t)m->ns * sizeof(int));
     m->ext = (gs_vec3 *)gs__carve(cv, v3);
+    m->touched = (int *)gs__carve(cv, n * sizeof(int));
+    m->tmark = (unsigned char *)gs__carve(cv, n);
     m->clo = (gs_vec3 *)gs__carve(cv, (n / GS__CHUNK + 1) * sizeof(gs_vec3));
     m->chi = (gs_vec3 *)gs__carve(cv, (n / GS__CHUNK + 1) * sizeof(gs_vec3));
     m->cvm = (double *)gs__carve(cv, (n / GS__CHUNK + 1) * sizeof(double));
@@ -5054,15 +5061,19 @@ __attribute__((target("avx"))) GS__PRIVATE void gs__xpbd_fin4(gs__mesh *m, size_
 #endif
 
 /* Contacts as constraints on the pass's result, particle by particle
-   where one touches (ck set), into the transposed copy. */
+   where one touches (ck set), into the transposed copy; each particle's
+   own, so the order of the touched list is free. */
 GS__PRIVATE void gs__xpbd_soa_contacts(gs__mesh *m, double h) {
-    size_t st = gs__soa_stride((size_t)m->n), i;
+    size_t st = gs__soa_stride((size_t)m->n);
     double *X = m->soa, *Y = X + st, *Z = Y + st;
-    for (i = 0; i < (size_t)m->n; ++i)
+    int j;
+    for (j = 0; j < m->ntouched; ++j) {
+        int i = m->touched[j];
         if (m->ck[i] != 0.0) {
-            gs_vec3 p = gs__xpbd_contact(m, (int)i, gs__v3(X[i], Y[i], Z[i]), h);
+            gs_vec3 p = gs__xpbd_contact(m, i, gs__v3(X[i], Y[i], Z[i]), h);
             X[i] = p.x; Y[i] = p.y; Z[i] = p.z;
         }
+    }
 }
 
 /* gs__int_xpbd over the blocks: the prediction goes into the transposed
@@ -5077,11 +5088,19 @@ GS__PRIVATE void gs__int_xpbd_blocks(gs__mesh *m, double h) {
     double ih = 1.0 / h, vmax2 = m->solver.max_speed * m->solver.max_speed;
     gs__fin f;
     const gs_vec3 *x = m->x, *v0 = m->v, *ext = m->ext_active ? m->ext : NULL;
+    int j;
     for (i = 0; i < n; ++i) {
         gs_vec3 a = gs__madd(g, v0[i], -m->air), v = im[i] > 0.0 ? gs__madd(v0[i], a, h) : v0[i];
-        if (ext) v = gs__madd(v, ext[i], im[i] * h);
         X[i] = x[i].x + v.x * h; Y[i] = x[i].y + v.y * h; Z[i] = x[i].z + v.z * h;
         PX[i] = x[i].x; PY[i] = x[i].y; PZ[i] = x[i].z;
+    }
+    for (j = 0; ext && j < m->ntouched; ++j) { /* ext is zero elsewhere */
+        gs_vec3 a, v;
+        i = (size_t)m->touched[j];
+        a = gs__madd(g, v0[i], -m->air);
+        v = im[i] > 0.0 ? gs__madd(v0[i], a, h) : v0[i];
+        v = gs__madd(v, ext[i], im[i] * h);
+        X[i] = x[i].x + v.x * h; Y[i] = x[i].y + v.y * h; Z[i] = x[i].z + v.z * h;
     }
     gs__xpbd_blocks(m, h);
     if (ext) gs__xpbd_soa_contacts(m, h);
@@ -8014,6 +8033,10 @@ GS__PRIVATE void gs__mesh_touch(gs__mesh *m, int i, const gs_contact *c,
     double slope = gs__friction_slope(1.0 / m->mass[i], other_reach2, m->base.dt);
     gs_vec3 f = gs__penalty(c, gs__sub(m->v[i], v_other), &m->mat, other, slope);
     m->ext_active = 1;
+    if (!m->tmark[i]) {
+        m->tmark[i] = 1;
+        m->touched[m->ntouched++] = i;
+    }
     if (m->cdepth) { /* XPBD: friction is a force, the normal spring a constraint */
         m->ext[i] = gs__madd(m->ext[i], c->normal, -gs__dot(f, c->normal));
         m->ext[i] = gs__add(m->ext[i], f);
@@ -8130,8 +8153,13 @@ GS__PRIVATE void gs__mesh_contacts(gs__mesh *m, double t) {
     gs_world *w = m->base.world;
     int i, n;
     if (m->ext_active) {
-        memset(m->ext, 0, (size_t)m->n * sizeof *m->ext);
-        if (m->ck) memset(m->ck, 0, (size_t)m->n * sizeof *m->ck);
+        for (i = 0; i < m->ntouched; ++i) {
+            int p = m->touched[i];
+            m->ext[p] = gs__v3(0.0, 0.0, 0.0);
+            if (m->ck) m->ck[p] = 0.0;
+            m->tmark[p] = 0;
+        }
+        m->ntouched = 0;
         m->ext_active = 0;
     }
     if (w->ground && m->lo.y < w->ground_height) {
