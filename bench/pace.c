@@ -154,11 +154,17 @@ int main(int argc, char **argv)
                 "Thread CPU time. Scene: gs_scene_create (XPBD cloth, 3 spheres, a probe per host on its path) "
                 "after its settle, 60 Hz frames, alone and 2 hosts on gs_simnet under ghosts (per host). Springs: "
                 "64x64 cloth of bench/physics at dt 1 ms, CPU per spring per substep of the whole step.");
+    bu_json_obj_begin(j, "summary");
     bu_json_int(j, "cloth_n", n);
     bu_json_num(j, "scene_alone_cpu_per_sim_s", alone);
     bu_json_num(j, "scene_2hosts_cpu_per_sim_s_per_host", two);
     bu_json_num(j, "xpbd_64_ns_per_spring_substep", xp);
     bu_json_num(j, "symplectic_64_ns_per_spring_substep", sy);
+    bu_json_str(j, "target", "128x128 XPBD scene, 2 hosts: <= 0.5 CPU s per simulated s per host");
+    bu_json_bool(j, "target_met", n == 128 && two <= 0.5);
+    bu_json_str(j, "target_springs", "<= 3 ns per spring per substep at 64x64 (XPBD and symplectic)");
+    bu_json_bool(j, "target_met_springs", xp <= 3.0 && sy <= 3.0);
+    bu_json_obj_end(j);
     bu_json_obj_end(j);
     bu_json_close(j);
     return 0;
