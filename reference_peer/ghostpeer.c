@@ -81,6 +81,8 @@
 #define FRAME 0.005        /* s of wall time between world advances */
 #define TRACE_EVERY 0.010  /* s of wall time between trace rows */
 #define PARK_HEIGHT 0.4    /* m: a parked probe hangs clear of the cloth */
+#define JUMP 0.05          /* s: the scene's time moved this much more than
+                              asked is a jump (see place_probe) */
 
 typedef struct peer_arg {
     uint32_t id;
@@ -431,8 +433,19 @@ static int build(peer_host *h) {
     return 0;
 }
 
-/* Host N's probe: its path until probe_until, then parked above where it
-   stopped. */
+/* The scene's simulation time (s): the cloth's. */
+static double sim_time(const peer_host *h) { return gs_agent_time(h->sc.cloth); }
+
+/* Host N's probe at time t: its path until probe_until, then parked above
+   where it stopped. */
+static gs_vec3 probe_point(const peer_host *h, double t) {
+    int i = (int)h->o.id - 1;
+    gs_vec3 p = gs_scene_probe_path(i, t < h->o.probe_until ? t : h->o.probe_until);
+    if (t >= h->o.probe_until) p.y = PARK_HEIGHT;
+    return p;
+}
+
+/* Host N's probe: toward probe_point, or --probe-wild's circle. */
 static void drive_probe(peer_host *h, double t) {
     const gs_quat id = {0.0, 0.0, 0.0, 1.0};
     int i = (int)h->o.id - 1;
@@ -451,13 +464,61 @@ static void drive_probe(peer_host *h, double t) {
             s[11] = 0.0; s[12] = 0.0; s[13] = 0.0;
             gs_agent_set_state(h->sc.probes[i], s, 14);
         }
-    } else if (t < h->o.probe_until) {
-        p = gs_scene_probe_path(i, t);
     } else {
-        p = gs_scene_probe_path(i, h->o.probe_until);
-        p.y = PARK_HEIGHT;
+        p = probe_point(h, t);
     }
     gs_probe_set_target(h->sc.probes[i], p, id);
+}
+
+/* After an advance that took the scene's time further than the seconds
+   asked (it followed a peer ahead of it): the probe is put where its path
+   says at the new time, and at that time. Sent there at its max_speed, it
+   would cut across the circle, through the hollow where the spheres rest,
+   at 5 m/s, and throw them off the cloth; they roll on the ground for
+   seconds, and the peers' copies of a rolling sphere differ by its speed
+   times the time between the peers. */
+static void place_probe(peer_host *h) {
+    int i = (int)h->o.id - 1;
+    double s[14], t = sim_time(h);
+    gs_vec3 p;
+    if (i >= h->sc.probe_count ||
+        (h->o.wild_speed > 0.0 && t >= h->o.wild_at && t < h->o.wild_at + h->o.wild_for))
+        return;
+    drive_probe(h, t);
+    p = probe_point(h, t);
+    if (gs_agent_get_state(h->sc.probes[i], s, 14) != GS_OK) return;
+    if (s[0] < t) s[0] = t;
+    s[1] = p.x; s[2] = p.y; s[3] = p.z;
+    s[8] = 0.0; s[9] = 0.0; s[10] = 0.0;
+    gs_agent_set_state(h->sc.probes[i], s, 14);
+}
+
+/* The world on by `seconds`, a frame of simulation time at a time with the
+   probe's target set before each (what a host that kept pace does): after
+   a stall or a clock step, one long advance toward a target set once would
+   leave the probe standing, then send it at its max_speed along a chord of
+   its path (a cut through the spheres when the step is long). At most
+   MAX_CATCHUP frames so; the rest, if any, in one advance. */
+#define MAX_CATCHUP 4000 /* frames: 20 s */
+static gs_result advance(peer_host *h, double seconds) {
+    gs_result r = GS_OK, r1;
+    int k;
+    for (k = 0; k < MAX_CATCHUP && seconds > 1.5 * FRAME; ++k) {
+        double t0 = sim_time(h);
+        drive_probe(h, t0);
+        r1 = gs_world_advance(h->w, FRAME, NULL);
+        if (r == GS_OK) r = r1;
+        seconds -= FRAME;
+        if (sim_time(h) > t0 + FRAME + JUMP) place_probe(h);
+    }
+    {
+        double t0 = sim_time(h);
+        drive_probe(h, t0);
+        r1 = gs_world_advance(h->w, seconds, NULL);
+        if (r == GS_OK) r = r1;
+        if (seconds >= 0.0 && sim_time(h) > t0 + seconds + JUMP) place_probe(h);
+    }
+    return r;
 }
 
 /* ---- output ---- */
@@ -480,8 +541,6 @@ static int digest(const peer_host *h, double *d) {
     }
     return k;
 }
-
-static double sim_time(const peer_host *h) { return gs_agent_time(h->sc.cloth); }
 
 /* A string as a JSON string: quotes, backslashes and control characters
    escaped. */
@@ -610,8 +669,7 @@ static int run(peer_host *h) {
                     (unsigned)h->o.id, skew, elapsed);
         }
         pnow = now + skew; /* the clock the world is paced with */
-        drive_probe(h, sim_time(h));
-        r = gs_world_advance(h->w, pnow - last, NULL);
+        r = advance(h, pnow - last);
         if (r != GS_OK && r != GS_ERR_UNSTABLE)
             fprintf(stderr, "ghostpeer %u: %s\n", (unsigned)h->o.id, gs_world_error(h->w));
         last = pnow;
