@@ -81,9 +81,6 @@
 #define FRAME 0.005        /* s of wall time between world advances */
 #define TRACE_EVERY 0.010  /* s of wall time between trace rows */
 #define PARK_HEIGHT 0.4    /* m: a parked probe hangs clear of the cloth */
-#define JUMP 0.25          /* s: the scene's time moved this much in one
-                              advance is a jump (see place_probe); a stall
-                              of a loaded machine is less */
 
 typedef struct peer_arg {
     uint32_t id;
@@ -434,19 +431,8 @@ static int build(peer_host *h) {
     return 0;
 }
 
-/* The scene's simulation time (s): the cloth's. */
-static double sim_time(const peer_host *h) { return gs_agent_time(h->sc.cloth); }
-
-/* Host N's probe at time t: its path until probe_until, then parked above
-   where it stopped. */
-static gs_vec3 probe_point(const peer_host *h, double t) {
-    int i = (int)h->o.id - 1;
-    gs_vec3 p = gs_scene_probe_path(i, t < h->o.probe_until ? t : h->o.probe_until);
-    if (t >= h->o.probe_until) p.y = PARK_HEIGHT;
-    return p;
-}
-
-/* Host N's probe: toward probe_point, or --probe-wild's circle. */
+/* Host N's probe: its path until probe_until, then parked above where it
+   stopped. */
 static void drive_probe(peer_host *h, double t) {
     const gs_quat id = {0.0, 0.0, 0.0, 1.0};
     int i = (int)h->o.id - 1;
@@ -465,48 +451,13 @@ static void drive_probe(peer_host *h, double t) {
             s[11] = 0.0; s[12] = 0.0; s[13] = 0.0;
             gs_agent_set_state(h->sc.probes[i], s, 14);
         }
+    } else if (t < h->o.probe_until) {
+        p = gs_scene_probe_path(i, t);
     } else {
-        p = probe_point(h, t);
+        p = gs_scene_probe_path(i, h->o.probe_until);
+        p.y = PARK_HEIGHT;
     }
     gs_probe_set_target(h->sc.probes[i], p, id);
-}
-
-/* After an advance that took the scene's time on by a jump (its pacing
-   clock stepped, or it followed a peer ahead of it): the probe is put where
-   its path says at the new time, and at that time. Sent there at its max_speed, it
-   would cut across the circle, through the hollow where the spheres rest,
-   at 5 m/s, and throw them off the cloth; they roll on the ground for
-   seconds, and the peers' copies of a rolling sphere differ by its speed
-   times the time between the peers. */
-static void place_probe(peer_host *h) {
-    int i = (int)h->o.id - 1;
-    double s[14], t = sim_time(h);
-    gs_vec3 p;
-    if (i >= h->sc.probe_count ||
-        (h->o.wild_speed > 0.0 && t >= h->o.wild_at && t < h->o.wild_at + h->o.wild_for))
-        return;
-    drive_probe(h, t);
-    p = probe_point(h, t);
-    if (gs_agent_get_state(h->sc.probes[i], s, 14) != GS_OK) return;
-    if (s[0] < t) s[0] = t;
-    s[1] = p.x; s[2] = p.y; s[3] = p.z;
-    s[8] = 0.0; s[9] = 0.0; s[10] = 0.0;
-    gs_agent_set_state(h->sc.probes[i], s, 14);
-}
-
-/* The world on by `seconds`, the probe's target set first; when the
-   scene's time then moved more than JUMP on (a pacing clock that stepped,
-   a peer ahead followed), the probe is put at its path's point (see
-   place_probe). One advance: a host behind that ran it a frame at a time
-   paid each advance's fixed cost per frame and fell further behind on a
-   loaded machine. */
-static gs_result advance(peer_host *h, double seconds) {
-    double t0 = sim_time(h);
-    gs_result r;
-    drive_probe(h, t0);
-    r = gs_world_advance(h->w, seconds, NULL);
-    if (sim_time(h) > t0 + JUMP) place_probe(h);
-    return r;
 }
 
 /* ---- output ---- */
@@ -529,6 +480,8 @@ static int digest(const peer_host *h, double *d) {
     }
     return k;
 }
+
+static double sim_time(const peer_host *h) { return gs_agent_time(h->sc.cloth); }
 
 /* A string as a JSON string: quotes, backslashes and control characters
    escaped. */
@@ -657,7 +610,8 @@ static int run(peer_host *h) {
                     (unsigned)h->o.id, skew, elapsed);
         }
         pnow = now + skew; /* the clock the world is paced with */
-        r = advance(h, pnow - last);
+        drive_probe(h, sim_time(h));
+        r = gs_world_advance(h->w, pnow - last, NULL);
         if (r != GS_OK && r != GS_ERR_UNSTABLE)
             fprintf(stderr, "ghostpeer %u: %s\n", (unsigned)h->o.id, gs_world_error(h->w));
         last = pnow;
