@@ -9137,28 +9137,10 @@ GS__PRIVATE double gs__time_bound(gs__ghost *g, double t_i, double corr) {
 GS__PRIVATE void gs__sync_log_blend(gs_agent *a, const double *in);
 
 GS__PRIVATE int gs__blend_apply(gs__ghost *g, double t_i) {
-    gs_agent *a = g->agent;
-    double *t, t_new = g->scratch[0];
+    double *t;
     int e;
-    /* A state set wakes a sleeper at its time, and a sleeper's time during
-       an advance is the advance's end (gs__sleepers_follow): after a clock
-       step or a stall that is seconds ahead of the awake agents, which then
-       step into it while it waits for them (the cloth under a resting
-       sphere: thrown at 25 m/s). So a blend that changes nothing (the
-       lead's under the client/server rule: every snapshot weighs 0) sets
-       nothing, and a sleeper that takes a state takes it where the advance
-       is, the slowest awake agent's time. */
-    if (memcmp(g->scratch, g->local, g->n * sizeof(double)) != 0) {
-        if (a->sleeping && a->world->busy) {
-            double t_min, t_max;
-            gs__span_get(a->world, &t_min, &t_max);
-            if (g->scratch[0] > t_min) g->scratch[0] = t_min;
-        }
-        e = gs__agent_put_state(a, g->scratch) == GS_OK;
-        if (e) gs__sync_log_blend(a, g->scratch);
-        g->scratch[0] = t_new;
-        if (!e) return 0;
-    }
+    if (gs__agent_put_state(g->agent, g->scratch) != GS_OK) return 0;
+    gs__sync_log_blend(g->agent, g->scratch);
     g->moved += fabs(g->scratch[0] - t_i);
     /* the formula as written pulls back at every blend, and the clock
        stays: the time pulled back is simulated again (the latency trap) */
