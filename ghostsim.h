@@ -1416,7 +1416,11 @@ typedef struct gs_sync_stats {
     int history;           /* frames recorded now (re-runnable) */
     uint64_t rerun_steps;  /* agent steps re-run (gs_world_sync_test) */
     uint64_t replays;      /* advances that re-ran the past to blend */
-    uint64_t replay_steps; /* agent steps those replays ran */
+    uint64_t replay_steps; /* agent steps those replays ran (and the
+                              probes of the skipped ones) */
+    uint64_t replays_skipped; /* advances whose snapshots, blended in the
+                              past, changed no state: the re-run stopped
+                              there and the present stood */
     uint64_t fallbacks;    /* advances whose snapshots (replay mode) were
                               older than the history or past the budget, and
                               blended at the present */
@@ -9331,6 +9335,11 @@ typedef struct gs__sync {
     double at_split;     /* s; the blend time being blended at, NAN else */
     uint64_t frame_steps; /* agent steps of the last advance */
     uint64_t replay_seq; /* the frame being re-run */
+    /* A replay first probes (see gs__sync_take): */
+    int probing;         /* no blend of this re-run changed a state yet */
+    int changed;         /* the last world blend changed an agent's state */
+    int stopped;         /* the re-run stopped at a blend that changed none */
+    double stopped_at;   /* s; that blend's time */
 } gs__sync;
 
 GS__PRIVATE gs_result gs__sync_advance(gs_world *w, double seconds, gs_advance_report *rep);
@@ -9696,6 +9705,8 @@ GS__PRIVATE void gs__sync_blend(gs_world *w, double t, int keep_waiting) {
         if (!g || g->ntaken == 0) continue;
         g->pulled = 0.0;
         seen |= gs__ghost_blend(g, &bn, &applied);
+        if (applied && memcmp(g->scratch, g->local, g->n * sizeof(double)) != 0)
+            w->sync->changed = 1;
         if (applied) gs__sync_log_blend(g->agent, g->scratch);
         if (g->pulled > 0.0) {
             back++;
@@ -9962,6 +9973,7 @@ GS__PRIVATE int gs__sync_is_fresh(const gs__sync *sy, double t) {
    the frame before and be thrown. */
 GS__PRIVATE void gs__sync_blend_to(gs_world *w, double t) {
     int i;
+    w->sync->changed = 0;
     w->sync->at_split = t;
     gs__sync_blend(w, t, 1);
     w->sync->at_split = NAN;
@@ -9989,8 +10001,19 @@ GS__PRIVATE gs_result gs__sync_split_run(gs_world *w, gs__hframe *f, double budg
         r = gs__sync_run_part(w, left, rep);
         if (first == GS_OK) first = r;
         if (sy->replaying) gs__sync_apply_log(w, sy->replay_seq, GS__SYNC_SPLIT, f->split[i]);
-        if (sy->replaying != GS__RERUN_TEST && gs__sync_is_fresh(sy, f->split[i]))
+        if (sy->replaying != GS__RERUN_TEST && gs__sync_is_fresh(sy, f->split[i])) {
             gs__sync_blend_to(w, f->split[i]);
+            if (sy->probing && !sy->changed) { /* see gs__sync_take */
+                sy->stopped = 1;
+                sy->stopped_at = f->split[i];
+                kept--; /* the frame runs as it did: no stop there */
+                for (++i; i < f->nsplit; ++i) f->split[kept++] = f->split[i];
+                f->nsplit = kept;
+                w->target = end;
+                return first;
+            }
+            sy->probing = 0;
+        }
     }
     if (f) f->nsplit = kept;
     w->target = end;
@@ -10054,6 +10077,7 @@ GS__PRIVATE uint64_t gs__sync_rerun(gs_world *w, uint64_t from, int how) {
         gs__sync_split_run(w, f, 0.0, &rep);
         w->busy = busy;
         steps += rep.steps;
+        if (sy->stopped) break;
     }
     sy->replaying = 0;
     return steps;
@@ -10158,9 +10182,34 @@ GS__PRIVATE int gs__sync_frame_of(const gs__sync *sy, double t, double half, uin
     return 0;
 }
 
+/* The re-run of a replay, probing first: from the frame before the oldest
+   snapshot time, to that time, where every ghost blends. If the blend
+   changed no state (every weight of the snapshots 0, as for a leader's own
+   objects, or the snapshots equal to the states here), the frames after
+   it would run again as they ran: it stops there, the time goes from the
+   frame's blend times (so that it re-runs as it ran), and the next
+   snapshot time is probed from its own frame. The first blend that
+   changes a state runs on to the present. Stopped (sy->stopped) at the
+   last, the present stands as it was. */
+GS__PRIVATE void gs__sync_replay_from(gs_world *w, double half, double target) {
+    gs__sync *sy = w->sync;
+    uint64_t j, from = 0;
+    int k;
+    gs__sync_frame_of(sy, sy->fresh[0], half, &from);
+    for (k = 0; k < sy->nfresh && sy->fresh[k] < target; ++k) {
+        if (!gs__sync_frame_of(sy, sy->fresh[k], half, &j) || j < from) j = from;
+        sy->probing = 1;
+        sy->stopped = 0;
+        sy->st.replay_steps += gs__sync_rerun(w, j, GS__RERUN_BLEND);
+        if (!sy->stopped) break;
+        while (k + 1 < sy->nfresh && sy->fresh[k + 1] <= sy->stopped_at) k++;
+    }
+    sy->probing = 0;
+}
+
 GS__PRIVATE void gs__sync_take(gs_world *w) {
     gs__sync *sy = w->sync;
-    double *present, half = HUGE_VAL;
+    double *present, half = HUGE_VAL, target = w->target;
     uint64_t from = 0, dispatches = w->dispatches, j;
     int i, k;
     for (i = 0; i < w->agent_count; ++i) half = fmin(half, 0.5 * w->agents[i]->dt);
@@ -10186,8 +10235,15 @@ GS__PRIVATE void gs__sync_take(gs_world *w) {
     }
     present = sy->ring + (size_t)sy->cap * sy->stride;
     gs__sync_save(w, present);
-    sy->st.replay_steps += gs__sync_rerun(w, from, GS__RERUN_BLEND);
-    sy->st.replays++;
+    gs__sync_replay_from(w, half, target);
+    if (sy->stopped) { /* no blend changed a state: the present stands */
+        sy->stopped = 0;
+        gs__sync_load(w, present);
+        w->target = target;
+        sy->st.replays_skipped++;
+    } else {
+        sy->st.replays++;
+    }
     gs__sync_load_targets(w, present);
     gs__sync_apply_log(w, sy->seq, GS__SYNC_NONE, 0.0);
     w->dispatches = dispatches;
@@ -12539,6 +12595,8 @@ GS_API gs_result gs_net_update(gs_net *net, double now) {
     int p, i, peers = 0, n = 0, tight;
     double need = 0.0, budget, spent = 0.0;
     size_t size;
+    gs_result err;
+    uint32_t err_host;
     if (!net) return GS_ERR_INVALID_ARG;
     if (!gs__finite(now)) return GS_ERR_NOT_FINITE;
     if (!gs__wire_time_ok(now)) return GS_ERR_INVALID_ARG; /* a clock */
@@ -12582,15 +12640,19 @@ GS_API gs_result gs_net_update(gs_net *net, double now) {
         gs__send_acks(net, now, &size);
         gs__datagram_flush(net, now, &size);
     }
+    /* read under the lock: another thread's update (gs_udp's scatter)
+       may write them as soon as it is released */
+    err = net->send_error;
+    err_host = net->send_error_host;
     net->inside--;
     gs__unlock(net);
-    if (net->send_error != GS_OK) {
+    if (err != GS_OK) {
         gs_peer_stats ps;
-        gs_net_peer_stats(net, net->send_error_host, &ps);
-        return gs__fail(w, net->send_error,
+        gs_net_peer_stats(net, err_host, &ps);
+        return gs__fail(w, err,
                         "gs_net_update: the send callback failed for host %lu (%s); %llu "
                         "datagrams to it have failed, the rest went out",
-                        (unsigned long)net->send_error_host, gs_result_str(net->send_error),
+                        (unsigned long)err_host, gs_result_str(err),
                         (unsigned long long)ps.send_failures);
     }
     return GS_OK;
