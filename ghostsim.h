@@ -476,8 +476,10 @@ typedef enum gs_sync_mode {
                               ghost, every chunk, one time) when the world
                               reaches that time, in a re-run from the last
                               recorded moment before it, then on to the
-                              present, inside the same gs_world_advance;
-                              sets older than the history, or past the
+                              present, inside the same gs_world_advance (a
+                              blend there that changes no state ends the
+                              re-run: the present stands); sets older
+                              than the history, or past the
                               replay budget, blend at the present; partial
                               sets a newer whole one supersedes are dropped.
                               A peer's probe goes on along its velocity
@@ -1387,9 +1389,14 @@ GS_API gs_result gs_scene_attach_ghosts(gs_scene *sc, const gs_ghost_desc *share
 
 /* ========================================================================
    >>sync
-   Between the world and the net. The world calls it at the start of an
-   advance, after each step and at the end of an advance; the scheduler
-   knows nothing of it. It keeps the session clock (gs_sync_desc.clock) and
+   Between the world and the net. The world calls it through two hooks,
+   one that runs an advance and one after each step; the scheduler knows
+   nothing of it. A snapshot's walk: received and queued by the net (>>net,
+   under its lock); at the next advance taken out of the queue under the
+   lock, the world rewound to the frame before its time, stepped to it,
+   every ghost blended there with the lock released (>>ghost), the frames
+   replayed to the present; then the ghosts publish for the net to send.
+   It keeps the session clock (gs_sync_desc.clock) and
    the world history: at the start of each advance, every agent's state,
    its step count, time offset, priority and counters, what the contacts
    remember (a rigid body's own acceleration of its last step, a probe's target, the broad
@@ -10083,13 +10090,6 @@ GS__PRIVATE uint64_t gs__sync_rerun(gs_world *w, uint64_t from, int how) {
     return steps;
 }
 
-/* Replay mode, at the start of an advance: the snapshots waiting get no
-   wire age (they blend at their own time), and the oldest one's time is
-   when every ghost blends. If it lies in the history, the frames from the
-   last one that starts before it are run again with that blend in them,
-   and the world is at its present again, corrected; the inputs of this
-   frame (probe targets now, states set by hand since) are applied again.
-   Weight rules run in the re-run, outside the net's lock. */
 /* Adds t to the ascending list sy->fresh (times within `half` are one).
    Returns 0 when the list is full: blended at another time, a set would
    put its objects where they were at another moment. */
@@ -10207,6 +10207,13 @@ GS__PRIVATE void gs__sync_replay_from(gs_world *w, double half, double target) {
     sy->probing = 0;
 }
 
+/* Replay mode, at the start of an advance: the snapshots waiting get no
+   wire age (they blend at their own time), and the oldest one's time is
+   when every ghost blends. If it lies in the history, the frames from the
+   last one that starts before it are run again with that blend in them
+   (gs__sync_replay_from), and the world is at its present again,
+   corrected; the inputs of this frame (probe targets now, states set by
+   hand since) are applied again. */
 GS__PRIVATE void gs__sync_take(gs_world *w) {
     gs__sync *sy = w->sync;
     double *present, half = HUGE_VAL, target = w->target;
