@@ -10010,7 +10010,7 @@ GS__PRIVATE gs_result gs__sync_split_run(gs_world *w, gs__hframe *f, double budg
         if (sy->replaying) gs__sync_apply_log(w, sy->replay_seq, GS__SYNC_SPLIT, f->split[i]);
         if (sy->replaying != GS__RERUN_TEST && gs__sync_is_fresh(sy, f->split[i])) {
             gs__sync_blend_to(w, f->split[i]);
-            if (sy->probing && !sy->changed) { /* see gs__sync_take */
+            if (sy->probing && !sy->changed) { /* see gs__sync_replay_from */
                 sy->stopped = 1;
                 sy->stopped_at = f->split[i];
                 kept--; /* the frame runs as it did: no stop there */
@@ -10032,7 +10032,8 @@ GS__PRIVATE gs_result gs__sync_split_run(gs_world *w, gs__hframe *f, double budg
     return first == GS_OK ? r : first;
 }
 
-/* The hook gs_world_advance runs its dispatches through. */
+/* An advance's dispatches (gs__sync_advance), to the blend times its frame
+   holds first. */
 GS__PRIVATE gs_result gs__sync_run(gs_world *w, double budget, gs_advance_report *rep) {
     gs__sync *sy = w->sync;
     gs__hframe *f = NULL;
