@@ -8758,6 +8758,14 @@ typedef struct gs__blend_net {
     double gap[GS__MAX_PEERS];    /* s; each peer's latest gap (st.gap), */
     uint32_t gapped;              /* bit p: measured for peer slot p */
     int fixed_time;               /* time is the clock's: no correction */
+    int skip_equal;               /* a blended state equal bit for bit to
+                                     the local one is not set (replay
+                                     mode): setting it would still reset
+                                     what the kind derives from it (a rigid
+                                     body's own acceleration), so that a
+                                     blend of weight 0 would change the
+                                     run, and a replay could never find it
+                                     changed nothing */
 } gs__blend_net;
 
 /* Notes, for each peer with a snapshot in this blend, that it was heard
@@ -9229,7 +9237,11 @@ GS__PRIVATE uint32_t gs__ghost_blend(gs__ghost *g, gs__blend_net *bn, int *appli
         ps.finite = g->scratch[0] - g->scratch[0] == 0.0;
         ps.finite = gs__blend_pass(g, &ps);
         seen = gs__ghost_divergence(g);
-        if (ps.finite && gs__blend_apply(g, t_i)) {
+        if (ps.finite && bn->skip_equal && memcmp(g->scratch, g->local, n * sizeof(double)) == 0) {
+            g->stats.blends++;
+            g->stats.snapshots_blended += (uint64_t)used;
+            g->stats.last_correction = 0.0;
+        } else if (ps.finite && gs__blend_apply(g, t_i)) {
             double c2 = (ps.corr2[0] + ps.corr2[1]) + (ps.corr2[2] + ps.corr2[3]);
             g->stats.blends++;
             g->stats.snapshots_blended += (uint64_t)used;
@@ -9699,6 +9711,7 @@ GS__PRIVATE void gs__sync_give_back(gs_world *w, const gs__blend_net *bn, uint32
    apart in time push each other (a sphere resting on the cloth is kicked
    off it). */
 GS__PRIVATE void gs__sync_blend(gs_world *w, double t, int keep_waiting) {
+    gs__sync *sy = w->sync;
     gs__blend_net bn;
     uint32_t seen = 0;
     int i, back = 0, applied;
@@ -9706,15 +9719,17 @@ GS__PRIVATE void gs__sync_blend(gs_world *w, double t, int keep_waiting) {
     if (!w->net) return;
     memset(&bn, 0, sizeof bn);
     bn.fixed_time = gs__sync_session(w) || gs__sync_replay(w);
+    bn.skip_equal = gs__sync_replay(w);
     if (!gs__sync_take_all(w, t, keep_waiting, &bn)) return;
     for (i = 0; i < w->agent_count; ++i) {
         gs__ghost *g = gs__ghost_of(w->agents[i]);
         if (!g || g->ntaken == 0) continue;
         g->pulled = 0.0;
         seen |= gs__ghost_blend(g, &bn, &applied);
-        if (applied && memcmp(g->scratch, g->local, g->n * sizeof(double)) != 0)
-            w->sync->changed = 1;
-        if (applied) gs__sync_log_blend(g->agent, g->scratch);
+        if (applied) { /* in replay mode only a state that differs is set */
+            sy->changed = 1;
+            gs__sync_log_blend(g->agent, g->scratch);
+        }
         if (g->pulled > 0.0) {
             back++;
             pull = fmin(pull, g->pulled);
