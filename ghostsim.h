@@ -1534,7 +1534,7 @@ GS_API gs_result gs_world_sync_test(gs_world *w, int frames, int *bad_agent);
    a nonce under the same key; the epoch orders a peer's runs so that a
    recorded earlier run cannot be replayed once a later one was heard.
    ======================================================================== */
-#define GS_WIRE_VERSION 2
+#define GS_WIRE_VERSION 3
 #define GS_WIRE_MAX_SEGMENTS 4 /* segments in a quantized chunk */
 #define GS_WIRE_CHUNK_REST 0x01 /* chunk flag: a heartbeat */
 #define GS_WIRE_CHUNK_DELTA 0x02 /* chunk flag: differences from a baseline */
@@ -1543,7 +1543,7 @@ GS_API gs_result gs_world_sync_test(gs_world *w, int frames, int *bad_agent);
 #define GS_WIRE_MAX_DATAGRAM 1200
 #define GS_WIRE_HEADER 48
 #define GS_WIRE_CHUNK_HEADER 32
-#define GS_WIRE_MAX_CHUNKS 64 /* chunks one datagram may carry */
+#define GS_WIRE_MAX_CHUNKS 255 /* chunks one datagram may carry */
 /* Chunks one snapshot may have (its chunk index and count are u16): a
    state of at most 8 847 225 values in f64 (135 a chunk), 17 694 450 in
    f32 (270), e.g. a cloth of up to 1214 x 1214 particles in f64. */
@@ -1646,8 +1646,8 @@ typedef struct gs_wire_view {
       "earlier run of its sender")                                             \
     X(GS_REJECT_RATE, "over the sender's cap of datagrams per second")        \
     X(GS_REJECT_OLD_VERSION,                                                   \
-      "wire format v1 (a ghostsim before wire v2): every host of a session "  \
-      "must speak v2")                                                        \
+      "wire format v1 or v2 (a ghostsim before wire v3): every host of a "    \
+      "session must speak v3")                                                \
     X(GS_REJECT_BASELINE,                                                      \
       "a delta chunk whose baseline is not held (lost, too old, from before "  \
       "a restart) or that leaves its ranges: that chunk only")
@@ -8242,6 +8242,15 @@ typedef struct gs__peer {
     double clock_at;          /* way; that round trip (s) and when (s) */
 } gs__peer;
 
+/* A chunk's header is coded against the datagram's chunk before it (see
+   >>wire): its object id, sequence and time. Nothing before the first
+   (any 0): its time is always written. */
+typedef struct gs__wire_ctx {
+    uint32_t id, seq;
+    double time;
+    int any;
+} gs__wire_ctx;
+
 struct gs_net {
     gs_world *world;
     gs_net_desc d;
@@ -8280,6 +8289,7 @@ struct gs_net {
     struct gs__ghost **order; /* the due ghosts of an update, by priority */
     int order_cap;            /* its room: at least the world's ghosts */
     unsigned char buf[GS_WIRE_MAX_DATAGRAM];
+    gs__wire_ctx wctx;        /* what buf's next chunk is coded against */
     gs_wire_view view;        /* decode scratch (too big for the stack) */
     gs__net_guard guard;      /* key, nonces, opened datagram (>>net) */
 };
@@ -10446,10 +10456,10 @@ GS__PRIVATE size_t gs__quant_put(unsigned char *p, size_t room, const gs_wire_ch
 
 GS__PRIVATE int gs__quant_quats_ok(const gs_wire_segment *s);
 
-/* Reads the segments of a quantized payload of len bytes into c, checking
-   every length and bound: the values it gives are finite, under 2^51 *
-   step in size. 0 if anything is off. */
-GS__PRIVATE int gs__quant_parse(gs_wire_chunk *c, const unsigned char *p, size_t len) {
+/* Reads the segments of a quantized payload (within len bytes) into c,
+   checking every length and bound: the values it gives are finite, under
+   2^51 * step in size. Its length, or 0 if anything is off. */
+GS__PRIVATE size_t gs__quant_parse(gs_wire_chunk *c, const unsigned char *p, size_t len) {
     size_t off = 1, need;
     int k, sum = 0;
     if (len < 1) return 0;
@@ -10493,7 +10503,7 @@ GS__PRIVATE int gs__quant_parse(gs_wire_chunk *c, const unsigned char *p, size_t
         if (s->kind == GS_WIRE_QUATERNION && !gs__quant_quats_ok(s)) return 0;
         sum += s->count;
     }
-    return off == len && sum == c->elements;
+    return sum == c->elements ? off : 0;
 }
 
 /* The packed bytes of a parsed segment. */
@@ -10636,9 +10646,9 @@ GS__PRIVATE int64_t gs__dread_next(gs__dread *d) {
     return gs__unzigzag((uint64_t)gs__bitr_get(&d->val, d->width) + 1u);
 }
 
-/* Checks a delta payload of len bytes and fills c's baseline, coding and
-   width. */
-GS__PRIVATE int gs__delta_parse(gs_wire_chunk *c, const unsigned char *p, size_t len) {
+/* Checks a delta payload (within len bytes) and fills c's baseline,
+   coding and width: its length, or 0. */
+GS__PRIVATE size_t gs__delta_parse(gs_wire_chunk *c, const unsigned char *p, size_t len) {
     const unsigned char *q = p, *end = p + len;
     uint64_t dist = 0;
     size_t need, bm, i;
@@ -10666,12 +10676,14 @@ GS__PRIVATE int gs__delta_parse(gs_wire_chunk *c, const unsigned char *p, size_t
         if (c->elements % 8 && q[bm - 1] >> (c->elements % 8)) return 0;
         need = bm + ((size_t)nz * (size_t)c->delta_width + 7) / 8;
     }
-    return need == (size_t)(end - q);
+    if (need > (size_t)(end - q)) return 0;
+    c->payload_bytes = (uint16_t)((size_t)(q - p) + need);
+    return c->payload_bytes;
 }
 
-/* Checks an acknowledgement payload: element count entries of two
-   varints each, within their ranges, filling exactly len bytes. */
-GS__PRIVATE int gs__ack_parse(const gs_wire_chunk *c, const unsigned char *p, size_t len) {
+/* Checks an acknowledgement payload (within len bytes): element count
+   entries of two varints each, within their ranges. Its length, or 0. */
+GS__PRIVATE size_t gs__ack_parse(const gs_wire_chunk *c, const unsigned char *p, size_t len) {
     const unsigned char *q = p, *end = p + len;
     int i;
     if (c->encoding != GS_ENCODING_QUANT || c->elements < 1 || c->elements > GS_WIRE_MAX_ACKS ||
@@ -10682,7 +10694,7 @@ GS__PRIVATE int gs__ack_parse(const gs_wire_chunk *c, const unsigned char *p, si
         if (!gs__varint_get(&q, end, 5, &a) || !gs__varint_get(&q, end, 5, &b)) return 0;
         if (a >> 33 || b >> 32) return 0;
     }
-    return q == end;
+    return (size_t)(q - p);
 }
 
 GS_API int gs_wire_acks(const gs_wire_chunk *c, gs_wire_ack *out, int max) {
@@ -10873,83 +10885,160 @@ GS__PRIVATE gs_result gs__wire_put_quant(unsigned char *p, size_t room, const gs
     return *len ? GS_OK : GS_ERR_CAPACITY;
 }
 
-/* The room left for a chunk's payload after *size bytes (the chunk header
-   and the checksum kept free), or an error: a *size that gs_wire_begin and
-   gs_wire_add cannot have left (a wild one would wrap the room check), a
-   datagram with GS_WIRE_MAX_CHUNKS chunks already or no room. */
+/* The chunk kinds (bits 0-1 of a chunk's first byte) and its flag bits. */
+#define GS__KIND_VALUES 0u
+#define GS__KIND_DELTA 1u
+#define GS__KIND_REST 2u
+#define GS__KIND_ACK 3u
+#define GS__KIND_TIME 0x04u  /* a time follows; else the previous chunk's */
+#define GS__KIND_SPLIT 0x20u /* index, count and first follow; else 0, 1, 0 */
+#define GS__KIND_BITS 0x3fu  /* bits 6-7: 0 */
+
+/* The chunk flags of c as its kind (GS_WIRE_CHUNK_*: at most one). */
+GS__PRIVATE unsigned gs__chunk_kind(const gs_wire_chunk *c) {
+    return c->flags & GS_WIRE_CHUNK_DELTA ? GS__KIND_DELTA
+           : c->flags & GS_WIRE_CHUNK_REST ? GS__KIND_REST
+           : c->flags & GS_WIRE_CHUNK_ACK  ? GS__KIND_ACK
+                                           : GS__KIND_VALUES;
+}
+
+/* The header of c at p (at most GS_WIRE_CHUNK_HEADER bytes), coded
+   against x; its length. */
+GS__PRIVATE size_t gs__chunk_head(unsigned char *p, const gs__wire_ctx *x,
+                                  const gs_wire_chunk *c) {
+    unsigned kind = gs__chunk_kind(c), b = kind | (unsigned)c->encoding << 3;
+    size_t n = 1;
+    if (kind == GS__KIND_ACK) { /* the host it is for, and its entries */
+        n += gs__varint_put(p + n, c->object_id);
+        n += gs__varint_put(p + n, c->elements);
+        p[0] = (unsigned char)b;
+        return n;
+    }
+    n += gs__varint_put(p + n, gs__zigzag32(c->object_id - x->id));
+    n += gs__varint_put(p + n, gs__zigzag32(c->sequence - x->seq));
+    if (!x->any || memcmp(&c->time, &x->time, sizeof c->time) != 0) {
+        b |= GS__KIND_TIME;
+        gs__putf64(p + n, c->time);
+        n += 8;
+    }
+    if (c->index || c->count != 1 || c->first) {
+        b |= GS__KIND_SPLIT;
+        n += gs__varint_put(p + n, c->index);
+        n += gs__varint_put(p + n, c->count);
+        n += gs__varint_put(p + n, c->first);
+    }
+    if (kind != GS__KIND_REST) n += gs__varint_put(p + n, c->elements);
+    p[0] = (unsigned char)b;
+    return n;
+}
+
+/* The room left for a chunk's payload after *size bytes and its header of
+   hn bytes (the checksum kept free), or an error: a *size that
+   gs_wire_begin and gs_wire_add cannot have left (a wild one would wrap
+   the room check), a datagram with GS_WIRE_MAX_CHUNKS chunks already or
+   no room. */
 GS__PRIVATE gs_result gs__wire_room(const unsigned char *buf, size_t cap, const size_t *size,
-                                    size_t *room) {
+                                    size_t hn, size_t *room) {
     if (*size < GS_WIRE_HEADER || *size > cap || *size > GS_WIRE_MAX_DATAGRAM)
         return GS_ERR_INVALID_ARG;
     if (gs__hdr_chunks(buf) >= GS_WIRE_MAX_CHUNKS) return GS_ERR_CAPACITY;
     *room = cap < GS_WIRE_MAX_DATAGRAM ? cap : GS_WIRE_MAX_DATAGRAM;
-    if (GS_WIRE_CHUNK_HEADER + 4 > *room - *size) return GS_ERR_CAPACITY;
-    *room -= *size + GS_WIRE_CHUNK_HEADER + 4;
+    if (hn + 4 > *room - *size) return GS_ERR_CAPACITY;
+    *room -= *size + hn + 4;
     return GS_OK;
 }
 
-/* The chunk header of c (payload vs bytes, already written after it) at
-   *size, and the chunk counted. */
-GS__PRIVATE void gs__wire_put_head(unsigned char *buf, size_t *size, const gs_wire_chunk *c,
+/* The chunk's header (head, hn bytes; its payload of vs bytes already
+   written after it) at *size, the chunk counted and x moved on to it. */
+GS__PRIVATE void gs__wire_put_head(unsigned char *buf, size_t *size, gs__wire_ctx *x,
+                                   const gs_wire_chunk *c, const unsigned char *head, size_t hn,
                                    size_t vs) {
-    unsigned char *p = buf + *size;
-    gs__put32(p, c->object_id);
-    gs__put32(p + 4, c->sequence);
-    gs__putf64(p + 8, c->time);
-    gs__put16(p + 16, c->index);
-    gs__put16(p + 18, c->count);
-    gs__put32(p + 20, c->first);
-    gs__put16(p + 24, c->elements);
-    p[26] = (unsigned char)c->encoding;
-    p[27] = (unsigned char)c->flags;
-    gs__put16(p + 28, (uint16_t)vs);
-    gs__put16(p + 30, 0);
-    *size += GS_WIRE_CHUNK_HEADER + vs;
+    memcpy(buf + *size, head, hn);
+    *size += hn + vs;
     gs__hdr_set_chunks(buf, gs__hdr_chunks(buf) + 1);
+    if (c->flags & GS_WIRE_CHUNK_ACK) return; /* it says no id, sequence or time */
+    x->id = c->object_id;
+    x->seq = c->sequence;
+    x->time = c->time;
+    x->any = 1;
 }
 
-GS_API gs_result gs_wire_add(unsigned char *buf, size_t cap, size_t *size,
-                             const gs_wire_chunk *c, const double *values) {
-    size_t vs, room;
+GS__PRIVATE int gs__wire_chunk(const unsigned char *buf, size_t end, size_t *off,
+                               gs__wire_ctx *x, gs_wire_chunk *c, gs_reject *why);
+
+/* The context of the chunk after the size bytes of the datagram in buf,
+   read from its chunks (the public calls take no context: tests build
+   datagrams a chunk at a time; the net keeps its own). 0 if those bytes
+   are not a datagram gs_wire_begin and gs_wire_add can have left. */
+GS__PRIVATE int gs__wire_scan(const unsigned char *buf, size_t cap, size_t size,
+                              gs__wire_ctx *x) {
+    gs_wire_chunk c;
+    gs_reject why;
+    size_t off = GS_WIRE_HEADER;
+    int i, n;
+    memset(x, 0, sizeof *x);
+    if (size < GS_WIRE_HEADER || size > cap || size > GS_WIRE_MAX_DATAGRAM) return 0;
+    n = gs__hdr_chunks(buf);
+    for (i = 0; i < n; ++i)
+        if (!gs__wire_chunk(buf, size, &off, x, &c, &why)) return 0;
+    return off == size;
+}
+
+/* gs_wire_add with the context known. */
+GS__PRIVATE gs_result gs__wire_add_in(unsigned char *buf, size_t cap, size_t *size,
+                                      gs__wire_ctx *x, const gs_wire_chunk *c,
+                                      const double *values) {
+    unsigned char head[GS_WIRE_CHUNK_HEADER];
+    size_t vs, room, hn;
     gs_result r;
     int rest;
-    if (!buf || !size || !c || (c->elements && !values)) return GS_ERR_INVALID_ARG;
     if (c->encoding != GS_ENCODING_F64 && c->encoding != GS_ENCODING_F32 &&
         c->encoding != GS_ENCODING_QUANT)
         return GS_ERR_INVALID_ARG;
     rest = (c->flags & GS_WIRE_CHUNK_REST) != 0;
-    if ((c->flags & ~(unsigned)GS_WIRE_CHUNK_REST) || (rest && (c->elements || c->index)))
+    if ((c->flags & ~(unsigned)GS_WIRE_CHUNK_REST) || (rest && (c->elements || c->index)) ||
+        c->count == 0 || c->index >= c->count)
         return GS_ERR_INVALID_ARG;
-    r = gs__wire_room(buf, cap, size, &room);
+    if (!gs__finite(c->time)) return GS_ERR_NOT_FINITE;
+    if (c->time < 0.0 || c->time > GS_WIRE_MAX_TIME) return GS_ERR_INVALID_ARG;
+    hn = gs__chunk_head(head, x, c);
+    r = gs__wire_room(buf, cap, size, hn, &room);
     if (r != GS_OK) return r;
     if (c->encoding != GS_ENCODING_QUANT && !rest &&
         gs__value_size(c->encoding) * c->elements > room)
         return GS_ERR_CAPACITY;
-    if (!gs__finite(c->time)) return GS_ERR_NOT_FINITE;
-    if (c->time < 0.0 || c->time > GS_WIRE_MAX_TIME) return GS_ERR_INVALID_ARG;
     /* the values first, checked as they are written: the bytes past *size
        are the caller's scratch until the chunk is counted below */
     if (c->encoding == GS_ENCODING_QUANT) {
-        r = gs__wire_put_quant(buf + *size + GS_WIRE_CHUNK_HEADER, room, c, values, &vs);
+        r = gs__wire_put_quant(buf + *size + hn, room, c, values, &vs);
         if (r != GS_OK) return r;
     } else {
         vs = rest ? 0 : gs__value_size(c->encoding) * c->elements;
-        if (!gs__wire_put_values(buf + *size + GS_WIRE_CHUNK_HEADER, c->encoding, values,
-                                 rest ? 0 : c->elements))
+        if (!gs__wire_put_values(buf + *size + hn, c->encoding, values, rest ? 0 : c->elements))
             return GS_ERR_NOT_FINITE;
     }
-    gs__wire_put_head(buf, size, c, vs);
+    gs__wire_put_head(buf, size, x, c, head, hn, vs);
     return GS_OK;
 }
 
-GS_API gs_result gs_wire_add_delta(unsigned char *buf, size_t cap, size_t *size,
-                                   const gs_wire_chunk *c, const int64_t *diff) {
-    size_t vs, room;
+GS_API gs_result gs_wire_add(unsigned char *buf, size_t cap, size_t *size,
+                             const gs_wire_chunk *c, const double *values) {
+    gs__wire_ctx x;
+    if (!buf || !size || !c || (c->elements && !values)) return GS_ERR_INVALID_ARG;
+    if (!gs__wire_scan(buf, cap, *size, &x)) return GS_ERR_INVALID_ARG;
+    return gs__wire_add_in(buf, cap, size, &x, c, values);
+}
+
+/* gs_wire_add_delta with the context known. */
+GS__PRIVATE gs_result gs__wire_add_delta_in(unsigned char *buf, size_t cap, size_t *size,
+                                            gs__wire_ctx *x, const gs_wire_chunk *c,
+                                            const int64_t *diff) {
+    unsigned char head[GS_WIRE_CHUNK_HEADER];
+    size_t vs, room, hn;
     uint32_t dist;
     gs_result r;
     int i;
-    if (!buf || !size || !c || !diff || c->elements == 0 || c->elements > GS_WIRE_QUANT_CHUNK)
-        return GS_ERR_INVALID_ARG;
+    if (c->elements == 0 || c->elements > GS_WIRE_QUANT_CHUNK) return GS_ERR_INVALID_ARG;
     dist = c->sequence - c->baseline;
     if (c->encoding != GS_ENCODING_QUANT || c->flags != GS_WIRE_CHUNK_DELTA || dist == 0 ||
         dist > 0x80000000u || c->count == 0 || c->index >= c->count)
@@ -10958,23 +11047,34 @@ GS_API gs_result gs_wire_add_delta(unsigned char *buf, size_t cap, size_t *size,
         if (diff[i] < -2147483648LL || diff[i] > 2147483647LL) return GS_ERR_INVALID_ARG;
     if (!gs__finite(c->time)) return GS_ERR_NOT_FINITE;
     if (c->time < 0.0 || c->time > GS_WIRE_MAX_TIME) return GS_ERR_INVALID_ARG;
-    r = gs__wire_room(buf, cap, size, &room);
+    hn = gs__chunk_head(head, x, c);
+    r = gs__wire_room(buf, cap, size, hn, &room);
     if (r != GS_OK) return r;
-    vs = gs__delta_put(buf + *size + GS_WIRE_CHUNK_HEADER, room, c, diff);
+    vs = gs__delta_put(buf + *size + hn, room, c, diff);
     if (!vs) return GS_ERR_CAPACITY;
-    gs__wire_put_head(buf, size, c, vs);
+    gs__wire_put_head(buf, size, x, c, head, hn, vs);
     return GS_OK;
 }
 
-GS_API gs_result gs_wire_add_ack(unsigned char *buf, size_t cap, size_t *size, uint32_t to,
-                                 const gs_wire_ack *acks, int n) {
-    unsigned char tmp[GS_WIRE_MAX_ACKS * 10];
+GS_API gs_result gs_wire_add_delta(unsigned char *buf, size_t cap, size_t *size,
+                                   const gs_wire_chunk *c, const int64_t *diff) {
+    gs__wire_ctx x;
+    if (!buf || !size || !c || !diff) return GS_ERR_INVALID_ARG;
+    if (!gs__wire_scan(buf, cap, *size, &x)) return GS_ERR_INVALID_ARG;
+    return gs__wire_add_delta_in(buf, cap, size, &x, c, diff);
+}
+
+/* gs_wire_add_ack with the context known. */
+GS__PRIVATE gs_result gs__wire_add_ack_in(unsigned char *buf, size_t cap, size_t *size,
+                                          gs__wire_ctx *x, uint32_t to, const gs_wire_ack *acks,
+                                          int n) {
+    unsigned char tmp[GS_WIRE_MAX_ACKS * 10], head[GS_WIRE_CHUNK_HEADER];
     uint32_t obj = 0, seq = 0;
-    size_t len = 0, room;
+    size_t len = 0, room, hn;
     gs_wire_chunk c;
     gs_result r;
     int i;
-    if (!buf || !size || !acks || n < 1 || n > GS_WIRE_MAX_ACKS) return GS_ERR_INVALID_ARG;
+    if (n < 1 || n > GS_WIRE_MAX_ACKS) return GS_ERR_INVALID_ARG;
     for (i = 0; i < n; ++i) {
         len += gs__varint_put(tmp + len, gs__zigzag32(acks[i].object_id - obj) << 1 |
                                              (uint64_t)(acks[i].refused != 0));
@@ -10982,18 +11082,27 @@ GS_API gs_result gs_wire_add_ack(unsigned char *buf, size_t cap, size_t *size, u
         obj = acks[i].object_id;
         seq = acks[i].sequence;
     }
-    r = gs__wire_room(buf, cap, size, &room);
-    if (r != GS_OK) return r;
-    if (len > room) return GS_ERR_CAPACITY;
     memset(&c, 0, sizeof c);
     c.object_id = to;
     c.count = 1;
     c.elements = (uint16_t)n;
     c.encoding = GS_ENCODING_QUANT;
     c.flags = GS_WIRE_CHUNK_ACK;
-    memcpy(buf + *size + GS_WIRE_CHUNK_HEADER, tmp, len);
-    gs__wire_put_head(buf, size, &c, len);
+    hn = gs__chunk_head(head, x, &c);
+    r = gs__wire_room(buf, cap, size, hn, &room);
+    if (r != GS_OK) return r;
+    if (len > room) return GS_ERR_CAPACITY;
+    memcpy(buf + *size + hn, tmp, len);
+    gs__wire_put_head(buf, size, x, &c, head, hn, len);
     return GS_OK;
+}
+
+GS_API gs_result gs_wire_add_ack(unsigned char *buf, size_t cap, size_t *size, uint32_t to,
+                                 const gs_wire_ack *acks, int n) {
+    gs__wire_ctx x;
+    if (!buf || !size || !acks || n < 1 || n > GS_WIRE_MAX_ACKS) return GS_ERR_INVALID_ARG;
+    if (!gs__wire_scan(buf, cap, *size, &x)) return GS_ERR_INVALID_ARG;
+    return gs__wire_add_ack_in(buf, cap, size, &x, to, acks, n);
 }
 
 GS_API size_t gs_wire_end(unsigned char *buf, size_t size) {
@@ -11073,50 +11182,103 @@ GS__PRIVATE void gs__wire_get_values(const gs_wire_chunk *c, double *out) {
 /* A time the wire carries (s): in [0, GS_WIRE_MAX_TIME], NaN excluded. */
 GS__PRIVATE int gs__wire_time_ok(double t) { return t >= 0.0 && t <= GS_WIRE_MAX_TIME; }
 
-/* One chunk at *off: its header, its length, its values all finite. */
-GS__PRIVATE int gs__wire_chunk(const unsigned char *buf, size_t end, size_t *off,
-                               gs_wire_chunk *c, gs_reject *why) {
+/* An unsigned LEB128 varint at *off of at most max bytes before end, at
+   most top: 0 if cut short, longer, or over. */
+GS__PRIVATE int gs__head_varint(const unsigned char *buf, size_t end, size_t *off, int max,
+                                uint64_t top, uint64_t *out) {
     const unsigned char *p = buf + *off;
-    size_t len;
-    if (*off + GS_WIRE_CHUNK_HEADER > end) { *why = GS_REJECT_SHORT; return 0; }
-    c->object_id = gs__get32(p);
-    c->sequence = gs__get32(p + 4);
-    c->time = gs__getf64(p + 8);
-    c->index = gs__get16(p + 16);
-    c->count = gs__get16(p + 18);
-    c->first = gs__get32(p + 20);
-    c->elements = gs__get16(p + 24);
-    c->encoding = (gs_encoding)p[26];
-    c->flags = p[27];
+    if (!gs__varint_get(&p, buf + end, max, out) || *out > top) return 0;
+    *off = (size_t)(p - buf);
+    return 1;
+}
+
+/* The header fields of the chunk at *off (see >>wire), against x. */
+GS__PRIVATE int gs__chunk_head_get(const unsigned char *buf, size_t end, size_t *off,
+                                   const gs__wire_ctx *x, gs_wire_chunk *c, unsigned *kind) {
+    uint64_t id = 0, seq = 0, idx = 0, cnt = 1, first = 0, el = 0;
+    unsigned b = buf[(*off)++], k = b & 3u;
+    *kind = k;
+    c->encoding = (gs_encoding)(b >> 3 & 3u);
+    c->flags = k == GS__KIND_DELTA ? GS_WIRE_CHUNK_DELTA : k == GS__KIND_REST ? GS_WIRE_CHUNK_REST
+               : k == GS__KIND_ACK ? GS_WIRE_CHUNK_ACK : 0u;
+    if ((b & ~GS__KIND_BITS) || c->encoding == 0) return 0;
+    if (k == GS__KIND_ACK) {
+        if (b & (GS__KIND_TIME | GS__KIND_SPLIT) || c->encoding != GS_ENCODING_QUANT ||
+            !gs__head_varint(buf, end, off, 5, 0xffffffffu, &id) ||
+            !gs__head_varint(buf, end, off, 2, GS_WIRE_MAX_ACKS, &el) || el < 1)
+            return 0;
+        c->object_id = (uint32_t)id;
+        c->sequence = 0;
+        c->time = 0.0;
+    } else {
+        if (!gs__head_varint(buf, end, off, 5, 0x1ffffffffull, &id) ||
+            !gs__head_varint(buf, end, off, 5, 0x1ffffffffull, &seq))
+            return 0;
+        c->object_id = x->id + (uint32_t)gs__unzigzag(id);
+        c->sequence = x->seq + (uint32_t)gs__unzigzag(seq);
+        if (b & GS__KIND_TIME) {
+            if (*off + 8 > end) return 0;
+            c->time = gs__getf64(buf + *off);
+            *off += 8;
+        } else {
+            if (!x->any) return 0; /* the first chunk says its time */
+            c->time = x->time;
+        }
+        if ((b & GS__KIND_SPLIT) &&
+            (!gs__head_varint(buf, end, off, 3, 0xffff, &idx) ||
+             !gs__head_varint(buf, end, off, 3, 0xffff, &cnt) ||
+             !gs__head_varint(buf, end, off, 5, 0xffffffffu, &first) || idx >= cnt ||
+             (idx == 0 && cnt == 1 && first == 0))) /* one meaning: not split */
+            return 0;
+        if (k != GS__KIND_REST && !gs__head_varint(buf, end, off, 2, 0xffff, &el)) return 0;
+    }
+    c->index = (uint16_t)idx;
+    c->count = (uint16_t)cnt;
+    c->first = (uint32_t)first;
+    c->elements = (uint16_t)el;
+    return 1;
+}
+
+/* One chunk at *off, coded against x (moved on to it): its header, its
+   payload (whose length its contents imply), its values all finite. */
+GS__PRIVATE int gs__wire_chunk(const unsigned char *buf, size_t end, size_t *off,
+                               gs__wire_ctx *x, gs_wire_chunk *c, gs_reject *why) {
+    size_t len, avail;
+    unsigned kind;
     c->segment_count = 0;
     c->baseline = 0;
     c->delta_coding = c->delta_width = 0;
-    c->payload_bytes = gs__get16(p + 28);
-    if ((c->encoding != GS_ENCODING_F64 && c->encoding != GS_ENCODING_F32 &&
-         c->encoding != GS_ENCODING_QUANT) ||
-        c->count == 0 || c->index >= c->count ||
-        (c->flags & ~(unsigned)(GS_WIRE_CHUNK_REST | GS_WIRE_CHUNK_DELTA | GS_WIRE_CHUNK_ACK)) ||
-        (c->flags & (c->flags - 1)) || /* at most one */
-        ((c->flags & (GS_WIRE_CHUNK_DELTA | GS_WIRE_CHUNK_ACK)) &&
-         c->encoding != GS_ENCODING_QUANT) ||
-        gs__get16(p + 30) != 0) { *why = GS_REJECT_LAYOUT; return 0; }
-    len = c->encoding == GS_ENCODING_QUANT ? gs__get16(p + 28)
-                                           : gs__value_size(c->encoding) * c->elements;
-    if (c->flags & GS_WIRE_CHUNK_REST) len = 0;
-    if (*off + GS_WIRE_CHUNK_HEADER + len > end) { *why = GS_REJECT_SHORT; return 0; }
-    if (gs__get16(p + 28) != len ||
-        ((c->flags & GS_WIRE_CHUNK_REST) && (c->elements || c->index))) {
-        *why = GS_REJECT_LAYOUT;
+    if (*off >= end) { *why = GS_REJECT_SHORT; return 0; }
+    if (!gs__chunk_head_get(buf, end, off, x, c, &kind)) {
+        /* cut short where the bytes ran out, else inconsistent */
+        *why = *off >= end ? GS_REJECT_SHORT : GS_REJECT_LAYOUT;
         return 0;
     }
+    if ((kind == GS__KIND_DELTA && c->encoding != GS_ENCODING_QUANT) ||
+        (kind == GS__KIND_REST && c->index)) { *why = GS_REJECT_LAYOUT; return 0; }
     if (!gs__wire_time_ok(c->time)) { *why = GS_REJECT_TIME; return 0; }
-    c->payload = p + GS_WIRE_CHUNK_HEADER;
-    if (c->flags & GS_WIRE_CHUNK_DELTA ? !gs__delta_parse(c, c->payload, len)
-        : c->flags & GS_WIRE_CHUNK_ACK ? !gs__ack_parse(c, c->payload, len)
-        : c->encoding == GS_ENCODING_QUANT && !(c->flags & GS_WIRE_CHUNK_REST) &&
-              !gs__quant_parse(c, c->payload, len)) { *why = GS_REJECT_LAYOUT; return 0; }
+    c->payload = buf + *off;
+    avail = end - *off;
+    if (kind == GS__KIND_REST) {
+        len = 0;
+    } else if (kind == GS__KIND_VALUES && c->encoding != GS_ENCODING_QUANT) {
+        len = gs__value_size(c->encoding) * c->elements;
+        if (len > avail) { *why = GS_REJECT_SHORT; return 0; }
+    } else {
+        len = kind == GS__KIND_DELTA ? gs__delta_parse(c, c->payload, avail)
+              : kind == GS__KIND_ACK ? gs__ack_parse(c, c->payload, avail)
+                                     : gs__quant_parse(c, c->payload, avail);
+        if (!len) { *why = GS_REJECT_LAYOUT; return 0; }
+    }
+    c->payload_bytes = (uint16_t)len;
     if (!gs__wire_values_finite(c)) { *why = GS_REJECT_NOT_FINITE; return 0; }
-    *off += GS_WIRE_CHUNK_HEADER + len;
+    *off += len;
+    if (kind != GS__KIND_ACK) {
+        x->id = c->object_id;
+        x->seq = c->sequence;
+        x->time = c->time;
+        x->any = 1;
+    }
     return 1;
 }
 
@@ -11126,7 +11288,10 @@ GS__PRIVATE int gs__wire_front(const unsigned char *buf, size_t size, gs_reject 
     if (!buf || size < GS_WIRE_HEADER + 4) { *why = GS_REJECT_SHORT; return 0; }
     if (size > GS_WIRE_MAX_DATAGRAM) { *why = GS_REJECT_LAYOUT; return 0; }
     if (memcmp(buf, "GSIM", 4) != 0) { *why = GS_REJECT_MAGIC; return 0; }
-    if (gs__hdr_version(buf) == 1) { *why = GS_REJECT_OLD_VERSION; return 0; }
+    if (gs__hdr_version(buf) == 1 || gs__hdr_version(buf) == 2) {
+        *why = GS_REJECT_OLD_VERSION;
+        return 0;
+    }
     if (gs__hdr_version(buf) != GS_WIRE_VERSION) { *why = GS_REJECT_VERSION; return 0; }
     return 1;
 }
@@ -11136,6 +11301,7 @@ GS__PRIVATE int gs__wire_front(const unsigned char *buf, size_t size, gs_reject 
 GS__PRIVATE int gs__wire_parse(const unsigned char *buf, size_t end, gs_wire_view *out,
                                gs_reject *why) {
     size_t off = GS_WIRE_HEADER;
+    gs__wire_ctx x;
     int i, n = gs__hdr_chunks(buf);
     if (n < 1 || n > GS_WIRE_MAX_CHUNKS) { *why = GS_REJECT_LAYOUT; return 0; }
     out->header.session = gs__get32(buf + 8);
@@ -11153,8 +11319,9 @@ GS__PRIVATE int gs__wire_parse(const unsigned char *buf, size_t end, gs_wire_vie
         *why = GS_REJECT_TIME;
         return 0;
     }
+    memset(&x, 0, sizeof x);
     for (i = 0; i < n; ++i)
-        if (!gs__wire_chunk(buf, end, &off, &out->chunks[i], why)) return 0;
+        if (!gs__wire_chunk(buf, end, &off, &x, &out->chunks[i], why)) return 0;
     if (off != end) { *why = GS_REJECT_LAYOUT; return 0; }
     out->chunk_count = n;
     return 1;
@@ -11917,6 +12084,7 @@ GS__PRIVATE void gs__datagram_begin(gs_net *net, double now, size_t *size) {
     h.run = net->run;
     h.send_time = now;
     gs_wire_begin(net->buf, sizeof net->buf, &h, size);
+    memset(&net->wctx, 0, sizeof net->wctx);
 }
 
 /* Room for chunks in net->buf: a sealed datagram's trailer must fit. */
@@ -12231,8 +12399,8 @@ GS__PRIVATE gs_result gs__put_chunk(gs_net *net, double now, size_t *size,
     gs_result r = GS_ERR_CAPACITY;
     for (k = 0; k < 2 && r == GS_ERR_CAPACITY; ++k) {
         if (k) gs__datagram_flush(net, now, size);
-        r = d ? gs_wire_add_delta(net->buf, gs__net_cap(net), size, ch, d)
-              : gs_wire_add(net->buf, gs__net_cap(net), size, ch, v);
+        r = d ? gs__wire_add_delta_in(net->buf, gs__net_cap(net), size, &net->wctx, ch, d)
+              : gs__wire_add_in(net->buf, gs__net_cap(net), size, &net->wctx, ch, v);
     }
     return r;
 }
@@ -12309,11 +12477,11 @@ GS__PRIVATE void gs__send_ghost(gs_net *net, gs__ghost *g, double now, size_t *s
             bytes += *size >= at ? *size - at : *size - GS_WIRE_HEADER;
             continue;
         }
-        if (gs_wire_add(net->buf, gs__net_cap(net), size, &ch, g->B + 1 + first) ==
-            GS_ERR_CAPACITY) {
+        if (gs__wire_add_in(net->buf, gs__net_cap(net), size, &net->wctx, &ch,
+                            g->B + 1 + first) == GS_ERR_CAPACITY) {
             gs__datagram_flush(net, now, size);
             before = *size;
-            gs_wire_add(net->buf, gs__net_cap(net), size, &ch, g->B + 1 + first);
+            gs__wire_add_in(net->buf, gs__net_cap(net), size, &net->wctx, &ch, g->B + 1 + first);
         }
         bytes += *size - before;
     }
@@ -12380,8 +12548,8 @@ GS__PRIVATE void gs__send_acks(gs_net *net, double now, size_t *size) {
                 gs_result r = GS_ERR_CAPACITY;
                 for (k = 0; k < 2 && r == GS_ERR_CAPACITY; ++k) {
                     if (k) gs__datagram_flush(net, now, size);
-                    r = gs_wire_add_ack(net->buf, gs__net_cap(net), size, net->peers[p].host,
-                                        acks, n);
+                    r = gs__wire_add_ack_in(net->buf, gs__net_cap(net), size, &net->wctx,
+                                            net->peers[p].host, acks, n);
                 }
                 n = 0;
             }
