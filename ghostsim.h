@@ -10623,9 +10623,90 @@ GS__PRIVATE size_t gs__varint_put(unsigned char *p, uint64_t z) {
 /* zigzag of a u32 difference read as signed (wraps both ways) */
 GS__PRIVATE uint64_t gs__zigzag32(uint32_t d) { return gs__zigzag((int64_t)(int32_t)d); }
 
+/* GS_WIRE_CHUNK_DELTA's Rice coding (coding 2, see >>wire): each value z
+   as z >> k in unary (that many 0 bits, then a 1) and its k low bits, or
+   past GS__RICE_ESCAPE zeros z in 32 bits. */
+#define GS__RICE_ESCAPE 16
+#define GS__RICE_MAX_K 24
+
+/* The index of the lowest set bit of v (v != 0). */
+GS__PRIVATE int gs__ctz64(uint64_t v) {
+#if defined(__GNUC__) || defined(__clang__)
+    return __builtin_ctzll(v);
+#else
+    int n = 0;
+    while (!(v & 1u)) { v >>= 1; ++n; }
+    return n;
+#endif
+}
+
+/* A reader of a Rice run that never reads past end (0 bits there); bits
+   counts what it took, so that a parse can tell a run that overran. */
+typedef struct gs__rice {
+    const unsigned char *p, *end;
+    uint64_t acc;
+    int n;
+    size_t bits;
+} gs__rice;
+GS__PRIVATE void gs__rice_fill(gs__rice *r) {
+    if (r->n > 56) return;
+    if (r->end - r->p >= 8) { /* whole words: the bytes above n go in again, the same */
+        r->acc |= gs__get64(r->p) << r->n;
+        r->p += (63 - r->n) >> 3;
+        r->n |= 56;
+        return;
+    }
+    while (r->n <= 56) {
+        r->acc |= (uint64_t)(r->p < r->end ? *r->p++ : 0u) << r->n;
+        r->n += 8;
+    }
+}
+/* The next value z; *esc set when it came escaped. */
+GS__PRIVATE uint64_t gs__rice_get(gs__rice *r, int k, int *esc) {
+    uint64_t z;
+    int tz;
+    gs__rice_fill(r);
+    tz = gs__ctz64(r->acc | (uint64_t)1 << GS__RICE_ESCAPE);
+    if (tz < GS__RICE_ESCAPE) {
+        r->acc >>= tz + 1;
+        z = (uint64_t)tz << k | (r->acc & (((uint64_t)1 << k) - 1));
+        r->acc >>= k;
+        r->n -= tz + 1 + k;
+        r->bits += (size_t)(tz + 1 + k);
+        *esc = 0;
+        return z;
+    }
+    r->acc >>= GS__RICE_ESCAPE;
+    z = r->acc & 0xffffffffu;
+    r->acc >>= 32;
+    r->n -= GS__RICE_ESCAPE + 32;
+    r->bits += GS__RICE_ESCAPE + 32;
+    *esc = 1;
+    return z;
+}
+GS__PRIVATE void gs__rice_init(gs__rice *r, const unsigned char *p, const unsigned char *end) {
+    r->p = p; r->end = end; r->acc = 0; r->n = 0; r->bits = 0;
+}
+
+/* The bits a Rice run of parameter k takes, estimated from the values'
+   bit lengths (hist[L]: values of L bits; a value of L > k bits has z >>
+   k between 2^(L-k-1) and 2^(L-k) - 1, taken as 3/4 of 2^(L-k)). */
+GS__PRIVATE double gs__rice_cost(const int *hist, int k) {
+    double bits = 0.0;
+    int L;
+    for (L = 0; L <= 32; ++L) {
+        double q;
+        if (!hist[L]) continue;
+        q = L <= k ? 0.0 : 0.75 * (double)((uint64_t)1 << (L - k));
+        bits += hist[L] * (q >= GS__RICE_ESCAPE ? GS__RICE_ESCAPE + 32.0 : q + 1.0 + k);
+    }
+    return bits;
+}
+
 /* Reads a delta chunk's differences in order. */
 typedef struct gs__dread {
     gs__bitr map, val;
+    gs__rice rice;
     int coding, width;
 } gs__dread;
 GS__PRIVATE void gs__dread_init(const gs_wire_chunk *c, gs__dread *d) {
@@ -10639,8 +10720,11 @@ GS__PRIVATE void gs__dread_init(const gs_wire_chunk *c, gs__dread *d) {
     d->map.p = q; d->map.end = q + bm; d->map.acc = 0; d->map.n = 0;
     if (d->coding == 0) bm = 0;
     d->val.p = q + bm; d->val.end = end; d->val.acc = 0; d->val.n = 0;
+    gs__rice_init(&d->rice, q, end);
 }
 GS__PRIVATE int64_t gs__dread_next(gs__dread *d) {
+    int esc;
+    if (d->coding == 2) return gs__unzigzag(gs__rice_get(&d->rice, d->width, &esc));
     if (d->coding == 0) return gs__unzigzag(gs__bitr_get(&d->val, d->width));
     if (!gs__bitr_get(&d->map, 1)) return 0;
     return gs__unzigzag((uint64_t)gs__bitr_get(&d->val, d->width) + 1u);
@@ -10659,11 +10743,24 @@ GS__PRIVATE size_t gs__delta_parse(gs_wire_chunk *c, const unsigned char *p, siz
     if (!gs__varint_get(&q, end, 5, &dist) || dist < 1 || dist > 0x80000000u || q >= end)
         return 0;
     c->delta_width = *q & 0x3f;
-    c->delta_coding = *q >> 7;
-    if ((*q & 0x40) || c->delta_width > 32) return 0;
+    c->delta_coding = *q >> 6;
+    if (c->delta_coding == 3 || c->delta_width > (c->delta_coding == 2 ? GS__RICE_MAX_K : 32))
+        return 0;
     ++q;
     c->baseline = c->sequence - (uint32_t)dist;
-    if (c->delta_coding == 0) {
+    if (c->delta_coding == 2) { /* walked: its length is where it ends */
+        gs__rice r;
+        int esc;
+        gs__rice_init(&r, q, end);
+        for (i = 0; i < c->elements; ++i) {
+            uint64_t z = gs__rice_get(&r, c->delta_width, &esc);
+            /* one meaning: an escape only for what unary cannot say */
+            if (r.bits > 8 * (size_t)(end - q) || (esc && z >> c->delta_width < GS__RICE_ESCAPE))
+                return 0;
+        }
+        need = (r.bits + 7) / 8;
+        if (r.bits % 8 && q[need - 1] >> (r.bits % 8)) return 0; /* padding 0 */
+    } else if (c->delta_coding == 0) {
         need = ((size_t)c->elements * (size_t)c->delta_width + 7) / 8;
     } else {
         bm = ((size_t)c->elements + 7) / 8;
@@ -10747,6 +10844,13 @@ GS_API void gs_wire_deltas(const gs_wire_chunk *c, int64_t *out) {
     q++;
     w = c->delta_width;
     mask = ((uint64_t)1 << w) - 1;
+    if (c->delta_coding == 2) {
+        gs__rice r;
+        int esc;
+        gs__rice_init(&r, q, end);
+        for (i = 0; i < c->elements; ++i) out[i] = gs__unzigzag(gs__rice_get(&r, w, &esc));
+        return;
+    }
     if (c->delta_coding) {
         map = q;
         q += ((size_t)c->elements + 7) / 8;
@@ -10758,6 +10862,42 @@ GS_API void gs_wire_deltas(const gs_wire_chunk *c, int64_t *out) {
     }
 }
 
+/* The index of the highest set bit of v (v != 0), from the top. */
+GS__PRIVATE int gs__clz64(uint64_t v) {
+#if defined(__GNUC__) || defined(__clang__)
+    return __builtin_clzll(v);
+#else
+    int n = 0;
+    while (!(v >> 63)) { v <<= 1; ++n; }
+    return n;
+#endif
+}
+
+/* A delta payload in the Rice coding of parameter k at p (room bytes,
+   the head of hn bytes first): its size, or 0 if it does not fit. */
+GS__PRIVATE size_t gs__delta_put_rice(unsigned char *p, size_t room, const gs_wire_chunk *c,
+                                      const int64_t *d, const unsigned char *head, size_t hn,
+                                      int k) {
+    gs__bitw w;
+    int i;
+    if (hn + 1 > room) return 0;
+    memcpy(p, head, hn);
+    p[hn] = (unsigned char)(k | 2 << 6);
+    w.p = p + hn + 1; w.end = p + room; w.acc = 0; w.n = 0; w.over = 0;
+    for (i = 0; i < c->elements; ++i) {
+        uint64_t z = gs__zigzag(d[i]), q = z >> k;
+        if (q < GS__RICE_ESCAPE) {
+            gs__bitw_put(&w, (uint64_t)1 << q, (int)q + 1);
+            if (k) gs__bitw_put(&w, z & (((uint64_t)1 << k) - 1), k);
+        } else {
+            gs__bitw_put(&w, 0, GS__RICE_ESCAPE);
+            gs__bitw_put(&w, z, 32);
+        }
+    }
+    gs__bitw_flush(&w);
+    return w.over ? 0 : (size_t)(w.p - p);
+}
+
 /* Writes a delta payload at p (room bytes): its size, or 0 if it does not
    fit. The differences are within +-2^31 (checked by the caller). */
 GS__PRIVATE size_t gs__delta_put(unsigned char *p, size_t room, const gs_wire_chunk *c,
@@ -10766,11 +10906,13 @@ GS__PRIVATE size_t gs__delta_put(unsigned char *p, size_t room, const gs_wire_ch
     size_t hn = gs__varint_put(head, (uint64_t)(uint32_t)(c->sequence - c->baseline));
     size_t need0, need1, need;
     uint64_t m0 = 0, m1 = 0;
-    int i, nz = 0, w0 = 0, w1 = 0, coding, wd;
+    int i, nz = 0, w0 = 0, w1 = 0, coding, wd, hist[33], k, rk = 0;
+    double rbits = HUGE_VAL;
+    memset(hist, 0, sizeof hist);
     for (i = 0; i < c->elements; ++i) {
         uint64_t z = gs__zigzag(d[i]);
         m0 |= z;
-        if (z) { nz++; m1 |= z - 1; }
+        if (z) { nz++; m1 |= z - 1; hist[64 - gs__clz64(z)]++; } else hist[0]++;
     }
     while (w0 < 32 && m0 >> w0) ++w0;
     while (w1 < 32 && m1 >> w1) ++w1;
@@ -10778,10 +10920,16 @@ GS__PRIVATE size_t gs__delta_put(unsigned char *p, size_t room, const gs_wire_ch
     need1 = ((size_t)c->elements + 7) / 8 + ((size_t)nz * (size_t)w1 + 7) / 8;
     coding = need1 < need0;
     wd = coding ? w1 : w0;
+    for (k = 0; k <= w0 && k <= GS__RICE_MAX_K; ++k) {
+        double b = gs__rice_cost(hist, k);
+        if (b < rbits) { rbits = b; rk = k; }
+    }
+    if (rbits / 8.0 + 1.0 < (double)(coding ? need1 : need0))
+        return gs__delta_put_rice(p, room, c, d, head, hn, rk);
     need = hn + 1 + (coding ? need1 : need0);
     if (need > room) return 0;
     memcpy(p, head, hn);
-    p[hn] = (unsigned char)(wd | coding << 7);
+    p[hn] = (unsigned char)(wd | coding << 6);
     /* the writer in locals (as gs__quant_put_scalar); need counts every
        bit, so the 32-bit stores stay inside it */
     {
