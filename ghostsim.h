@@ -11331,11 +11331,13 @@ GS__PRIVATE void gs__wire_get_values(const gs_wire_chunk *c, double *out) {
 GS__PRIVATE int gs__wire_time_ok(double t) { return t >= 0.0 && t <= GS_WIRE_MAX_TIME; }
 
 /* An unsigned LEB128 varint at *off of at most max bytes before end, at
-   most top: 0 if cut short, longer, or over. */
+   most top: 0 if cut short (*off then end), longer, or over. */
 GS__PRIVATE int gs__head_varint(const unsigned char *buf, size_t end, size_t *off, int max,
                                 uint64_t top, uint64_t *out) {
     const unsigned char *p = buf + *off;
-    if (!gs__varint_get(&p, buf + end, max, out) || *out > top) return 0;
+    int ok = gs__varint_get(&p, buf + end, max, out);
+    if (!ok && p == buf + end) *off = end;
+    if (!ok || *out > top) return 0;
     *off = (size_t)(p - buf);
     return 1;
 }
@@ -11365,7 +11367,7 @@ GS__PRIVATE int gs__chunk_head_get(const unsigned char *buf, size_t end, size_t 
         c->object_id = x->id + (uint32_t)gs__unzigzag(id);
         c->sequence = x->seq + (uint32_t)gs__unzigzag(seq);
         if (b & GS__KIND_TIME) {
-            if (*off + 8 > end) return 0;
+            if (*off + 8 > end) { *off = end; return 0; }
             c->time = gs__getf64(buf + *off);
             *off += 8;
         } else {
