@@ -336,11 +336,14 @@
        0.1.0 (2026-11-23)  world, scheduler, spring-mass agents, integrators,
                            rigid bodies, probes, contacts, the paper's scene,
                            ghosts, wire format v1, simnet, POSIX UDP.
-       unreleased          wire format v2 (v1 refused as GS_REJECT_OLD_VERSION):
-                           GS_ENCODING_QUANT, send on change with heartbeats,
-                           priority within a peer's budget, gs_wire_values;
-                           delta coding against acknowledged baselines
-                           (gs_ghost_desc.delta, GS_REJECT_BASELINE).
+       unreleased          wire format v3 (v1 and v2 refused as
+                           GS_REJECT_OLD_VERSION): GS_ENCODING_QUANT, send on
+                           change with heartbeats, priority within a peer's
+                           budget, gs_wire_values; delta coding against
+                           acknowledged baselines (gs_ghost_desc.delta,
+                           GS_REJECT_BASELINE); compact chunk headers coded
+                           against the chunk before, lengths implied, a
+                           Rice coding of deltas.
                            One way to make a net: gs_net_create on a
                            gs_transport (gs_simnet_transport,
                            gs_udp_create + gs_udp_transport, or yours);
@@ -1439,19 +1442,40 @@ GS_API gs_result gs_world_sync_test(gs_world *w, int frames, int *bad_agent);
 
 /* ========================================================================
    >>wire
-   Wire format v2, little-endian. A datagram (at most GS_WIRE_MAX_DATAGRAM
+   Wire format v3, little-endian. A datagram (at most GS_WIRE_MAX_DATAGRAM
    bytes) is a header, whole chunks, and a CRC-32 of everything before it:
-     header (48 B): magic "GSIM", version u8 = 2, flags u8, chunk count u16,
-       session u32, sender host u32, datagram sequence u32, run u32 (drawn
-       by the sender at each start, so that its peers know it started again
-       and its sequence with it; 0: not said),
-       send time f64 (s, sender's clock), echo time f64 (the latest send time
-       received from the destination), echo hold f64 (s it was held since)
-     chunk (32 B + payload): object id u32, snapshot sequence u32,
-       simulation time f64 (always exact), chunk index u16, chunk count
-       u16, first element u32 (of the state after its time), element count
-       u16, encoding u8, chunk flags u8, payload bytes u16, reserved u16
-       (0); then the payload: count values as f64 or f32, or in
+     header (48 B): magic "GSIM", version u8 = 3, flags u8, chunk count u16
+       (1..GS_WIRE_MAX_CHUNKS), session u32, sender host u32, datagram
+       sequence u32, run u32 (drawn by the sender at each start, so that
+       its peers know it started again and its sequence with it; 0: not
+       said), send time f64 (s, sender's clock), echo time f64 (the latest
+       send time received from the destination), echo hold f64 (s it was
+       held since)
+     chunk: a header of 3 to GS_WIRE_CHUNK_HEADER bytes, coded against the
+       datagram's chunk before it (an acknowledgement chunk aside: nothing
+       before the first), then its payload, whose length its contents
+       imply. Varints are unsigned LEB128; "zigzag" maps a signed
+       difference d (u32 arithmetic read as signed) to 2d or -2d - 1.
+       kind u8: bits 0-1 the chunk's kind (0 values, 1 delta, 2 heartbeat,
+         3 acknowledgements), bit 2 a time follows, bits 3-4 the encoding
+         (1 f64, 2 f32, 3 GS_ENCODING_QUANT), bit 5 the state is split
+         (index, count and first follow), bits 6-7 0;
+       object id: zigzag(id - the chunk before's) varint (at most 5 bytes);
+       snapshot sequence: zigzag(sequence - the chunk before's) varint;
+       the simulation time f64 (exact) if bit 2, else the chunk before's
+         (the first chunk of a datagram always says it);
+       if bit 5: chunk index, chunk count (varints of at most 3 bytes,
+         index < count <= 65535) and first element (of the state after its
+         time; at most 5 bytes); without it 0 of 1 from 0 (and bit 5 with
+         those is refused: one datagram, one meaning);
+       element count varint (at most 2 bytes; a heartbeat has none: 0);
+       an acknowledgement chunk is the kind byte (bits 2 and 5 clear, the
+         encoding 3), the host it is for as a varint and its entry count
+         (1..GS_WIRE_MAX_ACKS), nothing else: the chunk after it is coded
+         against the chunk before it.
+       A chunk of 10 f64 after one of the same time and sequence: 4 bytes
+       of header; a heartbeat 3. The payload: count values as f64 or f32,
+       or in
        GS_ENCODING_QUANT a segment count u8 (1..GS_WIRE_MAX_SEGMENTS) and
        segments whose value counts add up to the element count:
          scalar (kind 1): count u16, step f64 (> 0), width u8 (0..32),
@@ -1473,11 +1497,12 @@ GS_API gs_result gs_world_sync_test(gs_world *w, int frames, int *bad_agent);
        quaternion of a rotation is sent normalized, each of its three
        components off by at most sqrt(2) / (2 (2^bits - 1)) (1.1e-5 at 16
        bits), its rotation by about twice that in radians.
-     Chunk flags: bit 0 (GS_WIRE_CHUNK_REST): a heartbeat: no values
+     The chunk kinds are the chunk flags of gs_wire_chunk:
+     Kind 2 (GS_WIRE_CHUNK_REST): a heartbeat: no values
        (element count 0, payload 0 bytes, chunk index 0); the object is at
        rest at the time it carries, its state within the sender's
        rest_threshold of the last snapshot it sent of it.
-     Bit 1 (GS_WIRE_CHUNK_DELTA, GS_ENCODING_QUANT only, element count
+     Kind 1 (GS_WIRE_CHUNK_DELTA, GS_ENCODING_QUANT only, element count
        1..GS_WIRE_QUANT_CHUNK): the chunk's values as differences from the same chunk of an earlier snapshot of
        the object (its baseline), in the integers of the quantized state:
        a scalar's integer is its value over its segment's step (base + q
@@ -1488,30 +1513,36 @@ GS_API gs_result gs_world_sync_test(gs_world *w, int frames, int *bad_agent);
        so the receiver's state is the sender's quantized state bit for
        bit. Payload: sequence - baseline sequence (u32 arithmetic) as an
        unsigned LEB128 varint, 1..2^31; one byte: the width w (0..32) in
-       bits 0-5 and the coding in bit 7; then
+       bits 0-5 and the coding in bits 6-7; then
          coding 0 (packed): element-count zigzag differences of w bits,
            packed as above;
          coding 1 (changed bitmap): element-count bits, bit i set when
            difference i is not 0 (padded with 0 bits to a whole byte),
-           then for each set bit zigzag(difference) - 1 in w bits.
-       The sender picks whichever is smaller. A receiver that does not hold
+           then for each set bit zigzag(difference) - 1 in w bits;
+         coding 2 (Rice, w = k in 0..24): per difference z = its zigzag,
+           q = z >> k: if q < 16, q 0 bits, a 1 bit and z's k low bits;
+           else 16 0 bits and z in 32 bits (only then); packed as above,
+           the run padded with 0 bits to a whole byte.
+       The sender picks whichever is smaller (Rice by an estimate from the
+       differences' bit lengths): small differences with a few large ones
+       take Rice about 2 bits fewer a value than packing at the largest's
+       width. A receiver that does not hold
        the baseline's chunk, or whose decoded integers leave the ranges
        above (a scalar past 2^51 - 2^32 steps, a quaternion component past
        2^bits - 1 or its three squares over 0.76), refuses that chunk
        (GS_REJECT_BASELINE, counted; the rest of the datagram stands) and
        says so in its next acknowledgement.
-     Bit 2 (GS_WIRE_CHUNK_ACK): acknowledgements, no values: object id =
-       the host they are for (every other host skips the chunk), sequence
-       0, time 0, chunk index 0, count 1, first element 0, encoding
-       GS_ENCODING_QUANT, element count = the number of entries (1..
-       GS_WIRE_MAX_ACKS), then per entry two unsigned LEB128 varints of at
+     Kind 3 (GS_WIRE_CHUNK_ACK): acknowledgements, no values: object id =
+       the host they are for (every other host skips the chunk), decoded
+       as sequence 0, time 0, chunk index 0, count 1, first element 0,
+       encoding GS_ENCODING_QUANT, element count = the number of entries
+       (1..GS_WIRE_MAX_ACKS), then per entry two unsigned LEB128 varints of at
        most 5 bytes: zigzag(object id - the previous entry's, from 0) * 2
        + refused, and zigzag(sequence - the previous entry's, from 0). An
        entry tells the newest snapshot of that object the sender of the
        chunk holds whole (every chunk), or with refused = 1 that it
        refused a delta of it: the next goes whole.
-     At most one flag is set.
-   v1 datagrams are refused as GS_REJECT_OLD_VERSION.
+   v1 and v2 datagrams are refused as GS_REJECT_OLD_VERSION.
    A snapshot too big for one datagram is cut into chunks that each stand
    alone: a lost chunk leaves its range unblended, the rest still counts.
    A chunk carries at most GS_WIRE_CHUNK_ROOM bytes of values, so that a
@@ -1542,7 +1573,7 @@ GS_API gs_result gs_world_sync_test(gs_world *w, int frames, int *bad_agent);
 #define GS_WIRE_MAX_ACKS 100 /* entries in one acknowledgement chunk */
 #define GS_WIRE_MAX_DATAGRAM 1200
 #define GS_WIRE_HEADER 48
-#define GS_WIRE_CHUNK_HEADER 32
+#define GS_WIRE_CHUNK_HEADER 32 /* the most a chunk's header takes */
 #define GS_WIRE_MAX_CHUNKS 255 /* chunks one datagram may carry */
 /* Chunks one snapshot may have (its chunk index and count are u16): a
    state of at most 8 847 225 values in f64 (135 a chunk), 17 694 450 in
@@ -10602,7 +10633,8 @@ GS__PRIVATE double gs__quant_value(const gs_wire_chunk *c, int i) {
 /* ---- GS_WIRE_CHUNK_DELTA and GS_WIRE_CHUNK_ACK ---- */
 
 /* An unsigned LEB128 varint at *p of at most max bytes before end; 0 if
-   it is cut short or longer. */
+   it is cut short, longer, or not in its fewest bytes (a last byte 0 after
+   others: one datagram, one meaning). */
 GS__PRIVATE int gs__varint_get(const unsigned char **p, const unsigned char *end, int max,
                                uint64_t *out) {
     uint64_t z = 0;
@@ -10610,7 +10642,10 @@ GS__PRIVATE int gs__varint_get(const unsigned char **p, const unsigned char *end
     for (i = 0; i < max && *p < end; ++i) {
         unsigned b = *(*p)++;
         z |= (uint64_t)(b & 0x7f) << (7 * i);
-        if (!(b & 0x80)) { *out = z; return 1; }
+        if (!(b & 0x80)) {
+            *out = z;
+            return b != 0 || i == 0;
+        }
     }
     return 0;
 }
@@ -11370,6 +11405,8 @@ GS__PRIVATE int gs__chunk_head_get(const unsigned char *buf, size_t end, size_t 
             if (*off + 8 > end) { *off = end; return 0; }
             c->time = gs__getf64(buf + *off);
             *off += 8;
+            /* one meaning: a time is said only where it changes */
+            if (x->any && memcmp(&c->time, &x->time, sizeof c->time) == 0) return 0;
         } else {
             if (!x->any) return 0; /* the first chunk says its time */
             c->time = x->time;
