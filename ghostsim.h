@@ -2278,9 +2278,12 @@ GS_API double gs_udp_now(void);
 #if defined(__GNUC__) || defined(__clang__)
 #define GS__PRIVATE static __attribute__((unused))
 #define GS__PRINTF(f, a) __attribute__((format(printf, f, a)))
+/* an inner loop's step, inlined where the compiler would call it */
+#define GS__PRIVATE_INLINE static inline __attribute__((unused, always_inline))
 #else
 #define GS__PRIVATE static
 #define GS__PRINTF(f, a)
+#define GS__PRIVATE_INLINE static
 #endif
 
 #ifdef __cplusplus
@@ -10683,7 +10686,7 @@ typedef struct gs__rice {
     int n;
     size_t bits;
 } gs__rice;
-GS__PRIVATE void gs__rice_fill(gs__rice *r) {
+GS__PRIVATE_INLINE void gs__rice_fill(gs__rice *r) {
     if (r->n > 56) return;
     if (r->end - r->p >= 8) { /* whole words: the bytes above n go in again, the same */
         r->acc |= gs__get64(r->p) << r->n;
@@ -10697,7 +10700,7 @@ GS__PRIVATE void gs__rice_fill(gs__rice *r) {
     }
 }
 /* The next value z; *esc set when it came escaped. */
-GS__PRIVATE uint64_t gs__rice_get(gs__rice *r, int k, int *esc) {
+GS__PRIVATE_INLINE uint64_t gs__rice_get(gs__rice *r, int k, int *esc) {
     uint64_t z;
     int tz;
     gs__rice_fill(r);
@@ -10941,21 +10944,25 @@ GS__PRIVATE size_t gs__delta_put(unsigned char *p, size_t room, const gs_wire_ch
     size_t hn = gs__varint_put(head, (uint64_t)(uint32_t)(c->sequence - c->baseline));
     size_t need0, need1, need;
     uint64_t m0 = 0, m1 = 0;
-    int i, nz = 0, w0 = 0, w1 = 0, coding, wd, hist[33], k, rk = 0;
-    double rbits = HUGE_VAL;
+    int i, nz = 0, w0 = 0, w1 = 0, coding, wd, hist[33], k, k0 = 0, rk = 0;
+    double rbits = HUGE_VAL, sum = 0.0;
     memset(hist, 0, sizeof hist);
     for (i = 0; i < c->elements; ++i) {
         uint64_t z = gs__zigzag(d[i]);
         m0 |= z;
+        sum += (double)z;
         if (z) { nz++; m1 |= z - 1; hist[64 - gs__clz64(z)]++; } else hist[0]++;
     }
+    /* Rice's best k is near log2 of the mean: the three about it are
+       tried (a cost each of 33 bit lengths, not one per value) */
+    while (k0 < GS__RICE_MAX_K && (double)((uint64_t)2 << k0) <= sum / c->elements) ++k0;
     while (w0 < 32 && m0 >> w0) ++w0;
     while (w1 < 32 && m1 >> w1) ++w1;
     need0 = ((size_t)c->elements * (size_t)w0 + 7) / 8;
     need1 = ((size_t)c->elements + 7) / 8 + ((size_t)nz * (size_t)w1 + 7) / 8;
     coding = need1 < need0;
     wd = coding ? w1 : w0;
-    for (k = 0; k <= w0 && k <= GS__RICE_MAX_K; ++k) {
+    for (k = k0 > 0 ? k0 - 1 : 0; k <= k0 + 1 && k <= GS__RICE_MAX_K; ++k) {
         double b = gs__rice_cost(hist, k);
         if (b < rbits) { rbits = b; rk = k; }
     }
