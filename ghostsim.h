@@ -10944,25 +10944,25 @@ GS__PRIVATE size_t gs__delta_put(unsigned char *p, size_t room, const gs_wire_ch
     size_t hn = gs__varint_put(head, (uint64_t)(uint32_t)(c->sequence - c->baseline));
     size_t need0, need1, need;
     uint64_t m0 = 0, m1 = 0;
-    int i, nz = 0, w0 = 0, w1 = 0, coding, wd, hist[33], k, k0 = 0, rk = 0;
-    double rbits = HUGE_VAL, sum = 0.0;
+    int i, nz = 0, w0 = 0, w1 = 0, coding, wd, hist[33], k, k0 = 0, rk = 0, below = 0;
+    double rbits = HUGE_VAL;
     memset(hist, 0, sizeof hist);
     for (i = 0; i < c->elements; ++i) {
         uint64_t z = gs__zigzag(d[i]);
         m0 |= z;
-        sum += (double)z;
         if (z) { nz++; m1 |= z - 1; hist[64 - gs__clz64(z)]++; } else hist[0]++;
     }
-    /* Rice's best k is near log2 of the mean: the three about it are
-       tried (a cost each of 33 bit lengths, not one per value) */
-    while (k0 < GS__RICE_MAX_K && (double)((uint64_t)2 << k0) <= sum / c->elements) ++k0;
+    /* Rice's best k is near the median's bit length (the mean would follow
+       the few large values, which escape anyway): the four about it are
+       tried, a cost each of 33 bit lengths, not one per value */
+    for (k0 = 0; k0 < 32 && 2 * (below + hist[k0]) < c->elements; ++k0) below += hist[k0];
     while (w0 < 32 && m0 >> w0) ++w0;
     while (w1 < 32 && m1 >> w1) ++w1;
     need0 = ((size_t)c->elements * (size_t)w0 + 7) / 8;
     need1 = ((size_t)c->elements + 7) / 8 + ((size_t)nz * (size_t)w1 + 7) / 8;
     coding = need1 < need0;
     wd = coding ? w1 : w0;
-    for (k = k0 > 0 ? k0 - 1 : 0; k <= k0 + 1 && k <= GS__RICE_MAX_K; ++k) {
+    for (k = k0 > 2 ? k0 - 2 : 0; k <= k0 + 1 && k <= GS__RICE_MAX_K; ++k) {
         double b = gs__rice_cost(hist, k);
         if (b < rbits) { rbits = b; rk = k; }
     }
