@@ -1,15 +1,21 @@
-/* net_helpers.h - the tests' short ways to make a net on the simnet or on
-   UDP: gs_net_create on the transport that gs_simnet_transport, or
-   gs_udp_create and gs_udp_transport, fill (tests/test_transport.c tests
-   those calls one by one). Include after ghostsim.h. */
+/* net_helpers.h - the tests' short ways to make a net on the simnet, on
+   UDP or on a transport of the test's own: gs_net_create on the transport
+   that gs_simnet_transport, or gs_udp_create and gs_udp_transport, or the
+   test fills (tests/test_transport.c tests those calls one by one), and a
+   free loopback address for UDP. Include after ghostsim.h. */
 #ifndef GS_TEST_NET_HELPERS_H
 #define GS_TEST_NET_HELPERS_H
 
-#if defined(__GNUC__) || defined(__clang__)
-#define GS_TEST_UNUSED __attribute__((unused))
-#else
-#define GS_TEST_UNUSED
+#include <stdio.h>
+#include <string.h>
+#ifndef GHOSTSIM_NO_UDP
+#include <arpa/inet.h>
+#include <netinet/in.h>
+#include <sys/socket.h>
+#include <unistd.h>
 #endif
+
+#include "helpers.h"
 
 /* The world's net on the simnet (desc NULL: the defaults; its transport
    is filled here): the host is linked to every host joined before. */
@@ -20,6 +26,19 @@ static GS_TEST_UNUSED gs_result test_join(gs_simnet *sim, gs_world *w, const gs_
     if (out) *out = NULL;
     r = gs_simnet_transport(sim, &nd.transport);
     if (r != GS_OK) return r;
+    return gs_net_create(w, &nd, out);
+}
+
+/* The world's net on a transport of the test's own that has only send
+   (desc NULL: the defaults; send and user replace its transport). */
+static GS_TEST_UNUSED gs_result send_only_net(gs_world *w, const gs_net_desc *desc,
+                                              gs_result (*send)(void *user, uint32_t host,
+                                                                const void *data, size_t size),
+                                              void *user, gs_net **out) {
+    gs_net_desc nd = desc ? *desc : gs_net_desc_default();
+    memset(&nd.transport, 0, sizeof nd.transport);
+    nd.transport.send = send;
+    nd.transport.user = user;
     return gs_net_create(w, &nd, out);
 }
 
@@ -38,6 +57,35 @@ static GS_TEST_UNUSED gs_result test_udp_open(gs_world *w, const gs_udp_desc *ud
     if (r == GS_OK) r = gs_net_create(w, &d, out);
     if (r != GS_OK) gs_udp_close(u);
     return r;
+}
+
+/* A port of the loopback that is free now (the kernel's choice: port 0),
+   written as "127.0.0.1:PORT" or (v6) "[::1]:PORT" into buf; fixed ports
+   collide with other test runs on a shared machine. Returns the port, 0
+   if there is no such loopback. */
+static GS_TEST_UNUSED int loopback_addr(int v6, char *buf, size_t size) {
+    struct sockaddr_storage a;
+    socklen_t len = sizeof a;
+    int fd = socket(v6 ? AF_INET6 : AF_INET, SOCK_DGRAM, 0), port = 0;
+    if (fd < 0) return 0;
+    memset(&a, 0, sizeof a);
+    if (v6) {
+        struct sockaddr_in6 *a6 = (struct sockaddr_in6 *)(void *)&a;
+        a6->sin6_family = AF_INET6;
+        a6->sin6_addr = in6addr_loopback;
+    } else {
+        struct sockaddr_in *a4 = (struct sockaddr_in *)(void *)&a;
+        a4->sin_family = AF_INET;
+        a4->sin_addr.s_addr = htonl(INADDR_LOOPBACK);
+    }
+    if (bind(fd, (struct sockaddr *)&a, v6 ? sizeof(struct sockaddr_in6)
+                                           : sizeof(struct sockaddr_in)) == 0 &&
+        getsockname(fd, (struct sockaddr *)&a, &len) == 0)
+        port = ntohs(v6 ? ((struct sockaddr_in6 *)(void *)&a)->sin6_port
+                        : ((struct sockaddr_in *)(void *)&a)->sin_port);
+    close(fd);
+    if (port) snprintf(buf, size, v6 ? "[::1]:%d" : "127.0.0.1:%d", port);
+    return port;
 }
 #endif
 

@@ -17,6 +17,19 @@
 
 #include "ghostsim.h"
 #include "net_helpers.h"
+#include "world_helpers.h"
+
+/* Host `host`'s world with a small paper scene: a 4 x 4 cloth, and the
+   spheres and probes asked (0: the defaults; GS_NONE: none). */
+static gs_world *small_scene(uint32_t host, int spheres, int probes, gs_scene *sc) {
+    gs_world *w = world_new(host);
+    gs_scene_desc sd = gs_scene_desc_default();
+    sd.cloth_n = 4;
+    sd.sphere_count = spheres;
+    sd.probe_count = probes;
+    assert_int_equal(gs_scene_create(w, &sd, sc), GS_OK);
+    return w;
+}
 
 /* ---- the weight rule names the object ---- */
 
@@ -94,16 +107,9 @@ static void test_weight_rule_names_object(void **state) {
     memset(r, 0, sizeof r);
     assert_int_equal(gs_simnet_create(NULL, &sim), GS_OK);
     for (h = 0; h < 2; ++h) {
-        gs_world_desc wd = gs_world_desc_default();
-        gs_scene_desc sd = gs_scene_desc_default();
         gs_ghost_desc gd = gs_ghost_desc_default();
         gs_net *net;
-        wd.host_id = (uint32_t)h + 1;
-        sd.cloth_n = 4;
-        sd.sphere_count = 2;
-        sd.probe_count = 2;
-        assert_int_equal(gs_world_create(&wd, &w[h]), GS_OK);
-        assert_int_equal(gs_scene_create(w[h], &sd, &sc[h]), GS_OK);
+        w[h] = small_scene((uint32_t)h + 1, 2, 2, &sc[h]);
         r[h].rec.scene = &sc[h];
         gd.rule_for = rule_for;
         gd.rule_for_user = &r[h];
@@ -143,16 +149,9 @@ static void test_weight_in_single_ghost(void **state) {
     memset(s, 0, sizeof s);
     assert_int_equal(gs_simnet_create(NULL, &sim), GS_OK);
     for (h = 0; h < 2; ++h) {
-        gs_world_desc wd = gs_world_desc_default();
-        gs_scene_desc sd = gs_scene_desc_default();
         gs_ghost_desc gd = gs_ghost_desc_default();
         gs_net *net;
-        wd.host_id = (uint32_t)h + 1;
-        sd.cloth_n = 4;
-        sd.sphere_count = GS_NONE;
-        sd.probe_count = GS_NONE;
-        assert_int_equal(gs_world_create(&wd, &w[h]), GS_OK);
-        assert_int_equal(gs_scene_create(w[h], &sd, &sc[h]), GS_OK);
+        w[h] = small_scene((uint32_t)h + 1, GS_NONE, GS_NONE, &sc[h]);
         assert_int_equal(sc[h].sphere_count + sc[h].probe_count, 0);
         s[h].scene = &sc[h];
         gd.object_id = 7;
@@ -360,19 +359,10 @@ static gs_result flaky_send(void *user, uint32_t host, const void *data, size_t 
 
 /* Host 1 with a ghosted cloth, peers 2 and 3, on a flaky transport. */
 static gs_world *flaky_host(flaky *f, gs_net **net) {
-    gs_world *w;
     gs_scene sc;
-    gs_scene_desc sd = gs_scene_desc_default();
-    gs_net_desc nd = gs_net_desc_default();
-    assert_int_equal(gs_world_create(NULL, &w), GS_OK);
-    sd.cloth_n = 4;
-    sd.sphere_count = GS_NONE;
-    sd.probe_count = GS_NONE;
-    assert_int_equal(gs_scene_create(w, &sd, &sc), GS_OK);
+    gs_world *w = small_scene(1, GS_NONE, GS_NONE, &sc);
     assert_int_equal(gs_scene_attach_ghosts(&sc, NULL), GS_OK);
-    nd.transport.send = flaky_send;
-    nd.transport.user = f;
-    assert_int_equal(gs_net_create(w, &nd, net), GS_OK);
+    assert_int_equal(send_only_net(w, NULL, flaky_send, f, net), GS_OK);
     assert_int_equal(gs_net_add_peer(*net, 2, NULL), GS_OK);
     assert_int_equal(gs_net_add_peer(*net, 3, NULL), GS_OK);
     return w;
@@ -483,13 +473,8 @@ static void test_stats_shape(void **state) {
     (void)state;
     assert_int_equal(gs_simnet_create(NULL, &sim), GS_OK);
     for (h = 0; h < 2; ++h) {
-        gs_world_desc wd = gs_world_desc_default();
-        gs_scene_desc sd = gs_scene_desc_default();
         gs_net *net;
-        wd.host_id = (uint32_t)h + 1;
-        sd.cloth_n = 4;
-        assert_int_equal(gs_world_create(&wd, &w[h]), GS_OK);
-        assert_int_equal(gs_scene_create(w[h], &sd, &sc[h]), GS_OK);
+        w[h] = small_scene((uint32_t)h + 1, 0, 0, &sc[h]);
         assert_int_equal(gs_scene_attach_ghosts(&sc[h], NULL), GS_OK);
         assert_int_equal(test_join(sim, w[h], NULL, &net), GS_OK);
     }

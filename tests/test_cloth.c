@@ -21,14 +21,7 @@
 #include <string.h>
 
 #include "ghostsim.h"
-
-/* An agent's counters by value (gs_agent_get_stats fills an out-pointer). */
-static gs_agent_stats agent_stats(const gs_agent *a) {
-    gs_agent_stats st;
-    memset(&st, 0, sizeof st);
-    gs_agent_get_stats(a, &st);
-    return st;
-}
+#include "world_helpers.h"
 
 #define PI 3.14159265358979323846
 #define OMEGA (2.0 * PI)       /* rad/s */

@@ -16,16 +16,9 @@
 #include <math.h>
 
 #include "ghostsim.h"
+#include "world_helpers.h"
 
 #include <string.h>
-
-/* An agent's counters by value (gs_agent_get_stats fills an out-pointer). */
-static gs_agent_stats agent_stats(const gs_agent *a) {
-    gs_agent_stats st;
-    memset(&st, 0, sizeof st);
-    gs_agent_get_stats(a, &st);
-    return st;
-}
 
 /* 1 if a 1 kg sphere resting in its contact spring, started a tenth of its
    rest depth off rest, stays in the linear regime for 10000 steps of dt: it

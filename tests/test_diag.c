@@ -29,6 +29,7 @@
 
 #include "ghostsim.h"
 #include "net_helpers.h"
+#include "world_helpers.h"
 
 #define FRAME (1.0 / 60.0)
 #define BOX 256 /* datagrams a host keeps between two carries */
@@ -81,33 +82,20 @@ typedef struct host_opts {
 
 static host *host_new(uint32_t id, uint32_t peer, const host_opts *o) {
     host *h = (host *)calloc(1, sizeof *h);
-    gs_world_desc wd = gs_world_desc_default();
-    gs_custom_desc cd;
-    gs_net_desc nd;
+    gs_net_desc nd = gs_net_desc_default();
     assert_non_null(h);
-    wd.host_id = id;
-    assert_int_equal(gs_world_create(&wd, &h->w), GS_OK);
+    h->w = world_new(id);
     h->x[7] = o->values ? o->values : 3;
-    memset(&cd, 0, sizeof cd);
-    cd.dt = 0.002;
-    cd.state_size = (size_t)h->x[7];
-    cd.step = still_step;
-    cd.get_state = still_get;
-    cd.set_state = still_set;
-    cd.user = h->x;
-    assert_int_equal(gs_custom_create(h->w, &cd, &h->a), GS_OK);
+    h->a = custom_new(h->w, 0.002, (size_t)h->x[7], still_step, still_get, still_set, h->x);
     if (o->object) {
         gs_ghost_desc gd = gs_ghost_desc_default();
         gd.object_id = o->object;
         assert_int_equal(gs_ghost_attach(h->a, &gd), GS_OK);
     }
     if (o->no_net) return h;
-    memset(&nd, 0, sizeof nd);
-    nd.transport.send = keep_send;
-    nd.transport.user = h;
     nd.session = o->session;
     nd.key = o->key;
-    assert_int_equal(gs_net_create(h->w, &nd, &h->net), GS_OK);
+    assert_int_equal(send_only_net(h->w, &nd, keep_send, h, &h->net), GS_OK);
     if (!o->no_peer) assert_int_equal(gs_net_add_peer(h->net, peer, NULL), GS_OK);
     return h;
 }
@@ -644,28 +632,17 @@ static gs_result flaky_set(void *user, const double *in) {
 }
 
 static void test_custom_step_failure_named(void **state) {
-    gs_world_desc wd = gs_world_desc_default();
-    gs_world *w = NULL;
-    gs_custom_desc cd;
+    gs_world *w = world_new(1);
     gs_ghost_desc gd = gs_ghost_desc_default();
-    gs_agent *other = NULL, *a = NULL;
+    gs_agent *other, *a;
     flaky f, g;
     gs_vec3 nan_g;
     (void)state;
     memset(&f, 0, sizeof f);
     memset(&g, 0, sizeof g);
     f.fail = 1;
-    assert_int_equal(gs_world_create(&wd, &w), GS_OK);
-    memset(&cd, 0, sizeof cd);
-    cd.dt = 0.01;
-    cd.state_size = 3;
-    cd.step = flaky_step;
-    cd.get_state = flaky_get;
-    cd.set_state = flaky_set;
-    cd.user = &g;
-    assert_int_equal(gs_custom_create(w, &cd, &other), GS_OK);
-    cd.user = &f;
-    assert_int_equal(gs_custom_create(w, &cd, &a), GS_OK);
+    other = custom_new(w, 0.01, 3, flaky_step, flaky_get, flaky_set, &g);
+    a = custom_new(w, 0.01, 3, flaky_step, flaky_get, flaky_set, &f);
     gd.object_id = 9;
     assert_int_equal(gs_ghost_attach(a, &gd), GS_OK);
     assert_int_equal(gs_world_advance(w, 0.1, NULL), GS_ERR_OUT_OF_RANGE);

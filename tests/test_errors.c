@@ -15,58 +15,15 @@
 #include <string.h>
 
 #include "ghostsim.h"
+#include "alloc_helpers.h"
+#include "world_helpers.h"
 
-/* An agent's counters by value (gs_agent_get_stats fills an out-pointer). */
-static gs_agent_stats agent_stats(const gs_agent *a) {
-    gs_agent_stats st;
-    memset(&st, 0, sizeof st);
-    gs_agent_get_stats(a, &st);
-    return st;
-}
+/* ---- a counting allocator (alloc_helpers.h): a failed call must not
+   leak or allocate ---- */
 
-/* ---- a counting allocator: a failed call must not leak or allocate ---- */
-
-typedef union block_head {
-    size_t size;
-    long double align_ld;
-    void *align_p;
-    long long align_ll;
-} block_head;
-
-typedef struct counter {
-    long allocs, frees;
-} counter;
-
-static void *count_alloc(size_t size, void *user) {
-    block_head *h = (block_head *)malloc(sizeof *h + size);
-    if (!h) return NULL;
-    h->size = size;
-    ((counter *)user)->allocs++;
-    return h + 1;
-}
-
-static void count_free(void *ptr, void *user) {
-    if (!ptr) return;
-    ((counter *)user)->frees++;
-    free((block_head *)ptr - 1);
-}
-
-static counter g_count;
-
-static gs_world *counted_world(void) {
-    gs_world_desc wd = gs_world_desc_default();
-    gs_world *w = NULL;
-    memset(&g_count, 0, sizeof g_count);
-    wd.allocator.alloc = count_alloc;
-    wd.allocator.free = count_free;
-    wd.allocator.user = &g_count;
-    assert_int_equal(gs_world_create(&wd, &w), GS_OK);
-    return w;
-}
-
-static void destroy_counted(gs_world *w) {
+static void destroy_counted(gs_world *w, const counter *c) {
     gs_world_destroy(w);
-    assert_int_equal(g_count.allocs, g_count.frees);
+    assert_int_equal(c->allocs, c->frees);
 }
 
 /* A pointer that is not NULL, to see that a failed call clears *out. */
@@ -78,8 +35,8 @@ static int not_null_target;
 /* After a failed create: the right code, *out NULL, no agent added, no
    memory kept, and a message that names `word`. Returns 1 if all hold; on
    failure it prints what was wrong (the caller's assert gives the line). */
-static int failed_cleanly(gs_world *w, const char *what, gs_result got,
-                          gs_result want, const gs_agent *out, int count,
+static int failed_cleanly(gs_world *w, const counter *c, const char *what,
+                          gs_result got, gs_result want, const gs_agent *out, int count,
                           long live, const char *word) {
     const char *msg = gs_world_error(w);
     int ok = 1;
@@ -97,9 +54,9 @@ static int failed_cleanly(gs_world *w, const char *what, gs_result got,
                     gs_world_agent_count(w));
         ok = 0;
     }
-    if (g_count.allocs - g_count.frees != live) {
+    if (live_blocks(c) != live) {
         print_error("%s: %ld blocks live before, %ld after\n", what, live,
-                    g_count.allocs - g_count.frees);
+                    live_blocks(c));
         ok = 0;
     }
     if (!msg || !*msg || (word && !strstr(msg, word))) {
@@ -110,33 +67,33 @@ static int failed_cleanly(gs_world *w, const char *what, gs_result got,
     return ok;
 }
 
-static int cloth_fails(gs_world *w, const gs_cloth_desc *d, gs_result want,
-                       const char *word) {
+static int cloth_fails(gs_world *w, const counter *c, const gs_cloth_desc *d,
+                       gs_result want, const char *word) {
     gs_agent *out = NOT_NULL_AGENT;
     int count = gs_world_agent_count(w);
-    long live = g_count.allocs - g_count.frees;
+    long live = live_blocks(c);
     gs_result r = gs_cloth_create(w, d, &out);
-    return failed_cleanly(w, "gs_cloth_create", r, want, out, count, live,
+    return failed_cleanly(w, c, "gs_cloth_create", r, want, out, count, live,
                           word);
 }
 
-static int mesh_fails(gs_world *w, const gs_mesh_desc *d, gs_result want,
-                      const char *word) {
+static int mesh_fails(gs_world *w, const counter *c, const gs_mesh_desc *d,
+                      gs_result want, const char *word) {
     gs_agent *out = NOT_NULL_AGENT;
     int count = gs_world_agent_count(w);
-    long live = g_count.allocs - g_count.frees;
+    long live = live_blocks(c);
     gs_result r = gs_mesh_create(w, d, &out);
-    return failed_cleanly(w, "gs_mesh_create", r, want, out, count, live,
+    return failed_cleanly(w, c, "gs_mesh_create", r, want, out, count, live,
                           word);
 }
 
-static int custom_fails(gs_world *w, const gs_custom_desc *d, gs_result want,
-                        const char *word) {
+static int custom_fails(gs_world *w, const counter *c, const gs_custom_desc *d,
+                        gs_result want, const char *word) {
     gs_agent *out = NOT_NULL_AGENT;
     int count = gs_world_agent_count(w);
-    long live = g_count.allocs - g_count.frees;
+    long live = live_blocks(c);
     gs_result r = gs_custom_create(w, d, &out);
-    return failed_cleanly(w, "gs_custom_create", r, want, out, count, live,
+    return failed_cleanly(w, c, "gs_custom_create", r, want, out, count, live,
                           word);
 }
 
@@ -189,6 +146,7 @@ static void test_errors_result_str(void **state) {
 /* ---- gs_world_create ---- */
 
 static void test_errors_world_create(void **state) {
+    counter cnt;
     gs_world_desc d;
     gs_world *w;
     (void)state;
@@ -218,11 +176,9 @@ static void test_errors_world_create(void **state) {
     assert_true(world_fails(&d, GS_ERR_NOT_FINITE));
     d = gs_world_desc_default(); d.aging_limit = -1;
     assert_true(world_fails(&d, GS_ERR_INVALID_ARG));
-    d = gs_world_desc_default(); d.allocator.alloc = count_alloc;
-    d.allocator.user = &g_count;
+    d = counted_world_desc(&cnt); d.allocator.free = NULL; /* one without the other */
     assert_true(world_fails(&d, GS_ERR_INVALID_ARG));
-    d = gs_world_desc_default(); d.allocator.free = count_free;
-    d.allocator.user = &g_count;
+    d = counted_world_desc(&cnt); d.allocator.alloc = NULL;
     assert_true(world_fails(&d, GS_ERR_INVALID_ARG));
 
     /* the limits themselves are fine */
@@ -244,7 +200,8 @@ static gs_cloth_desc good_cloth(void) {
 }
 
 static void test_errors_cloth_create(void **state) {
-    gs_world *w = counted_world();
+    counter cnt;
+    gs_world *w = counted_world(&cnt, 1);
     gs_cloth_desc d;
     gs_agent *out = NOT_NULL_AGENT;
     int pin_big[1] = {16}, pin_neg[2] = {0, -1};
@@ -264,114 +221,114 @@ static void test_errors_cloth_create(void **state) {
 
     /* sizes */
     d = good_cloth(); d.nx = 1;
-    assert_true(cloth_fails(w, &d, GS_ERR_INVALID_ARG, "nx"));
+    assert_true(cloth_fails(w, &cnt, &d, GS_ERR_INVALID_ARG, "nx"));
     d = good_cloth(); d.nx = -3;
-    assert_true(cloth_fails(w, &d, GS_ERR_INVALID_ARG, "nx"));
+    assert_true(cloth_fails(w, &cnt, &d, GS_ERR_INVALID_ARG, "nx"));
     d = good_cloth(); d.ny = 1;
-    assert_true(cloth_fails(w, &d, GS_ERR_INVALID_ARG, "ny"));
+    assert_true(cloth_fails(w, &cnt, &d, GS_ERR_INVALID_ARG, "ny"));
     d = good_cloth(); d.width = -1.0; /* 0 means the default */
-    assert_true(cloth_fails(w, &d, GS_ERR_INVALID_ARG, "width"));
+    assert_true(cloth_fails(w, &cnt, &d, GS_ERR_INVALID_ARG, "width"));
     d = good_cloth(); d.height = -0.5;
-    assert_true(cloth_fails(w, &d, GS_ERR_INVALID_ARG, "height"));
+    assert_true(cloth_fails(w, &cnt, &d, GS_ERR_INVALID_ARG, "height"));
     d = good_cloth(); d.mass = -1.0;
-    assert_true(cloth_fails(w, &d, GS_ERR_INVALID_ARG, "mass"));
+    assert_true(cloth_fails(w, &cnt, &d, GS_ERR_INVALID_ARG, "mass"));
     /* stiffness and damping */
     d = good_cloth(); d.stretch_stiffness = -10.0;
-    assert_true(cloth_fails(w, &d, GS_ERR_INVALID_ARG, "stretch_stiffness"));
+    assert_true(cloth_fails(w, &cnt, &d, GS_ERR_INVALID_ARG, "stretch_stiffness"));
     d = good_cloth(); d.shear_stiffness = -10.0;
-    assert_true(cloth_fails(w, &d, GS_ERR_INVALID_ARG, "shear_stiffness"));
+    assert_true(cloth_fails(w, &cnt, &d, GS_ERR_INVALID_ARG, "shear_stiffness"));
     d = good_cloth(); d.bend_stiffness = -1.0;
-    assert_true(cloth_fails(w, &d, GS_ERR_INVALID_ARG, "bend_stiffness"));
+    assert_true(cloth_fails(w, &cnt, &d, GS_ERR_INVALID_ARG, "bend_stiffness"));
     d = good_cloth(); d.spring_damping = -0.1;
-    assert_true(cloth_fails(w, &d, GS_ERR_INVALID_ARG, "spring_damping"));
+    assert_true(cloth_fails(w, &cnt, &d, GS_ERR_INVALID_ARG, "spring_damping"));
     d = good_cloth(); d.air_damping = -0.1;
-    assert_true(cloth_fails(w, &d, GS_ERR_INVALID_ARG, "air_damping"));
+    assert_true(cloth_fails(w, &cnt, &d, GS_ERR_INVALID_ARG, "air_damping"));
     d = good_cloth(); d.particle_radius = -0.01;
-    assert_true(cloth_fails(w, &d, GS_ERR_INVALID_ARG, "particle_radius"));
+    assert_true(cloth_fails(w, &cnt, &d, GS_ERR_INVALID_ARG, "particle_radius"));
     d = good_cloth(); d.material.stiffness = -1.0;
-    assert_true(cloth_fails(w, &d, GS_ERR_INVALID_ARG, "stiffness"));
+    assert_true(cloth_fails(w, &cnt, &d, GS_ERR_INVALID_ARG, "stiffness"));
     /* NaN and infinity anywhere */
     d = good_cloth(); d.origin.x = NAN;
-    assert_true(cloth_fails(w, &d, GS_ERR_NOT_FINITE, "origin"));
+    assert_true(cloth_fails(w, &cnt, &d, GS_ERR_NOT_FINITE, "origin"));
     d = good_cloth(); d.origin.z = INFINITY;
-    assert_true(cloth_fails(w, &d, GS_ERR_NOT_FINITE, "origin"));
+    assert_true(cloth_fails(w, &cnt, &d, GS_ERR_NOT_FINITE, "origin"));
     d = good_cloth(); d.width = NAN;
-    assert_true(cloth_fails(w, &d, GS_ERR_NOT_FINITE, "width"));
+    assert_true(cloth_fails(w, &cnt, &d, GS_ERR_NOT_FINITE, "width"));
     d = good_cloth(); d.height = INFINITY;
-    assert_true(cloth_fails(w, &d, GS_ERR_NOT_FINITE, "height"));
+    assert_true(cloth_fails(w, &cnt, &d, GS_ERR_NOT_FINITE, "height"));
     d = good_cloth(); d.mass = NAN;
-    assert_true(cloth_fails(w, &d, GS_ERR_NOT_FINITE, "mass"));
+    assert_true(cloth_fails(w, &cnt, &d, GS_ERR_NOT_FINITE, "mass"));
     d = good_cloth(); d.spring_damping = NAN;
-    assert_true(cloth_fails(w, &d, GS_ERR_NOT_FINITE, "damping"));
+    assert_true(cloth_fails(w, &cnt, &d, GS_ERR_NOT_FINITE, "damping"));
     d = good_cloth(); d.air_damping = NAN;
-    assert_true(cloth_fails(w, &d, GS_ERR_NOT_FINITE, "air_damping"));
+    assert_true(cloth_fails(w, &cnt, &d, GS_ERR_NOT_FINITE, "air_damping"));
     d = good_cloth(); d.stretch_stiffness = NAN;
-    assert_true(cloth_fails(w, &d, GS_ERR_NOT_FINITE, "stretch_stiffness"));
+    assert_true(cloth_fails(w, &cnt, &d, GS_ERR_NOT_FINITE, "stretch_stiffness"));
     d = good_cloth(); d.axis_v.y = NAN;
-    assert_true(cloth_fails(w, &d, GS_ERR_NOT_FINITE, "axis_v"));
+    assert_true(cloth_fails(w, &cnt, &d, GS_ERR_NOT_FINITE, "axis_v"));
     d = good_cloth(); d.solver.dt = NAN;
-    assert_true(cloth_fails(w, &d, GS_ERR_NOT_FINITE, "dt"));
+    assert_true(cloth_fails(w, &cnt, &d, GS_ERR_NOT_FINITE, "dt"));
     d = good_cloth(); d.solver.dt = INFINITY;
-    assert_true(cloth_fails(w, &d, GS_ERR_NOT_FINITE, "dt"));
+    assert_true(cloth_fails(w, &cnt, &d, GS_ERR_NOT_FINITE, "dt"));
     d = good_cloth(); d.material = gs_material_default();
     d.material.damping = NAN; /* a material that is not all zero is taken
                                  field by field */
-    assert_true(cloth_fails(w, &d, GS_ERR_NOT_FINITE, "material.damping"));
+    assert_true(cloth_fails(w, &cnt, &d, GS_ERR_NOT_FINITE, "material.damping"));
     /* the step */
     d = good_cloth(); d.solver.dt = -0.001; /* 0 means the default */
-    assert_true(cloth_fails(w, &d, GS_ERR_INVALID_ARG, "dt"));
+    assert_true(cloth_fails(w, &cnt, &d, GS_ERR_INVALID_ARG, "dt"));
     /* pins */
     d = good_cloth(); d.pin_count = 1; d.pins = pin_big;
-    assert_true(cloth_fails(w, &d, GS_ERR_OUT_OF_RANGE, "pins"));
+    assert_true(cloth_fails(w, &cnt, &d, GS_ERR_OUT_OF_RANGE, "pins"));
     d = good_cloth(); d.pin_count = 2; d.pins = pin_neg;
-    assert_true(cloth_fails(w, &d, GS_ERR_OUT_OF_RANGE, "pins"));
+    assert_true(cloth_fails(w, &cnt, &d, GS_ERR_OUT_OF_RANGE, "pins"));
     d = good_cloth(); d.pin_count = 1; d.pins = NULL;
-    assert_true(cloth_fails(w, &d, GS_ERR_INVALID_ARG, "pins"));
+    assert_true(cloth_fails(w, &cnt, &d, GS_ERR_INVALID_ARG, "pins"));
     d = good_cloth(); d.pin_count = -1; d.pins = pin_big;
-    assert_true(cloth_fails(w, &d, GS_ERR_INVALID_ARG, "pin_count"));
+    assert_true(cloth_fails(w, &cnt, &d, GS_ERR_INVALID_ARG, "pin_count"));
     d = good_cloth(); d.pin_corners = 16;
-    assert_true(cloth_fails(w, &d, GS_ERR_INVALID_ARG, "pin_corners"));
+    assert_true(cloth_fails(w, &cnt, &d, GS_ERR_INVALID_ARG, "pin_corners"));
     d = good_cloth(); d.springs = 8;
-    assert_true(cloth_fails(w, &d, GS_ERR_INVALID_ARG, "springs"));
+    assert_true(cloth_fails(w, &cnt, &d, GS_ERR_INVALID_ARG, "springs"));
     /* axes: parallel (a zero axis means the default, so it is not an
        error; tested on the non-zero parallel and antiparallel cases) */
     d = good_cloth();
     d.axis_u.x = 1.0; d.axis_u.y = 0.0; d.axis_u.z = 0.0;
     d.axis_v.x = 2.0; d.axis_v.y = 0.0; d.axis_v.z = 0.0;
-    assert_true(cloth_fails(w, &d, GS_ERR_INVALID_ARG, "axis"));
+    assert_true(cloth_fails(w, &cnt, &d, GS_ERR_INVALID_ARG, "axis"));
     d = good_cloth();
     d.axis_u.x = 0.0; d.axis_u.y = 0.0; d.axis_u.z = 1.0;
     d.axis_v.x = 0.0; d.axis_v.y = 0.0; d.axis_v.z = -3.0;
-    assert_true(cloth_fails(w, &d, GS_ERR_INVALID_ARG, "axis"));
+    assert_true(cloth_fails(w, &cnt, &d, GS_ERR_INVALID_ARG, "axis"));
     d = good_cloth(); /* only axis_u given, along the default axis_v */
     d.axis_u.x = 0.0; d.axis_u.y = 0.0; d.axis_u.z = 0.5;
     d.axis_v.x = 0.0; d.axis_v.y = 0.0; d.axis_v.z = 0.0;
-    assert_true(cloth_fails(w, &d, GS_ERR_INVALID_ARG, "axis"));
+    assert_true(cloth_fails(w, &cnt, &d, GS_ERR_INVALID_ARG, "axis"));
     /* solver enums and limits */
     d = good_cloth(); d.solver.integrator = (gs_integrator)99;
-    assert_true(cloth_fails(w, &d, GS_ERR_INVALID_ARG, "integrator"));
+    assert_true(cloth_fails(w, &cnt, &d, GS_ERR_INVALID_ARG, "integrator"));
     d = good_cloth(); d.solver.integrator = GS__INTEGRATOR_COUNT;
-    assert_true(cloth_fails(w, &d, GS_ERR_INVALID_ARG, "integrator"));
+    assert_true(cloth_fails(w, &cnt, &d, GS_ERR_INVALID_ARG, "integrator"));
     d = good_cloth(); d.solver.integrator = (gs_integrator)-1;
-    assert_true(cloth_fails(w, &d, GS_ERR_INVALID_ARG, "integrator"));
+    assert_true(cloth_fails(w, &cnt, &d, GS_ERR_INVALID_ARG, "integrator"));
     d = good_cloth(); d.solver.stability = GS__STABILITY_COUNT;
-    assert_true(cloth_fails(w, &d, GS_ERR_INVALID_ARG, "stability"));
+    assert_true(cloth_fails(w, &cnt, &d, GS_ERR_INVALID_ARG, "stability"));
     d = good_cloth(); d.solver.stability = (gs_stability)-2;
-    assert_true(cloth_fails(w, &d, GS_ERR_INVALID_ARG, "stability"));
+    assert_true(cloth_fails(w, &cnt, &d, GS_ERR_INVALID_ARG, "stability"));
     d = good_cloth(); d.solver.max_substeps = -1;
-    assert_true(cloth_fails(w, &d, GS_ERR_INVALID_ARG, "max_substeps"));
+    assert_true(cloth_fails(w, &cnt, &d, GS_ERR_INVALID_ARG, "max_substeps"));
     d = good_cloth(); d.solver.safety = 1.5;
-    assert_true(cloth_fails(w, &d, GS_ERR_INVALID_ARG, "safety"));
+    assert_true(cloth_fails(w, &cnt, &d, GS_ERR_INVALID_ARG, "safety"));
     d = good_cloth(); d.solver.safety = -0.5; /* 0 means the default */
-    assert_true(cloth_fails(w, &d, GS_ERR_INVALID_ARG, "safety"));
+    assert_true(cloth_fails(w, &cnt, &d, GS_ERR_INVALID_ARG, "safety"));
     d = good_cloth(); d.solver.safety = NAN;
-    assert_true(cloth_fails(w, &d, GS_ERR_NOT_FINITE, "safety"));
+    assert_true(cloth_fails(w, &cnt, &d, GS_ERR_NOT_FINITE, "safety"));
     d = good_cloth(); d.solver.max_speed = -1.0;
-    assert_true(cloth_fails(w, &d, GS_ERR_INVALID_ARG, "max_speed"));
+    assert_true(cloth_fails(w, &cnt, &d, GS_ERR_INVALID_ARG, "max_speed"));
     d = good_cloth(); d.solver.cg_tolerance = -1e-6;
-    assert_true(cloth_fails(w, &d, GS_ERR_INVALID_ARG, "cg_tolerance"));
+    assert_true(cloth_fails(w, &cnt, &d, GS_ERR_INVALID_ARG, "cg_tolerance"));
     d = good_cloth(); d.solver.cg_max_iterations = -5;
-    assert_true(cloth_fails(w, &d, GS_ERR_INVALID_ARG, "cg_max_iterations"));
+    assert_true(cloth_fails(w, &cnt, &d, GS_ERR_INVALID_ARG, "cg_max_iterations"));
 
     /* still usable after all that, and the good limits pass */
     d = good_cloth(); d.solver.safety = 1.0; d.nx = 2; d.ny = 2;
@@ -380,7 +337,7 @@ static void test_errors_cloth_create(void **state) {
     assert_non_null(out);
     assert_int_equal(gs_world_agent_count(w), 2);
     assert_int_equal(gs_world_advance(w, 0.01, NULL), GS_OK);
-    destroy_counted(w);
+    destroy_counted(w, &cnt);
 }
 
 /* ---- gs_mesh_create ---- */
@@ -407,7 +364,8 @@ static gs_mesh_desc good_mesh(void) {
 }
 
 static void test_errors_mesh_create(void **state) {
-    gs_world *w = counted_world();
+    counter cnt;
+    gs_world *w = counted_world(&cnt, 1);
     gs_mesh_desc d;
     gs_agent *out = NULL;
     gs_vec3 bad_pos[3] = {{0, 0, 0}, {0.1, 0, 0}, {0, 0.1, 0}};
@@ -425,153 +383,119 @@ static void test_errors_mesh_create(void **state) {
     assert_null(out);
 
     d = good_mesh(); d.particle_count = 0;
-    assert_true(mesh_fails(w, &d, GS_ERR_INVALID_ARG, "particle_count"));
+    assert_true(mesh_fails(w, &cnt, &d, GS_ERR_INVALID_ARG, "particle_count"));
     d = good_mesh(); d.particle_count = -2;
-    assert_true(mesh_fails(w, &d, GS_ERR_INVALID_ARG, "particle_count"));
+    assert_true(mesh_fails(w, &cnt, &d, GS_ERR_INVALID_ARG, "particle_count"));
     d = good_mesh(); d.positions = NULL;
-    assert_true(mesh_fails(w, &d, GS_ERR_INVALID_ARG, "positions"));
+    assert_true(mesh_fails(w, &cnt, &d, GS_ERR_INVALID_ARG, "positions"));
     /* springs to missing particles */
     d = good_mesh(); springs3[1].b = -1;
-    assert_true(mesh_fails(w, &d, GS_ERR_OUT_OF_RANGE, "spring"));
+    assert_true(mesh_fails(w, &cnt, &d, GS_ERR_OUT_OF_RANGE, "spring"));
     d = good_mesh(); springs3[2].a = 3;
-    assert_true(mesh_fails(w, &d, GS_ERR_OUT_OF_RANGE, "spring"));
+    assert_true(mesh_fails(w, &cnt, &d, GS_ERR_OUT_OF_RANGE, "spring"));
     d = good_mesh(); springs3[0].b = 1000;
-    assert_true(mesh_fails(w, &d, GS_ERR_OUT_OF_RANGE, "spring"));
+    assert_true(mesh_fails(w, &cnt, &d, GS_ERR_OUT_OF_RANGE, "spring"));
     /* a spring from a particle to itself */
     d = good_mesh(); springs3[1].b = springs3[1].a;
-    assert_true(mesh_fails(w, &d, GS_ERR_INVALID_ARG, "spring"));
+    assert_true(mesh_fails(w, &cnt, &d, GS_ERR_INVALID_ARG, "spring"));
     d = good_mesh(); d.springs = NULL;
-    assert_true(mesh_fails(w, &d, GS_ERR_INVALID_ARG, "springs"));
+    assert_true(mesh_fails(w, &cnt, &d, GS_ERR_INVALID_ARG, "springs"));
     d = good_mesh(); d.spring_count = -1;
-    assert_true(mesh_fails(w, &d, GS_ERR_INVALID_ARG, "spring_count"));
+    assert_true(mesh_fails(w, &cnt, &d, GS_ERR_INVALID_ARG, "spring_count"));
     /* spring parameters */
     d = good_mesh(); springs3[0].stiffness = 0.0;
-    assert_true(mesh_fails(w, &d, GS_ERR_INVALID_ARG, "stiffness"));
+    assert_true(mesh_fails(w, &cnt, &d, GS_ERR_INVALID_ARG, "stiffness"));
     d = good_mesh(); springs3[2].stiffness = -5.0;
-    assert_true(mesh_fails(w, &d, GS_ERR_INVALID_ARG, "stiffness"));
+    assert_true(mesh_fails(w, &cnt, &d, GS_ERR_INVALID_ARG, "stiffness"));
     d = good_mesh(); springs3[1].damping = -0.5;
-    assert_true(mesh_fails(w, &d, GS_ERR_INVALID_ARG, "damping"));
+    assert_true(mesh_fails(w, &cnt, &d, GS_ERR_INVALID_ARG, "damping"));
     d = good_mesh(); springs3[1].stiffness = NAN;
-    assert_true(mesh_fails(w, &d, GS_ERR_NOT_FINITE, "stiffness"));
+    assert_true(mesh_fails(w, &cnt, &d, GS_ERR_NOT_FINITE, "stiffness"));
     d = good_mesh(); springs3[0].rest_length = -0.1;
-    assert_true(mesh_fails(w, &d, GS_ERR_INVALID_ARG, "rest_length"));
+    assert_true(mesh_fails(w, &cnt, &d, GS_ERR_INVALID_ARG, "rest_length"));
     /* masses */
     d = good_mesh(); masses[1] = 0.0; d.masses = masses;
-    assert_true(mesh_fails(w, &d, GS_ERR_INVALID_ARG, "masses"));
+    assert_true(mesh_fails(w, &cnt, &d, GS_ERR_INVALID_ARG, "masses"));
     d = good_mesh(); masses[1] = 0.1; masses[2] = -1.0; d.masses = masses;
-    assert_true(mesh_fails(w, &d, GS_ERR_INVALID_ARG, "masses"));
+    assert_true(mesh_fails(w, &cnt, &d, GS_ERR_INVALID_ARG, "masses"));
     d = good_mesh(); masses[2] = NAN; d.masses = masses;
-    assert_true(mesh_fails(w, &d, GS_ERR_NOT_FINITE, "masses"));
+    assert_true(mesh_fails(w, &cnt, &d, GS_ERR_NOT_FINITE, "masses"));
     masses[2] = 0.1;
     d = good_mesh(); d.mass = -1.0;
-    assert_true(mesh_fails(w, &d, GS_ERR_INVALID_ARG, "mass"));
+    assert_true(mesh_fails(w, &cnt, &d, GS_ERR_INVALID_ARG, "mass"));
     /* NaN positions and velocities */
     d = good_mesh(); bad_pos[2].y = NAN; d.positions = bad_pos;
-    assert_true(mesh_fails(w, &d, GS_ERR_NOT_FINITE, "positions"));
+    assert_true(mesh_fails(w, &cnt, &d, GS_ERR_NOT_FINITE, "positions"));
     d = good_mesh(); bad_vel[1].z = INFINITY; d.velocities = bad_vel;
-    assert_true(mesh_fails(w, &d, GS_ERR_NOT_FINITE, "velocities"));
+    assert_true(mesh_fails(w, &cnt, &d, GS_ERR_NOT_FINITE, "velocities"));
     /* pins */
     d = good_mesh(); d.pin_count = 2; d.pins = pins;
-    assert_true(mesh_fails(w, &d, GS_ERR_OUT_OF_RANGE, "pins"));
+    assert_true(mesh_fails(w, &cnt, &d, GS_ERR_OUT_OF_RANGE, "pins"));
     pins[1] = -1;
-    assert_true(mesh_fails(w, &d, GS_ERR_OUT_OF_RANGE, "pins"));
+    assert_true(mesh_fails(w, &cnt, &d, GS_ERR_OUT_OF_RANGE, "pins"));
     /* the rest */
     d = good_mesh(); d.air_damping = -1.0;
-    assert_true(mesh_fails(w, &d, GS_ERR_INVALID_ARG, "air_damping"));
+    assert_true(mesh_fails(w, &cnt, &d, GS_ERR_INVALID_ARG, "air_damping"));
     d = good_mesh(); d.particle_radius = -0.01;
-    assert_true(mesh_fails(w, &d, GS_ERR_INVALID_ARG, "particle_radius"));
+    assert_true(mesh_fails(w, &cnt, &d, GS_ERR_INVALID_ARG, "particle_radius"));
     d = good_mesh(); d.solver.dt = -1.0;
-    assert_true(mesh_fails(w, &d, GS_ERR_INVALID_ARG, "dt"));
+    assert_true(mesh_fails(w, &cnt, &d, GS_ERR_INVALID_ARG, "dt"));
     d = good_mesh(); d.solver.integrator = GS__INTEGRATOR_COUNT;
-    assert_true(mesh_fails(w, &d, GS_ERR_INVALID_ARG, "integrator"));
+    assert_true(mesh_fails(w, &cnt, &d, GS_ERR_INVALID_ARG, "integrator"));
 
     d = good_mesh();
     assert_int_equal(gs_mesh_create(w, &d, &out), GS_OK);
     assert_int_equal(gs_world_agent_count(w), 2);
-    destroy_counted(w);
+    destroy_counted(w, &cnt);
 }
 
 /* ---- gs_custom_create ---- */
 
-typedef struct counter_agent {
-    long steps, sets;
-    double v[2];
-} counter_agent;
-
-static gs_result ca_step(void *user, double t, double dt) {
-    (void)t;
-    (void)dt;
-    ((counter_agent *)user)->steps++;
-    return GS_OK;
-}
-static void ca_get(const void *user, double *out) {
-    const counter_agent *c = (const counter_agent *)user;
-    out[0] = c->v[0];
-    out[1] = c->v[1];
-}
-static gs_result ca_set(void *user, const double *in) {
-    counter_agent *c = (counter_agent *)user;
-    c->sets++;
-    c->v[0] = in[0];
-    c->v[1] = in[1];
-    return GS_OK;
-}
-
-static gs_custom_desc good_custom(counter_agent *c) {
-    gs_custom_desc d;
-    memset(&d, 0, sizeof d);
-    d.dt = 0.01;
-    d.state_size = 2;
-    d.step = ca_step;
-    d.get_state = ca_get;
-    d.set_state = ca_set;
-    d.user = c;
-    return d;
-}
-
 static void test_errors_custom_create(void **state) {
-    gs_world *w = counted_world();
-    counter_agent c;
+    counter cnt;
+    gs_world *w = counted_world(&cnt, 1);
+    two_values c;
     gs_custom_desc d;
     gs_agent *out = NOT_NULL_AGENT;
     (void)state;
     memset(&c, 0, sizeof c);
     assert_int_equal(gs_custom_create(w, NULL, &out), GS_ERR_INVALID_ARG);
     assert_null(out);
-    d = good_custom(&c);
+    d = two_values_desc(&c);
     assert_int_equal(gs_custom_create(w, &d, NULL), GS_ERR_INVALID_ARG);
     assert_int_equal(gs_custom_create(NULL, &d, &out), GS_ERR_INVALID_ARG);
     assert_int_equal(gs_world_agent_count(w), 0);
 
-    d = good_custom(&c); d.dt = 0.5 * GS_MIN_DT; /* 0 is the default (test_api) */
-    assert_true(custom_fails(w, &d, GS_ERR_INVALID_ARG, "dt"));
-    d = good_custom(&c); d.dt = -0.01;
-    assert_true(custom_fails(w, &d, GS_ERR_INVALID_ARG, "dt"));
-    d = good_custom(&c); d.dt = NAN;
-    assert_true(custom_fails(w, &d, GS_ERR_NOT_FINITE, "dt"));
-    d = good_custom(&c); d.dt = INFINITY;
-    assert_true(custom_fails(w, &d, GS_ERR_NOT_FINITE, "dt"));
-    d = good_custom(&c); d.step = NULL;
-    assert_true(custom_fails(w, &d, GS_ERR_INVALID_ARG, "step"));
-    d = good_custom(&c); d.get_state = NULL;
-    assert_true(custom_fails(w, &d, GS_ERR_INVALID_ARG, "get_state"));
-    d = good_custom(&c); d.set_state = NULL;
-    assert_true(custom_fails(w, &d, GS_ERR_INVALID_ARG, "set_state"));
+    d = two_values_desc(&c); d.dt = 0.5 * GS_MIN_DT; /* 0 is the default (test_api) */
+    assert_true(custom_fails(w, &cnt, &d, GS_ERR_INVALID_ARG, "dt"));
+    d = two_values_desc(&c); d.dt = -0.01;
+    assert_true(custom_fails(w, &cnt, &d, GS_ERR_INVALID_ARG, "dt"));
+    d = two_values_desc(&c); d.dt = NAN;
+    assert_true(custom_fails(w, &cnt, &d, GS_ERR_NOT_FINITE, "dt"));
+    d = two_values_desc(&c); d.dt = INFINITY;
+    assert_true(custom_fails(w, &cnt, &d, GS_ERR_NOT_FINITE, "dt"));
+    d = two_values_desc(&c); d.step = NULL;
+    assert_true(custom_fails(w, &cnt, &d, GS_ERR_INVALID_ARG, "step"));
+    d = two_values_desc(&c); d.get_state = NULL;
+    assert_true(custom_fails(w, &cnt, &d, GS_ERR_INVALID_ARG, "get_state"));
+    d = two_values_desc(&c); d.set_state = NULL;
+    assert_true(custom_fails(w, &cnt, &d, GS_ERR_INVALID_ARG, "set_state"));
 
     /* state_size 0 needs neither */
-    d = good_custom(&c); d.state_size = 0; d.get_state = NULL;
+    d = two_values_desc(&c); d.state_size = 0; d.get_state = NULL;
     d.set_state = NULL;
     assert_int_equal(gs_custom_create(w, &d, &out), GS_OK);
     assert_int_equal(gs_agent_state_size(out), 1);
     assert_int_equal(gs_world_agent_count(w), 1);
-    destroy_counted(w);
+    destroy_counted(w, &cnt);
 }
 
 /* ---- gs_world_advance ---- */
 
 static void test_errors_advance(void **state) {
-    gs_world *w = counted_world();
-    counter_agent c;
+    counter cnt;
+    gs_world *w = counted_world(&cnt, 1);
+    two_values c;
     gs_custom_desc d;
     gs_agent *a;
     gs_advance_report rep;
@@ -580,7 +504,7 @@ static void test_errors_advance(void **state) {
     size_t i;
     (void)state;
     memset(&c, 0, sizeof c);
-    d = good_custom(&c);
+    d = two_values_desc(&c);
     assert_int_equal(gs_custom_create(w, &d, &a), GS_OK);
     assert_int_equal(gs_world_advance(w, 0.1, NULL), GS_OK);
     assert_int_equal(c.steps, 10);
@@ -600,7 +524,7 @@ static void test_errors_advance(void **state) {
     assert_int_equal(c.steps, 10);
     assert_int_equal(gs_world_advance(w, 0.1, NULL), GS_OK);
     assert_int_equal(c.steps, 20);
-    destroy_counted(w);
+    destroy_counted(w, &cnt);
     /* The header (gs_world_advance): GS_ERR_NOT_FINITE for NaN or infinite
        seconds, as everywhere in the library. */
     assert_int_equal(r_nan, GS_ERR_NOT_FINITE);
@@ -611,8 +535,9 @@ static void test_errors_advance(void **state) {
 /* ---- gs_agent_set_state / get_state ---- */
 
 static void test_errors_state(void **state) {
-    gs_world *w = counted_world();
-    counter_agent c;
+    counter cnt;
+    gs_world *w = counted_world(&cnt, 1);
+    two_values c;
     gs_custom_desc d;
     gs_cloth_desc cd = good_cloth();
     gs_agent *a, *cloth;
@@ -622,7 +547,7 @@ static void test_errors_state(void **state) {
     static const size_t where[] = {0, 1, 2};
     (void)state;
     memset(&c, 0, sizeof c);
-    d = good_custom(&c);
+    d = two_values_desc(&c);
     assert_int_equal(gs_custom_create(w, &d, &a), GS_OK);
     assert_int_equal(gs_agent_set_state(a, s, 3), GS_OK);
     assert_int_equal(c.sets, 1);
@@ -666,7 +591,7 @@ static void test_errors_state(void **state) {
     assert_int_equal(gs_agent_set_state(cloth, cs, n), GS_ERR_NOT_FINITE);
     assert_int_equal(gs_agent_get_state(cloth, cafter, n), GS_OK);
     assert_memory_equal(cbefore, cafter, n * sizeof(double));
-    destroy_counted(w);
+    destroy_counted(w, &cnt);
 }
 
 /* ---- GS_ERR_BUSY from inside an advance ---- */
@@ -674,6 +599,7 @@ static void test_errors_state(void **state) {
 typedef struct busy_probe {
     gs_world *w;
     gs_agent *self, *other;
+    two_values other_values; /* other's state and counts */
     int done;
     gs_result advance, step_other, destroy_other, cloth, custom, mesh,
         step_self, destroy_self;
@@ -682,19 +608,17 @@ typedef struct busy_probe {
     long other_steps_before, other_steps_after;
 } busy_probe;
 
-static counter_agent g_other;
-
 static gs_result busy_step(void *user, double t, double dt) {
     busy_probe *p = (busy_probe *)user;
     gs_cloth_desc cd = good_cloth();
     gs_mesh_desc md = good_mesh();
-    counter_agent dummy;
-    gs_custom_desc xd = good_custom(&dummy);
+    two_values dummy;
+    gs_custom_desc xd = two_values_desc(&dummy);
     (void)t;
     (void)dt;
     if (p->done) return GS_OK;
     p->done = 1;
-    p->other_steps_before = g_other.steps;
+    p->other_steps_before = p->other_values.steps;
     p->cloth_out = p->custom_out = p->mesh_out = NOT_NULL_AGENT;
     p->advance = gs_world_advance(p->w, 0.1, NULL);
     p->step_other = gs_agent_step(p->other);
@@ -705,21 +629,21 @@ static gs_result busy_step(void *user, double t, double dt) {
     p->custom = gs_custom_create(p->w, &xd, &p->custom_out);
     p->mesh = gs_mesh_create(p->w, &md, &p->mesh_out);
     p->count_inside = gs_world_agent_count(p->w);
-    p->other_steps_after = g_other.steps;
+    p->other_steps_after = p->other_values.steps;
     return GS_OK;
 }
 
 static void test_errors_busy(void **state) {
-    gs_world *w = counted_world();
+    counter cnt;
+    gs_world *w = counted_world(&cnt, 1);
     busy_probe p;
     gs_custom_desc d;
     gs_agent_stats st;
     long live;
     (void)state;
     memset(&p, 0, sizeof p);
-    memset(&g_other, 0, sizeof g_other);
     p.w = w;
-    d = good_custom(&g_other);
+    d = two_values_desc(&p.other_values);
     assert_int_equal(gs_custom_create(w, &d, &p.other), GS_OK);
     d.state_size = 0;
     d.get_state = NULL;
@@ -727,7 +651,7 @@ static void test_errors_busy(void **state) {
     d.step = busy_step;
     d.user = &p;
     assert_int_equal(gs_custom_create(w, &d, &p.self), GS_OK);
-    live = g_count.allocs - g_count.frees;
+    live = live_blocks(&cnt);
     assert_int_equal(gs_world_advance(w, 0.05, NULL), GS_OK);
     assert_int_equal(p.done, 1);
     assert_int_equal(p.advance, GS_ERR_BUSY);
@@ -745,19 +669,19 @@ static void test_errors_busy(void **state) {
     /* nothing changed: same agents, no memory, the outer target only */
     assert_int_equal(gs_world_agent_count(w), 2);
     assert_ptr_equal(gs_world_agent(w, 0), p.other);
-    assert_int_equal(g_count.allocs - g_count.frees, live);
+    assert_int_equal(live_blocks(&cnt), live);
     assert_true(fabs(gs_world_time(w) - 0.05) < 1e-12);
     st = agent_stats(p.other);
-    assert_int_equal(st.steps, (uint64_t)g_other.steps);
-    assert_int_equal(st.activations, (uint64_t)g_other.steps);
-    assert_int_equal(g_other.steps, 5);
+    assert_int_equal(st.steps, (uint64_t)p.other_values.steps);
+    assert_int_equal(st.activations, (uint64_t)p.other_values.steps);
+    assert_int_equal(p.other_values.steps, 5);
     assert_true(strstr(gs_world_error(w), "advancing") != NULL ||
                 strlen(gs_world_error(w)) > 0);
     /* and once the advance is over, the same calls work */
     assert_int_equal(gs_agent_step(p.other), GS_OK);
     assert_int_equal(gs_agent_destroy(p.other), GS_OK);
     assert_int_equal(gs_world_agent_count(w), 1);
-    destroy_counted(w);
+    destroy_counted(w, &cnt);
     /* a failed create leaves *out NULL, as gs_cloth_create and
        gs_mesh_create do (last: the checks above do not depend on it) */
     assert_null(p.custom_out);
@@ -766,9 +690,10 @@ static void test_errors_busy(void **state) {
 /* ---- world setters ---- */
 
 static void test_errors_world_setters(void **state) {
-    gs_world *w = counted_world();
+    counter cnt;
+    gs_world *w = counted_world(&cnt, 1);
     gs_vec3 g, bad;
-    counter_agent c;
+    two_values c;
     gs_custom_desc d;
     gs_agent *a;
     gs_advance_report rep;
@@ -790,12 +715,12 @@ static void test_errors_world_setters(void **state) {
     assert_int_equal(gs_world_set_budget(w, -INFINITY), GS_ERR_NOT_FINITE);
     /* the budget stayed unbounded: a long advance still gets there */
     memset(&c, 0, sizeof c);
-    d = good_custom(&c);
+    d = two_values_desc(&c);
     assert_int_equal(gs_custom_create(w, &d, &a), GS_OK);
     assert_int_equal(gs_world_advance(w, 5.0, &rep), GS_OK);
     assert_int_equal(rep.reached, 1);
     assert_int_equal(c.steps, 500);
-    destroy_counted(w);
+    destroy_counted(w, &cnt);
 }
 
 int main(void) {

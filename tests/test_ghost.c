@@ -29,14 +29,7 @@
 
 #include "ghostsim.h"
 #include "net_helpers.h"
-
-/* An agent's counters by value (gs_agent_get_stats fills an out-pointer). */
-static gs_agent_stats agent_stats(const gs_agent *a) {
-    gs_agent_stats st;
-    memset(&st, 0, sizeof st);
-    gs_agent_get_stats(a, &st);
-    return st;
-}
+#include "world_helpers.h"
 
 /* Blends of O(1) numbers: the library computes S + sum w (q - S) / sum w
    with weights scaled to a largest of 1, the test (w0 S + sum w q) / sum w:
@@ -103,21 +96,9 @@ static gs_result keep_send(void *user, uint32_t to, const void *data, size_t siz
     return GS_OK;
 }
 
-static gs_world *world_new(uint32_t id) {
-    gs_world_desc wd = gs_world_desc_default();
-    gs_world *w = NULL;
-    wd.host_id = id;
-    assert_int_equal(gs_world_create(&wd, &w), GS_OK);
-    return w;
-}
-
 /* A net on the host's world with the given peers (0-terminated). */
 static void host_net(host *h, const uint32_t *peers) {
-    gs_net_desc nd;
-    memset(&nd, 0, sizeof nd);
-    nd.transport.send = keep_send;
-    nd.transport.user = h;
-    assert_int_equal(gs_net_create(h->w, &nd, &h->net), GS_OK);
+    assert_int_equal(send_only_net(h->w, NULL, keep_send, h, &h->net), GS_OK);
     for (; *peers; ++peers) assert_int_equal(gs_net_add_peer(h->net, *peers, NULL), GS_OK);
 }
 
@@ -126,19 +107,11 @@ static void host_net(host *h, const uint32_t *peers) {
 static host *host_new(uint32_t id, double dt, int moving, double t0, const double x[3],
                       const gs_ghost_desc *gd, const uint32_t *peers) {
     host *h = (host *)calloc(1, sizeof *h);
-    gs_custom_desc cd;
     double s[4];
     assert_non_null(h);
     h->w = world_new(id);
-    memset(&cd, 0, sizeof cd);
-    cd.dt = dt;
-    cd.state_size = 3;
-    cd.step = toy_step;
-    cd.get_state = toy_get;
-    cd.set_state = toy_set;
-    cd.user = &h->toy;
     h->toy.moving = moving;
-    assert_int_equal(gs_custom_create(h->w, &cd, &h->a), GS_OK);
+    h->a = custom_new(h->w, dt, 3, toy_step, toy_get, toy_set, &h->toy);
     s[0] = t0;
     memcpy(s + 1, x, 3 * sizeof(double));
     assert_int_equal(gs_agent_set_state(h->a, s, 4), GS_OK);
@@ -1300,22 +1273,14 @@ static void test_f32_ghost(void **state) {
 static void test_attach_errors(void **state) {
     const double x0[3] = {0.0, 0.0, 0.0};
     host *h = host_new(1, 0.01, 0, 0.0, x0, NULL, NULL);
-    gs_agent *b = NULL;
-    gs_custom_desc cd;
+    gs_agent *b;
     toy other;
     gs_ghost_desc gd = gs_ghost_desc_default();
     gs_ghost_stats st;
     double s[4];
     (void)state;
     memset(&other, 0, sizeof other);
-    memset(&cd, 0, sizeof cd);
-    cd.dt = 0.01;
-    cd.state_size = 3;
-    cd.step = toy_step;
-    cd.get_state = toy_get;
-    cd.set_state = toy_set;
-    cd.user = &other;
-    assert_int_equal(gs_custom_create(h->w, &cd, &b), GS_OK);
+    b = custom_new(h->w, 0.01, 3, toy_step, toy_get, toy_set, &other);
 
     gd.object_id = 0;
     assert_int_equal(gs_ghost_attach(h->a, &gd), GS_ERR_INVALID_ARG);
@@ -1509,11 +1474,9 @@ static void test_net_lock_is_balanced(void **state) {
     (void)state;
     assert_int_equal(gs_simnet_create(NULL, &sim), GS_OK);
     for (h = 0; h < 2; ++h) {
-        gs_world_desc wd = gs_world_desc_default();
         gs_cloth_desc cd = gs_cloth_desc_default();
         gs_ghost_desc gd = gs_ghost_desc_default();
-        wd.host_id = (uint32_t)h + 1;
-        assert_int_equal(gs_world_create(&wd, &w[h]), GS_OK);
+        w[h] = world_new((uint32_t)h + 1);
         cd.nx = cd.ny = 4;
         assert_int_equal(gs_cloth_create(w[h], &cd, &c[h]), GS_OK);
         gd.object_id = 1;

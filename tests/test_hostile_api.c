@@ -21,97 +21,13 @@
 #include <unistd.h>
 
 #include "ghostsim.h"
+#include "alloc_helpers.h"
 #include "net_helpers.h"
+#include "world_helpers.h"
 
-/* ---- an allocator that counts, refuses on demand, and refuses anything
-   over a gigabyte (as an allocator on a small machine would) ---- */
-
-typedef union block_head {
-    size_t size;
-    long double align_ld;
-    void *align_p;
-    long long align_ll;
-} block_head;
-
-typedef struct counter {
-    long allocs, frees;
-    long fail_at;  /* > 0: the fail_at-th allocation from now fails */
-    int lie;       /* 1: a request over a gigabyte gets 4 KiB (the ghost
-                      size test: the block is never written past that) */
-} counter;
-
-static void *count_alloc(size_t size, void *user) {
-    counter *c = (counter *)user;
-    block_head *h;
-    if (c->fail_at > 0 && --c->fail_at == 0) return NULL;
-    if (size > ((size_t)1 << 30)) {
-        if (!c->lie) return NULL;
-        size = 4096;
-    }
-    h = (block_head *)malloc(sizeof *h + size);
-    if (!h) return NULL;
-    h->size = size;
-    c->allocs++;
-    return h + 1;
-}
-
-static void count_free(void *ptr, void *user) {
-    if (!ptr) return;
-    ((counter *)user)->frees++;
-    free((block_head *)ptr - 1);
-}
-
-static gs_world *counted_world(counter *c, uint32_t host) {
-    gs_world_desc wd = gs_world_desc_default();
-    gs_world *w = NULL;
-    memset(c, 0, sizeof *c);
-    wd.host_id = host;
-    wd.allocator.alloc = count_alloc;
-    wd.allocator.free = count_free;
-    wd.allocator.user = c;
-    assert_int_equal(gs_world_create(&wd, &w), GS_OK);
-    return w;
-}
-
-static long live(const counter *c) { return c->allocs - c->frees; }
-
-/* ---- a custom agent of two values ---- */
-
-typedef struct pend {
-    double v[2];
-    long steps;
-} pend;
-
-static gs_result pend_step(void *user, double t, double dt) {
-    pend *p = (pend *)user;
-    (void)t;
-    p->v[0] += dt;
-    p->steps++;
-    return GS_OK;
-}
-static void pend_get(const void *user, double *out) {
-    const pend *p = (const pend *)user;
-    out[0] = p->v[0];
-    out[1] = p->v[1];
-}
-static gs_result pend_set(void *user, const double *in) {
-    pend *p = (pend *)user;
-    p->v[0] = in[0];
-    p->v[1] = in[1];
-    return GS_OK;
-}
-
-static gs_custom_desc pend_desc(pend *p) {
-    gs_custom_desc d;
-    memset(&d, 0, sizeof d);
-    d.dt = 0.01;
-    d.state_size = 2;
-    d.step = pend_step;
-    d.get_state = pend_get;
-    d.set_state = pend_set;
-    d.user = p;
-    return d;
-}
+/* ---- the counting allocator (alloc_helpers.h): it refuses on demand,
+   and anything over a gigabyte (as an allocator on a small machine
+   would) unless told to lie ---- */
 
 static gs_agent *make_probe(gs_world *w) {
     gs_probe_desc pd = gs_probe_desc_default();
@@ -147,12 +63,8 @@ static gs_result sink_send(void *user, uint32_t host, const void *data, size_t s
 }
 
 static gs_net *make_net(gs_world *w, sink *s) {
-    gs_net_desc nd;
     gs_net *net = NULL;
-    memset(&nd, 0, sizeof nd);
-    nd.transport.send = sink_send;
-    nd.transport.user = s;
-    assert_int_equal(gs_net_create(w, &nd, &net), GS_OK);
+    assert_int_equal(send_only_net(w, NULL, sink_send, s, &net), GS_OK);
     return net;
 }
 
@@ -192,10 +104,10 @@ static int has_text(const gs_world *w, const char *word) {
 static void test_hostile_custom_size(void **state) {
     counter cnt;
     gs_world *w = counted_world(&cnt, 1);
-    pend p;
+    two_values p;
     gs_custom_desc d;
     gs_agent *a = (gs_agent *)&p;
-    long before = live(&cnt);
+    long before = live_blocks(&cnt);
     size_t bad[3];
     int i;
     (void)state;
@@ -204,23 +116,23 @@ static void test_hostile_custom_size(void **state) {
     bad[1] = SIZE_MAX / sizeof(double) + 4;  /* 2^61 + 4 on 64 bits: 32 bytes */
     bad[2] = (SIZE_MAX - 8) / sizeof(double); /* the header tips it over */
     for (i = 0; i < 3; ++i) {
-        d = pend_desc(&p);
+        d = two_values_desc(&p);
         d.state_size = bad[i];
         a = (gs_agent *)&p;
         assert_int_equal(gs_custom_create(w, &d, &a), GS_ERR_OUT_OF_RANGE);
         assert_null(a);
         assert_true(has_text(w, "state_size"));
         assert_int_equal(gs_world_agent_count(w), 0);
-        assert_int_equal(live(&cnt), before);
+        assert_int_equal(live_blocks(&cnt), before);
     }
     /* a size that fits in size_t (the agent keeps two copies of the state:
        16 bytes a value) but that no allocator gives */
-    d = pend_desc(&p);
+    d = two_values_desc(&p);
     d.state_size = SIZE_MAX / 32;
     assert_int_equal(gs_custom_create(w, &d, &a), GS_ERR_NO_MEMORY);
     assert_null(a);
     assert_int_equal(gs_world_agent_count(w), 0);
-    assert_int_equal(live(&cnt), before);
+    assert_int_equal(live_blocks(&cnt), before);
     gs_world_destroy(w);
     assert_int_equal(cnt.allocs, cnt.frees);
 }
@@ -231,7 +143,7 @@ static void test_hostile_ghost_size(void **state) {
 #if SIZE_MAX > 0xffffffffu
     counter cnt;
     gs_world *w = counted_world(&cnt, 1);
-    pend p;
+    two_values p;
     gs_custom_desc d;
     gs_ghost_desc gd = gs_ghost_desc_default();
     gs_agent *a = NULL;
@@ -239,18 +151,18 @@ static void test_hostile_ghost_size(void **state) {
     (void)state;
     memset(&p, 0, sizeof p);
     cnt.lie = 1;
-    d = pend_desc(&p);
+    d = two_values_desc(&p);
     d.state_size = (size_t)1 << 59; /* 2^63 bytes: the allocator lies */
     assert_int_equal(gs_custom_create(w, &d, &a), GS_OK);
     cnt.lie = 0;
-    before = live(&cnt);
+    before = live_blocks(&cnt);
     gd.object_id = 5;
     /* the wire's chunk limit refuses it first; the ghost's own size check
        stays for a 32-bit size_t, where a state within the limit may still
        overflow the queues' bytes */
     assert_int_equal(gs_ghost_attach(a, &gd), GS_ERR_CAPACITY);
     assert_true(has_text(w, "GS_WIRE_MAX_OBJECT_CHUNKS"));
-    assert_int_equal(live(&cnt), before);
+    assert_int_equal(live_blocks(&cnt), before);
     gs_world_destroy(w);
     assert_int_equal(cnt.allocs, cnt.frees);
 #else
@@ -312,7 +224,7 @@ static void test_hostile_custom_step_calls(void **state) {
     counter cnt;
     gs_world *w = counted_world(&cnt, 1);
     step_probe sp;
-    pend other, mine;
+    two_values other, mine;
     gs_custom_desc d;
     gs_ghost_desc gd = gs_ghost_desc_default();
     gs_peer_stats ps;
@@ -325,9 +237,9 @@ static void test_hostile_custom_step_calls(void **state) {
     memset(&mine, 0, sizeof mine);
     memset(&sk, 0, sizeof sk);
     sp.w = w;
-    d = pend_desc(&other);
+    d = two_values_desc(&other);
     assert_int_equal(gs_custom_create(w, &d, &sp.other), GS_OK);
-    d = pend_desc(&mine);
+    d = two_values_desc(&mine);
     d.state_size = 0;
     d.get_state = NULL;
     d.set_state = NULL;
@@ -341,7 +253,7 @@ static void test_hostile_custom_step_calls(void **state) {
     gd.object_id = 1;
     assert_int_equal(gs_ghost_attach(sp.other, &gd), GS_OK);
     g0 = gs_world_gravity(w);
-    before = live(&cnt);
+    before = live_blocks(&cnt);
     assert_int_equal(gs_world_advance(w, 0.05, NULL), GS_OK);
     assert_int_equal(sp.done, 1);
     assert_int_equal(sp.set_other, GS_ERR_BUSY);
@@ -363,7 +275,7 @@ static void test_hostile_custom_step_calls(void **state) {
     /* nothing changed, nothing was allocated or freed */
     assert_true(sp.gravity_after.x == g0.x && sp.gravity_after.y == g0.y);
     assert_true(gs_world_gravity(w).y == g0.y);
-    assert_int_equal(live(&cnt), before);
+    assert_int_equal(live_blocks(&cnt), before);
     assert_ptr_equal(gs_world_net(w), sp.net);
     assert_int_equal(gs_world_agent_count(w), 4);
     assert_int_equal(gs_net_peer_stats(sp.net, 2, &ps), GS_OK);
@@ -412,14 +324,14 @@ static void test_hostile_outside_advance_calls(void **state) {
     counter cnt;
     gs_world *w = counted_world(&cnt, 1);
     outside_probe o;
-    pend v;
+    two_values v;
     gs_custom_desc d;
     gs_agent *a;
     (void)state;
     memset(&o, 0, sizeof o);
     memset(&v, 0, sizeof v);
     o.w = w;
-    d = pend_desc(&v);
+    d = two_values_desc(&v);
     assert_int_equal(gs_custom_create(w, &d, &o.victim), GS_OK);
     d.state_size = 1;
     d.step = destroying_step;
@@ -498,7 +410,7 @@ static void test_hostile_weight_rule_calls(void **state) {
     counter cnt;
     gs_world *w = counted_world(&cnt, 1);
     rule_probe rp;
-    pend v;
+    two_values v;
     gs_custom_desc d;
     gs_ghost_desc gd = gs_ghost_desc_default();
     gs_ghost_stats gst;
@@ -514,7 +426,7 @@ static void test_hostile_weight_rule_calls(void **state) {
     memset(&sk, 0, sizeof sk);
     rp.w = w;
     rp.cnt = &cnt;
-    d = pend_desc(&v);
+    d = two_values_desc(&v);
     assert_int_equal(gs_custom_create(w, &d, &rp.agent), GS_OK);
     rp.probe = make_probe(w);
     rp.net = make_net(w, &sk);
@@ -586,22 +498,18 @@ static void test_hostile_send_callback_calls(void **state) {
     counter cnt;
     gs_world *w = counted_world(&cnt, 1);
     send_probe sp;
-    pend v;
+    two_values v;
     gs_custom_desc d;
     gs_ghost_desc gd = gs_ghost_desc_default();
-    gs_net_desc nd;
     gs_agent *a;
     gs_peer_stats ps;
     (void)state;
     memset(&sp, 0, sizeof sp);
     memset(&v, 0, sizeof v);
     sp.w = w;
-    d = pend_desc(&v);
+    d = two_values_desc(&v);
     assert_int_equal(gs_custom_create(w, &d, &a), GS_OK);
-    memset(&nd, 0, sizeof nd);
-    nd.transport.send = meddling_send;
-    nd.transport.user = &sp;
-    assert_int_equal(gs_net_create(w, &nd, &sp.net), GS_OK);
+    assert_int_equal(send_only_net(w, NULL, meddling_send, &sp, &sp.net), GS_OK);
     assert_int_equal(gs_net_add_peer(sp.net, 2, NULL), GS_OK);
     gd.object_id = 1;
     assert_int_equal(gs_ghost_attach(a, &gd), GS_OK);
@@ -646,7 +554,7 @@ static void test_hostile_udp_weight_rule(void **state) {
     counter cnt;
     gs_world *w = counted_world(&cnt, 1);
     udp_rule ur;
-    pend v;
+    two_values v;
     gs_custom_desc d;
     gs_ghost_desc gd = gs_ghost_desc_default();
     gs_udp_desc ud;
@@ -659,7 +567,7 @@ static void test_hostile_udp_weight_rule(void **state) {
     memset(&ur, 0, sizeof ur);
     memset(&v, 0, sizeof v);
     memset(&ud, 0, sizeof ud);
-    d = pend_desc(&v);
+    d = two_values_desc(&v);
     assert_int_equal(gs_custom_create(w, &d, &a), GS_OK);
     ud.bind = "127.0.0.1:0";
     ud.threads = 0;
@@ -725,7 +633,7 @@ static void test_hostile_simnet_calls(void **state) {
     gs_net *net[2];
     gs_simnet *sim = NULL;
     sim_probe sp;
-    pend v[2];
+    two_values v[2];
     gs_custom_desc d;
     gs_agent *a;
     int h;
@@ -733,23 +641,19 @@ static void test_hostile_simnet_calls(void **state) {
     memset(&sp, 0, sizeof sp);
     memset(v, 0, sizeof v);
     assert_int_equal(gs_simnet_create(NULL, &sim), GS_OK);
-    for (h = 0; h < 3; ++h) {
-        gs_world_desc wd = gs_world_desc_default();
-        wd.host_id = (uint32_t)h + 1;
-        assert_int_equal(gs_world_create(&wd, &w[h]), GS_OK);
-    }
+    for (h = 0; h < 3; ++h) w[h] = world_new((uint32_t)h + 1);
     for (h = 0; h < 2; ++h) assert_int_equal(test_join(sim, w[h], NULL, &net[h]), GS_OK);
     sp.sim = sim;
     sp.other = w[1];
     sp.late = w[2];
-    d = pend_desc(&v[0]);
+    d = two_values_desc(&v[0]);
     d.step = sim_meddling_step;
     d.user = &sp;
     d.state_size = 0;
     d.get_state = NULL;
     d.set_state = NULL;
     assert_int_equal(gs_custom_create(w[0], &d, &a), GS_OK);
-    d = pend_desc(&v[1]);
+    d = two_values_desc(&v[1]);
     assert_int_equal(gs_custom_create(w[1], &d, &a), GS_OK);
     assert_int_equal(gs_simnet_run(sim, 0.1, 0.02), GS_OK);
     assert_int_equal(sp.done, 1);
@@ -799,11 +703,7 @@ static void test_hostile_simnet_join_rollback(void **state) {
     int h;
     (void)state;
     assert_int_equal(gs_simnet_create(NULL, &sim), GS_OK);
-    for (h = 0; h < 3; ++h) {
-        gs_world_desc wd = gs_world_desc_default();
-        wd.host_id = (uint32_t)h + 1;
-        assert_int_equal(gs_world_create(&wd, &w[h]), GS_OK);
-    }
+    for (h = 0; h < 3; ++h) w[h] = world_new((uint32_t)h + 1);
     memset(&small, 0, sizeof small);
     small.max_peers = 1;
     assert_int_equal(test_join(sim, w[0], NULL, &net[0]), GS_OK);
@@ -825,7 +725,7 @@ static void test_hostile_simnet_join_rollback(void **state) {
 static void test_hostile_add_peer_rollback(void **state) {
     counter cnt;
     gs_world *w = counted_world(&cnt, 1);
-    pend v[2];
+    two_values v[2];
     gs_custom_desc d;
     gs_ghost_desc gd = gs_ghost_desc_default();
     gs_agent *a[2];
@@ -839,20 +739,20 @@ static void test_hostile_add_peer_rollback(void **state) {
     memset(&sk, 0, sizeof sk);
     net = make_net(w, &sk);
     for (i = 0; i < 2; ++i) {
-        d = pend_desc(&v[i]);
+        d = two_values_desc(&v[i]);
         assert_int_equal(gs_custom_create(w, &d, &a[i]), GS_OK);
         gd.object_id = (uint32_t)i + 1;
         assert_int_equal(gs_ghost_attach(a[i], &gd), GS_OK);
     }
-    before = live(&cnt);
-    cnt.fail_at = 2; /* the second ghost's queue */
+    before = live_blocks(&cnt);
+    cnt.fail_once = 2; /* the second ghost's queue */
     assert_int_equal(gs_net_add_peer(net, 2, NULL), GS_ERR_NO_MEMORY);
-    assert_int_equal(live(&cnt), before);
+    assert_int_equal(live_blocks(&cnt), before);
     assert_int_equal(gs_net_peer_stats(net, 2, &ps), GS_ERR_INVALID_ARG);
     assert_true(has_text(w, "gs_net_add_peer"));
-    cnt.fail_at = 0;
+    cnt.fail_once = 0;
     assert_int_equal(gs_net_add_peer(net, 2, NULL), GS_OK);
-    assert_int_equal(live(&cnt), before + 2);
+    assert_int_equal(live_blocks(&cnt), before + 2);
     gs_world_destroy(w);
     assert_int_equal(cnt.allocs, cnt.frees);
 }
@@ -863,7 +763,7 @@ static void test_hostile_null_handles(void **state) {
     gs_world *w;
     gs_net *net;
     gs_agent *a;
-    pend v;
+    two_values v;
     gs_custom_desc d;
     gs_shape_desc sh;
     gs_contact c;
@@ -938,7 +838,7 @@ static void test_hostile_null_handles(void **state) {
     }
     /* NULL outputs on live handles */
     assert_int_equal(gs_world_create(NULL, &w), GS_OK);
-    d = pend_desc(&v);
+    d = two_values_desc(&v);
     assert_int_equal(gs_custom_create(w, &d, &a), GS_OK);
     net = make_net(w, &sk);
     assert_int_equal(gs_net_add_peer(net, 2, NULL), GS_OK);
@@ -958,7 +858,7 @@ static void test_hostile_deliver_nan_now(void **state) {
     gs_world *w;
     gs_net *net;
     gs_agent *a;
-    pend v;
+    two_values v;
     gs_custom_desc d;
     gs_ghost_desc gd = gs_ghost_desc_default();
     gs_peer_stats ps;
@@ -971,7 +871,7 @@ static void test_hostile_deliver_nan_now(void **state) {
     memset(&v, 0, sizeof v);
     memset(&sk, 0, sizeof sk);
     assert_int_equal(gs_world_create(NULL, &w), GS_OK);
-    d = pend_desc(&v);
+    d = two_values_desc(&v);
     assert_int_equal(gs_custom_create(w, &d, &a), GS_OK);
     net = make_net(w, &sk);
     assert_int_equal(gs_net_add_peer(net, 2, NULL), GS_OK);

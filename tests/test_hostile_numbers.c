@@ -14,22 +14,11 @@
 #include <string.h>
 
 #include "ghostsim.h"
+#include "world_helpers.h"
 
 /* ========================================================================
    helpers
    ======================================================================== */
-static gs_vec3 v3(double x, double y, double z) {
-    gs_vec3 v;
-    v.x = x; v.y = y; v.z = z;
-    return v;
-}
-
-static gs_quat quat(double x, double y, double z, double w) {
-    gs_quat q;
-    q.x = x; q.y = y; q.z = z; q.w = w;
-    return q;
-}
-
 static gs_world *zero_g_world(void) {
     gs_world *w = NULL;
     assert_int_equal(gs_world_create(NULL, &w), GS_OK);
@@ -302,22 +291,13 @@ static gs_result nan_set(void *user, const double *in) {
 /* The NUMBERS promise for a user's step: the NaN is undone, the step says
    GS_ERR_UNSTABLE, the agent keeps the state of its second step. */
 static void test_custom_nan_undone(void **state) {
-    gs_world *w = NULL;
-    gs_custom_desc d;
+    gs_world *w = world_new(1);
     nan_agent na;
-    gs_agent *a = NULL;
+    gs_agent *a;
     double s[4];
     (void)state;
     memset(&na, 0, sizeof na);
-    memset(&d, 0, sizeof d);
-    assert_int_equal(gs_world_create(NULL, &w), GS_OK);
-    d.dt = 0.01;
-    d.state_size = 3;
-    d.step = nan_step;
-    d.get_state = nan_get;
-    d.set_state = nan_set;
-    d.user = &na;
-    assert_int_equal(gs_custom_create(w, &d, &a), GS_OK);
+    a = custom_new(w, 0.01, 3, nan_step, nan_get, nan_set, &na);
     assert_int_equal(gs_agent_step(a), GS_OK);
     assert_int_equal(gs_agent_step(a), GS_OK);
     assert_int_equal(gs_agent_step(a), GS_ERR_UNSTABLE);
@@ -625,19 +605,12 @@ static gs_result idle_set(void *user, const double *in) {
    1215 cloth, 65 610 chunks, at the cost of one untouched allocation): the
    chunk index and count are u16, so attach refuses it and says why. */
 static void test_ghost_too_many_chunks(void **state) {
-    gs_world *w = NULL;
-    gs_custom_desc d;
+    gs_world *w = world_new(1);
     gs_ghost_desc gd = gs_ghost_desc_default();
-    gs_agent *a = NULL;
+    gs_agent *a;
     (void)state;
-    memset(&d, 0, sizeof d);
-    assert_int_equal(gs_world_create(NULL, &w), GS_OK);
-    d.dt = 0.01;
-    d.state_size = (size_t)GS_WIRE_MAX_OBJECT_CHUNKS * 135 + 1;
-    d.step = idle_step;
-    d.get_state = idle_get;
-    d.set_state = idle_set;
-    assert_int_equal(gs_custom_create(w, &d, &a), GS_OK);
+    a = custom_new(w, 0.01, (size_t)GS_WIRE_MAX_OBJECT_CHUNKS * 135 + 1, idle_step, idle_get,
+                   idle_set, NULL);
     gd.object_id = 7;
     assert_int_equal(gs_ghost_attach(a, &gd), GS_ERR_CAPACITY);
     assert_error_has(w, "65536 chunks");

@@ -23,6 +23,7 @@
 
 #include "ghostsim.h"
 #include "net_helpers.h"
+#include "world_helpers.h"
 
 /* ---- a host: a world with one still point, a ghost and a net ---- */
 
@@ -52,36 +53,21 @@ static gs_result count_send(void *user, uint32_t to, const void *data, size_t si
 }
 
 static gs_agent *still_new(gs_world *w, double dt, double *x) {
-    gs_custom_desc cd;
-    gs_agent *a = NULL;
-    memset(&cd, 0, sizeof cd);
-    cd.dt = dt;
-    cd.state_size = 3;
-    cd.step = still_step;
-    cd.get_state = still_get;
-    cd.set_state = still_set;
-    cd.user = x;
-    assert_int_equal(gs_custom_create(w, &cd, &a), GS_OK);
-    return a;
+    return custom_new(w, dt, 3, still_step, still_get, still_set, x);
 }
 
 /* Host 1 with its point (object 5, exponential weights at rate 1/s) and
    a net in clear to host 2. */
 static host *host_new(void) {
     host *h = (host *)calloc(1, sizeof *h);
-    gs_world_desc wd = gs_world_desc_default();
     gs_ghost_desc gd = gs_ghost_desc_default();
-    gs_net_desc nd;
     assert_non_null(h);
-    assert_int_equal(gs_world_create(&wd, &h->w), GS_OK);
+    h->w = world_new(1);
     h->a = still_new(h->w, 0.002, h->x);
     gd.object_id = 5;
     gd.weight = gs_weight_exp;
     assert_int_equal(gs_ghost_attach(h->a, &gd), GS_OK);
-    memset(&nd, 0, sizeof nd);
-    nd.transport.send = count_send;
-    nd.transport.user = h;
-    assert_int_equal(gs_net_create(h->w, &nd, &h->net), GS_OK);
+    assert_int_equal(send_only_net(h->w, NULL, count_send, h, &h->net), GS_OK);
     assert_int_equal(gs_net_add_peer(h->net, 2, NULL), GS_OK);
     return h;
 }
@@ -300,12 +286,11 @@ static void test_net_now_bounded(void **state) {
    loop ran for ever) is refused, as is a run past GS_WIRE_MAX_TIME. */
 static void test_simnet_frame_progress(void **state) {
     gs_simnet *sim = NULL;
-    gs_world *w = NULL;
+    gs_world *w = world_new(1);
     gs_net *net = NULL;
     double x[3] = {0.0, 0.0, 0.0};
     (void)state;
     assert_int_equal(gs_simnet_create(NULL, &sim), GS_OK);
-    assert_int_equal(gs_world_create(NULL, &w), GS_OK);
     still_new(w, 0.01, x);
     assert_int_equal(test_join(sim, w, NULL, &net), GS_OK);
     assert_int_equal(gs_simnet_run(sim, 1.0, 0.1), GS_OK);
@@ -323,12 +308,11 @@ static void test_simnet_frame_progress(void **state) {
    the agent keeps its state. */
 static void test_set_state_time_bounded(void **state) {
     static const double bad[5] = {-1e300, -1e6, -1e-9, 1.5e9, 1e300};
-    gs_world *w = NULL;
+    gs_world *w = world_new(1);
     double x[3] = {1.0, 2.0, 3.0}, s[4];
     gs_agent *a;
     int i;
     (void)state;
-    assert_int_equal(gs_world_create(NULL, &w), GS_OK);
     a = still_new(w, 0.001, x);
     for (i = 0; i < 5; ++i) {
         s[0] = bad[i];
@@ -348,11 +332,10 @@ static void test_set_state_time_bounded(void **state) {
 /* An advance past GS_WIRE_MAX_TIME is refused and changes nothing; two
    advances of 1e308 made the world's time infinite. */
 static void test_advance_target_bounded(void **state) {
-    gs_world *w = NULL;
+    gs_world *w = world_new(1);
     double x[3] = {0.0, 0.0, 0.0};
     gs_advance_report rep;
     (void)state;
-    assert_int_equal(gs_world_create(NULL, &w), GS_OK);
     still_new(w, 0.01, x);
     assert_int_equal(gs_world_advance(w, 0.1, NULL), GS_OK);
     assert_int_equal(gs_world_advance(w, 1e308, &rep), GS_ERR_INVALID_ARG);
@@ -390,11 +373,10 @@ static void test_advance_steps_bounded(void **state) {
 /* The same with the default bound: one call of 1e9 s returns after
    GS_DEFAULT_MAX_STEPS cheap steps (0.3 s measured, 1.2 s under ASan). */
 static void test_advance_default_bound(void **state) {
-    gs_world *w = NULL;
+    gs_world *w = world_new(1);
     double x[3] = {0.0, 0.0, 0.0};
     gs_advance_report rep;
     (void)state;
-    assert_int_equal(gs_world_create(NULL, &w), GS_OK);
     still_new(w, 0.001, x);
     assert_int_equal(gs_world_advance(w, 1e9, &rep), GS_OK);
     assert_int_equal(rep.reached, 0);
@@ -406,24 +388,16 @@ static void test_advance_default_bound(void **state) {
    (1e-300 was taken). */
 static void test_min_dt(void **state) {
     static const double bad[3] = {1e-300, 1e-9, 0.5 * GS_MIN_DT};
-    gs_world *w = NULL;
+    gs_world *w = world_new(1);
     gs_agent *a = NULL;
     double x[3] = {0.0, 0.0, 0.0};
     int i;
     (void)state;
-    assert_int_equal(gs_world_create(NULL, &w), GS_OK);
     for (i = 0; i < 3; ++i) {
-        gs_custom_desc cd;
+        gs_custom_desc cd = custom_desc(bad[i], 3, still_step, still_get, still_set, x);
         gs_cloth_desc cl = gs_cloth_desc_default();
         gs_rigid_desc rd = gs_rigid_desc_default();
         gs_probe_desc pd = gs_probe_desc_default();
-        memset(&cd, 0, sizeof cd);
-        cd.dt = bad[i];
-        cd.state_size = 3;
-        cd.step = still_step;
-        cd.get_state = still_get;
-        cd.set_state = still_set;
-        cd.user = x;
         assert_int_equal(gs_custom_create(w, &cd, &a), GS_ERR_INVALID_ARG);
         assert_non_null(strstr(gs_world_error(w), "GS_MIN_DT"));
         cl.nx = cl.ny = 4;
@@ -448,11 +422,10 @@ static void test_min_dt(void **state) {
    dt = 1e-7 and cloth_n = 4096 settled for minutes. Each is refused at
    once now and the world is left as it was. */
 static void test_scene_settle_bounded(void **state) {
-    gs_world *w = NULL;
+    gs_world *w = world_new(1);
     gs_scene sc;
     gs_scene_desc sd;
     (void)state;
-    assert_int_equal(gs_world_create(NULL, &w), GS_OK);
     sd = gs_scene_desc_default();
     sd.dt = 1e-9;
     assert_int_equal(gs_scene_create(w, &sd, &sc), GS_ERR_INVALID_ARG);

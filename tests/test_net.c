@@ -39,6 +39,7 @@
 
 #include "ghostsim.h"
 #include "net_helpers.h"
+#include "world_helpers.h"
 
 /* Under valgrind (50x slower) the 20 s scene runs 2 s, for memory checks
    only; its distance bounds need the full run. */
@@ -46,13 +47,6 @@
 #if __has_include(<valgrind/valgrind.h>)
 #include <valgrind/valgrind.h>
 
-/* An agent's counters by value (gs_agent_get_stats fills an out-pointer). */
-static gs_agent_stats agent_stats(const gs_agent *a) {
-    gs_agent_stats st;
-    memset(&st, 0, sizeof st);
-    gs_agent_get_stats(a, &st);
-    return st;
-}
 #define UNDER_VALGRIND() (RUNNING_ON_VALGRIND != 0)
 #endif
 #endif
@@ -64,14 +58,6 @@ static gs_agent_stats agent_stats(const gs_agent *a) {
 #define NCLOTH 12          /* particles per side of the small cloth */
 
 /* ---- worlds and cloths ---- */
-
-static gs_world *world_new(uint32_t id) {
-    gs_world_desc wd = gs_world_desc_default();
-    gs_world *w = NULL;
-    wd.host_id = id;
-    assert_int_equal(gs_world_create(&wd, &w), GS_OK);
-    return w;
-}
 
 /* The brief's cloth: 12x12, four pinned corners, implicit Euler at 2 ms,
    spring damping 1 N s/m; origin_y moves the whole cloth, pins included. */
@@ -651,26 +637,16 @@ typedef struct toy_host {
 /* Host 1 with a toy (ghost id 5) at time t0 and a net (peer 2). */
 static toy_host *toy_host_new(double t0, double window) {
     toy_host *h = (toy_host *)calloc(1, sizeof *h);
-    gs_custom_desc cd;
-    gs_net_desc nd;
+    gs_net_desc nd = gs_net_desc_default();
     double s[4] = {0.0, 1.0, 2.0, 3.0};
     assert_non_null(h);
     h->w = world_new(1);
-    memset(&cd, 0, sizeof cd);
-    cd.dt = 0.01;
-    cd.state_size = 3;
-    cd.step = toy_step;
-    cd.get_state = toy_get;
-    cd.set_state = toy_set;
-    cd.user = &h->t;
-    assert_int_equal(gs_custom_create(h->w, &cd, &h->a), GS_OK);
+    h->a = custom_new(h->w, 0.01, 3, toy_step, toy_get, toy_set, &h->t);
     s[0] = t0;
     assert_int_equal(gs_agent_set_state(h->a, s, 4), GS_OK);
     ghost_on(h->a, 5);
-    memset(&nd, 0, sizeof nd);
-    nd.transport.send = drop_send;
     nd.time_window = window;
-    assert_int_equal(gs_net_create(h->w, &nd, &h->net), GS_OK);
+    assert_int_equal(send_only_net(h->w, &nd, drop_send, NULL, &h->net), GS_OK);
     assert_int_equal(gs_net_add_peer(h->net, 2, NULL), GS_OK);
     return h;
 }
@@ -1246,35 +1222,6 @@ static void sleep_until(double until) {
         ts.tv_nsec = (long)((d - (double)ts.tv_sec) * 1e9);
         nanosleep(&ts, NULL);
     }
-}
-
-/* A port of the loopback that is free now (the kernel's choice: port 0),
-   written as "127.0.0.1:PORT" or "[::1]:PORT" into buf. Fixed ports
-   collided with other test runs on a shared machine; 0 if there is no
-   such loopback. */
-static int loopback_addr(int v6, char *buf, size_t size) {
-    struct sockaddr_storage a;
-    socklen_t len = sizeof a;
-    int fd = socket(v6 ? AF_INET6 : AF_INET, SOCK_DGRAM, 0), port = 0;
-    if (fd < 0) return 0;
-    memset(&a, 0, sizeof a);
-    if (v6) {
-        struct sockaddr_in6 *a6 = (struct sockaddr_in6 *)&a;
-        a6->sin6_family = AF_INET6;
-        a6->sin6_addr = in6addr_loopback;
-    } else {
-        struct sockaddr_in *a4 = (struct sockaddr_in *)&a;
-        a4->sin_family = AF_INET;
-        a4->sin_addr.s_addr = htonl(INADDR_LOOPBACK);
-    }
-    if (bind(fd, (struct sockaddr *)&a, v6 ? sizeof(struct sockaddr_in6)
-                                           : sizeof(struct sockaddr_in)) == 0 &&
-        getsockname(fd, (struct sockaddr *)&a, &len) == 0)
-        port = ntohs(v6 ? ((struct sockaddr_in6 *)&a)->sin6_port
-                        : ((struct sockaddr_in *)&a)->sin_port);
-    close(fd);
-    if (port) snprintf(buf, size, v6 ? "[::1]:%d" : "127.0.0.1:%d", port);
-    return port;
 }
 
 typedef struct udp_pair {

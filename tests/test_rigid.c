@@ -11,14 +11,7 @@
 #include <string.h>
 
 #include "ghostsim.h"
-
-/* An agent's counters by value (gs_agent_get_stats fills an out-pointer). */
-static gs_agent_stats agent_stats(const gs_agent *a) {
-    gs_agent_stats st;
-    memset(&st, 0, sizeof st);
-    gs_agent_get_stats(a, &st);
-    return st;
-}
+#include "world_helpers.h"
 
 #define PI 3.14159265358979323846
 #define GRAVITY 9.81        /* m/s^2, the world's default |g| */
@@ -27,18 +20,6 @@ static gs_agent_stats agent_stats(const gs_agent *a) {
 /* ========================================================================
    helpers
    ======================================================================== */
-static gs_vec3 v3(double x, double y, double z) {
-    gs_vec3 v;
-    v.x = x; v.y = y; v.z = z;
-    return v;
-}
-
-static gs_quat quat(double x, double y, double z, double w) {
-    gs_quat q;
-    q.x = x; q.y = y; q.z = z; q.w = w;
-    return q;
-}
-
 static const gs_quat Q_ID = {0.0, 0.0, 0.0, 1.0};
 
 static double len3(gs_vec3 v) { return sqrt(v.x * v.x + v.y * v.y + v.z * v.z); }
@@ -75,52 +56,53 @@ static void assert_world_finite(const gs_world *w) {
         assert_true(agent_finite(gs_world_agent(w, i)));
 }
 
-static gs_world *world_new(void) {
-    gs_world *w = NULL;
-    assert_int_equal(gs_world_create(NULL, &w), GS_OK);
-    assert_non_null(w);
-    return w;
-}
-
 static gs_world *world_with_ground(gs_material m) {
-    gs_world *w = world_new();
+    gs_world *w = world_new(1);
     assert_int_equal(gs_world_set_ground(w, 1, 0.0, m), GS_OK);
     return w;
 }
 
-static gs_shape_desc sphere_shape(double r) {
+/* A shape of `type`, every other field zero. */
+static gs_shape_desc shape_of(gs_shape_type type) {
     gs_shape_desc s;
     memset(&s, 0, sizeof s);
-    s.type = GS_SHAPE_SPHERE;
+    s.type = type;
+    return s;
+}
+
+static gs_shape_desc sphere_shape(double r) {
+    gs_shape_desc s = shape_of(GS_SHAPE_SPHERE);
     s.radius = r;
     return s;
 }
 
 static gs_shape_desc box_shape(gs_vec3 half) {
-    gs_shape_desc s;
-    memset(&s, 0, sizeof s);
-    s.type = GS_SHAPE_BOX;
+    gs_shape_desc s = shape_of(GS_SHAPE_BOX);
     s.half_extents = half;
     return s;
 }
 
 static gs_shape_desc hull_shape(const gs_vec3 *p, int n) {
-    gs_shape_desc s;
-    memset(&s, 0, sizeof s);
-    s.type = GS_SHAPE_HULL;
+    gs_shape_desc s = shape_of(GS_SHAPE_HULL);
     s.points = p;
     s.point_count = n;
     return s;
 }
 
-static gs_rigid_desc sphere_desc(double r, double mass, gs_vec3 p, gs_vec3 v,
-                                 gs_material m) {
+/* A body of `shape`, mass (kg) and material at p, at rest. */
+static gs_rigid_desc body_desc(gs_shape_desc shape, double mass, gs_vec3 p, gs_material m) {
     gs_rigid_desc d = gs_rigid_desc_default();
-    d.shape = sphere_shape(r);
+    d.shape = shape;
     d.mass = mass;
     d.position = p;
-    d.velocity = v;
     d.material = m;
+    return d;
+}
+
+static gs_rigid_desc sphere_desc(double r, double mass, gs_vec3 p, gs_vec3 v,
+                                 gs_material m) {
+    gs_rigid_desc d = body_desc(sphere_shape(r), mass, p, m);
+    d.velocity = v;
     return d;
 }
 
@@ -141,11 +123,7 @@ static gs_agent *make_sphere(gs_world *w, double r, double mass, gs_vec3 p,
 
 static gs_agent *make_box(gs_world *w, gs_vec3 half, double mass, gs_vec3 p,
                           gs_material m) {
-    gs_rigid_desc d = gs_rigid_desc_default();
-    d.shape = box_shape(half);
-    d.mass = mass;
-    d.position = p;
-    d.material = m;
+    gs_rigid_desc d = body_desc(box_shape(half), mass, p, m);
     return make_rigid(w, &d);
 }
 
@@ -493,7 +471,7 @@ static void test_box_rests_on_heavy_box(void **state) {
    it is put 0.3 m above the cloth's centre first. */
 static double scene_cloth_centre(int spheres, double seconds, double *before,
                                  gs_vec3 *sphere_p, double *sphere_speed) {
-    gs_world *w = world_new();
+    gs_world *w = world_new(1);
     gs_scene sc;
     gs_scene_desc sd = gs_scene_desc_default();
     double st[14], y;
@@ -895,7 +873,7 @@ static void test_probe_pushes_sphere(void **state) {
    dt moves the probe by max_speed * dt exactly (2 m/s * 1 ms = 2 mm; bound
    with 1e-12 of round-off), and the velocity it reports is max_speed. */
 static void test_probe_max_speed(void **state) {
-    gs_world *w = world_new();
+    gs_world *w = world_new(1);
     gs_probe_desc pd = gs_probe_desc_default();
     gs_agent *probe;
     gs_vec3 before;
@@ -969,7 +947,7 @@ static void test_mass_ratio_stack(void **state) {
    sphere of radius 0.1 m thrown down at it at 100 m/s from y0. */
 static gs_world *fast_sphere_world(int continuous, double y0, gs_agent **cloth,
                                    gs_agent **ball) {
-    gs_world *w = world_new();
+    gs_world *w = world_new(1);
     gs_cloth_desc cd = gs_cloth_desc_default();
     gs_rigid_desc d = sphere_desc(0.1, 0.5, v3(0, y0, 0), v3(0, -100, 0),
                                   gs_material_default());
@@ -1065,12 +1043,10 @@ static void test_fast_sphere_into_cloth(void **state) {
    8. bad input
    ======================================================================== */
 
-/* A refused create: the code, a message naming the field, *out NULL,
-   nothing added to the world. */
-static void expect_rigid_error(const gs_rigid_desc *d, gs_result code, const char *word) {
-    gs_world *w = world_new();
-    gs_agent *a = (gs_agent *)&w; /* not NULL, to see it cleared */
-    gs_result r = gs_rigid_create(w, d, &a);
+/* A refused create (r, and a its *out): the code, a message naming the
+   field, *out NULL, nothing added to the world. Destroys the world. */
+static void expect_refused(gs_world *w, gs_result r, const gs_agent *a, gs_result code,
+                           const char *word) {
     if (r != code || !strstr(gs_world_error(w), word))
         fail_msg("expected %s naming \"%s\", got %s: \"%s\"", gs_result_str(code),
                  word, gs_result_str(r), gs_world_error(w));
@@ -1079,16 +1055,18 @@ static void expect_rigid_error(const gs_rigid_desc *d, gs_result code, const cha
     gs_world_destroy(w);
 }
 
+static void expect_rigid_error(const gs_rigid_desc *d, gs_result code, const char *word) {
+    gs_world *w = world_new(1);
+    gs_agent *a = (gs_agent *)&w; /* not NULL, to see it cleared */
+    gs_result r = gs_rigid_create(w, d, &a);
+    expect_refused(w, r, a, code, word);
+}
+
 static void expect_probe_error(const gs_probe_desc *d, gs_result code, const char *word) {
-    gs_world *w = world_new();
-    gs_agent *a = (gs_agent *)&w;
+    gs_world *w = world_new(1);
+    gs_agent *a = (gs_agent *)&w; /* not NULL, to see it cleared */
     gs_result r = gs_probe_create(w, d, &a);
-    if (r != code || !strstr(gs_world_error(w), word))
-        fail_msg("expected %s naming \"%s\", got %s: \"%s\"", gs_result_str(code),
-                 word, gs_result_str(r), gs_world_error(w));
-    assert_null(a);
-    assert_int_equal(gs_world_agent_count(w), 0);
-    gs_world_destroy(w);
+    expect_refused(w, r, a, code, word);
 }
 
 static void test_bad_rigid_input(void **state) {
@@ -1152,7 +1130,7 @@ static void test_bad_rigid_input(void **state) {
     expect_rigid_error(&e, GS_ERR_INVALID_ARG, "material.stiffness");
     /* a NULL desc or out */
     {
-        gs_world *w = world_new();
+        gs_world *w = world_new(1);
         gs_agent *a = (gs_agent *)&w;
         assert_int_equal(gs_rigid_create(w, NULL, &a), GS_ERR_INVALID_ARG);
         assert_null(a);
@@ -1183,7 +1161,7 @@ static void test_bad_probe_input(void **state) {
     expect_probe_error(&e, GS_ERR_INVALID_ARG, "shape.type");
 
     /* gs_probe_set_target: NaN is refused and leaves the target as it was */
-    w = world_new();
+    w = world_new(1);
     d.position = v3(1, 2, 3);
     assert_int_equal(gs_probe_create(w, &d, &p), GS_OK);
     assert_int_equal(gs_probe_set_target(p, v3(NAN, 0, 0), Q_ID), GS_ERR_NOT_FINITE);
@@ -1281,7 +1259,7 @@ static void test_bad_ground_and_scene(void **state) {
    default 1000; a given mass overrides the density. The hull is recentred
    on its centre of mass: an off-centre point set gives the same mass. */
 static void test_mass_properties(void **state) {
-    gs_world *w = world_new();
+    gs_world *w = world_new(1);
     gs_rigid_desc d = gs_rigid_desc_default();
     gs_vec3 corners[8], shifted[8];
     double ball = 4.0 / 3.0 * PI * 1e-3 * 1000.0;
@@ -1318,7 +1296,7 @@ static void test_mass_properties(void **state) {
    refused with GS_ERR_INVALID_ARG and changes nothing; NaN is
    GS_ERR_NOT_FINITE; a wrong size GS_ERR_SIZE_MISMATCH. */
 static void test_rigid_state(void **state) {
-    gs_world *w = world_new();
+    gs_world *w = world_new(1);
     gs_agent *s = make_sphere(w, 0.1, 1.0, v3(1, 2, 3), v3(4, 5, 6), gs_material_default());
     double st[14], back[14];
     const double h = sqrt(0.5);
@@ -1370,7 +1348,7 @@ static void test_rigid_state(void **state) {
 /* A probe's state can be set too, and it then stays where it was put
    (its target moves with it) instead of gliding back to the old target. */
 static void test_probe_state(void **state) {
-    gs_world *w = world_new();
+    gs_world *w = world_new(1);
     gs_probe_desc pd = gs_probe_desc_default();
     gs_agent *p;
     double st[14];
@@ -1392,7 +1370,7 @@ static void test_probe_state(void **state) {
 /* The paper's scene (default desc: 16 x 16 cloth, 3 spheres, 1 probe) for
    1 s with the probe on its scripted path. */
 static uint64_t scene_hash(double path_phase) {
-    gs_world *w = world_new();
+    gs_world *w = world_new(1);
     gs_scene sc;
     gs_scene_desc sd = gs_scene_desc_default();
     uint64_t h;

@@ -249,11 +249,11 @@ static void test_xpbd_schedule_covers(void **state) {
         }
         for (i = 0; i < m->nxblk; ++i) {
             const struct gs__xblk *k = &m->xblk[i];
-            int nl = k->kind == GS__XB_ONE ? 1 : 4, ends[8], e, f, a, b, j, blk;
+            int nl = k->lanes, ends[8], e, f, a, b, j, blk;
             assert_true(k->count >= 1);
             for (blk = 0; blk < k->count; ++blk) {
                 for (q = 0; q < nl; ++q) {
-                    gs__xblk_lane(k, blk, q, &a, &b);
+                    gs__xblk_lane(m, k, blk, q, &a, &b);
                     ends[2 * q] = a;
                     ends[2 * q + 1] = b;
                     /* the lane's k, c, rest are its spring's */

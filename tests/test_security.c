@@ -46,7 +46,9 @@
 #endif
 
 #include "ghostsim.h"
+#include "alloc_helpers.h"
 #include "net_helpers.h"
+#include "world_helpers.h"
 #ifdef GHOSTSIM_SODIUM
 #include <sodium.h> /* the seal's cost against libsodium's alone */
 #endif
@@ -57,34 +59,6 @@ static const unsigned char key_a[GS_WIRE_KEY_BYTES] = "ghostsim test key, 32 byt
 #ifdef GHOSTSIM_SODIUM
 static const unsigned char key_b[GS_WIRE_KEY_BYTES] = "another key, also 32 bytes long";
 #endif
-
-/* ---- a counting allocator: bytes live and the peak, through the world's
-   hook ---- */
-
-typedef struct counting {
-    size_t live, peak;
-    unsigned long calls;
-} counting;
-
-static void *count_alloc(size_t size, void *user) {
-    counting *c = (counting *)user;
-    size_t *p = (size_t *)malloc(size + 16);
-    if (!p) return NULL;
-    p[0] = size;
-    c->live += size;
-    c->calls++;
-    if (c->live > c->peak) c->peak = c->live;
-    return (char *)p + 16;
-}
-
-static void count_free(void *ptr, void *user) {
-    counting *c = (counting *)user;
-    size_t *p;
-    if (!ptr) return;
-    p = (size_t *)(void *)((char *)ptr - 16);
-    c->live -= p[0];
-    free(p);
-}
 
 /* ---- a host: a toy agent of n values under ghost 5, owned by host 2, on
    a transport of the test's own that keeps what it sends ---- */
@@ -132,7 +106,7 @@ typedef struct host {
     gs_net *net;
     toy t;
     box out;
-    counting mem;
+    counter mem; /* the world's allocations: bytes live and the peak */
     double now; /* s, this host's wall clock for gs_net_update */
 } host;
 
@@ -147,39 +121,23 @@ typedef struct host_opts {
    *r when the net cannot be made. */
 static host *host_try(uint32_t id, const host_opts *o, gs_result *r) {
     host *h = (host *)calloc(1, sizeof *h);
-    gs_world_desc wd = gs_world_desc_default();
-    gs_custom_desc cd;
     gs_ghost_desc gd = gs_ghost_desc_default();
-    gs_net_desc nd;
+    gs_net_desc nd = gs_net_desc_default();
     int i;
     assert_non_null(h);
-    wd.host_id = id;
-    wd.allocator.alloc = count_alloc;
-    wd.allocator.free = count_free;
-    wd.allocator.user = &h->mem;
-    assert_int_equal(gs_world_create(&wd, &h->w), GS_OK);
+    h->w = counted_world(&h->mem, id);
     h->t.n = o && o->n ? o->n : 3;
     for (i = 0; i < h->t.n; ++i) h->t.x[i] = (double)(id * 100 + (uint32_t)i);
-    memset(&cd, 0, sizeof cd);
-    cd.dt = 0.01;
-    cd.state_size = (size_t)h->t.n;
-    cd.step = toy_step;
-    cd.get_state = toy_get;
-    cd.set_state = toy_set;
-    cd.user = &h->t;
-    assert_int_equal(gs_custom_create(h->w, &cd, &h->a), GS_OK);
+    h->a = custom_new(h->w, 0.01, (size_t)h->t.n, toy_step, toy_get, toy_set, &h->t);
     gd.object_id = 5;
     gd.weight = gs_weight_owner; /* host 1 takes host 2's state as it is */
     gd.owner = 2;
     gd.send_rate = 1000.0;       /* every step is sent */
     gd.time_deadband = -1.0;
     assert_int_equal(gs_ghost_attach(h->a, &gd), GS_OK);
-    memset(&nd, 0, sizeof nd);
-    nd.transport.send = box_send;
-    nd.transport.user = &h->out;
     nd.key = o ? o->key : NULL;
     nd.max_rate = o ? o->max_rate : 0.0;
-    *r = gs_net_create(h->w, &nd, &h->net);
+    *r = send_only_net(h->w, &nd, box_send, &h->out, &h->net);
     if (*r != GS_OK) return h;
     if (o && o->peers[0])
         for (i = 0; i < 3 && o->peers[i]; ++i) assert_int_equal(gs_net_add_peer(h->net, o->peers[i], NULL), GS_OK);
@@ -727,7 +685,7 @@ static void test_flood(void **state) {
     host *h1, *h2;
     gs_reject why;
     gs_peer_stats ps;
-    counting before;
+    counter before;
     uint64_t rej0, b0, kinds[6] = {0, 0, 0, 0, 0, 0}, reasons[GS_REJECT_COUNT];
     long i, legit = 0, rss0, rss1;
     double now = 100.0, t0, t1, base = 0.0;
@@ -995,35 +953,6 @@ static void allow_list(const char *a, const char *b, const char *c, const char *
     udp_host_close(&x[0]);
     udp_host_close(&x[1]);
     udp_host_close(&x[2]);
-}
-
-/* A port of the loopback that is free now (the kernel's choice), as
-   "127.0.0.1:PORT" or "[::1]:PORT" in buf (as test_net.c does: fixed
-   ports collide with other runs on a shared machine); 0 if there is no
-   such loopback. */
-static int loopback_addr(int v6, char *buf, size_t size) {
-    struct sockaddr_storage a;
-    socklen_t len = sizeof a;
-    int fd = socket(v6 ? AF_INET6 : AF_INET, SOCK_DGRAM, 0), port = 0;
-    if (fd < 0) return 0;
-    memset(&a, 0, sizeof a);
-    if (v6) {
-        struct sockaddr_in6 *a6 = (struct sockaddr_in6 *)(void *)&a;
-        a6->sin6_family = AF_INET6;
-        a6->sin6_addr = in6addr_loopback;
-    } else {
-        struct sockaddr_in *a4 = (struct sockaddr_in *)(void *)&a;
-        a4->sin_family = AF_INET;
-        a4->sin_addr.s_addr = htonl(INADDR_LOOPBACK);
-    }
-    if (bind(fd, (struct sockaddr *)&a, v6 ? sizeof(struct sockaddr_in6)
-                                           : sizeof(struct sockaddr_in)) == 0 &&
-        getsockname(fd, (struct sockaddr *)&a, &len) == 0)
-        port = ntohs(v6 ? ((struct sockaddr_in6 *)(void *)&a)->sin6_port
-                        : ((struct sockaddr_in *)(void *)&a)->sin_port);
-    close(fd);
-    if (port) snprintf(buf, size, v6 ? "[::1]:%d" : "127.0.0.1:%d", port);
-    return port;
 }
 
 static void allow_list_on(int v6, const char *label) {

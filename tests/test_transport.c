@@ -14,17 +14,15 @@
 #include <stddef.h>
 #include <stdint.h>
 #include <cmocka.h>
-#include <arpa/inet.h>
 #include <math.h>
-#include <netinet/in.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
-#include <sys/socket.h>
 #include <time.h>
-#include <unistd.h>
 
 #include "ghostsim.h"
+#include "net_helpers.h"
+#include "world_helpers.h"
 
 /* ---- a toy agent: x0 += x1 dt ---- */
 typedef struct toy {
@@ -54,20 +52,11 @@ typedef struct host {
 
 /* A world of host id `id` with one toy ghost (object 1, owned by host 1). */
 static void host_make(host *h, uint32_t id, double x) {
-    gs_world_desc wd = gs_world_desc_default();
-    gs_custom_desc cd = gs_custom_desc_default();
     gs_ghost_desc gd = gs_ghost_desc_default();
     memset(h, 0, sizeof *h);
     h->t.x[0] = x;
-    wd.host_id = id;
-    assert_int_equal(gs_world_create(&wd, &h->w), GS_OK);
-    cd.dt = 0.01;
-    cd.state_size = 2;
-    cd.step = toy_step;
-    cd.get_state = toy_get;
-    cd.set_state = toy_set;
-    cd.user = &h->t;
-    assert_int_equal(gs_custom_create(h->w, &cd, &h->a), GS_OK);
+    h->w = world_new(id);
+    h->a = custom_new(h->w, 0.01, 2, toy_step, toy_get, toy_set, &h->t);
     gd.object_id = 1;
     gd.weight = gs_weight_owner;
     gd.owner = 1;
@@ -373,37 +362,12 @@ static void test_simnet_transport(void **state) {
 
 /* ---- UDP ---- */
 
-/* A loopback port free now (the kernel's choice), as "127.0.0.1:PORT". */
-static int loopback_addr(char *buf, size_t size) {
-    struct sockaddr_in a;
-    socklen_t len = sizeof a;
-    int fd = socket(AF_INET, SOCK_DGRAM, 0), port = 0;
-    if (fd < 0) return 0;
-    memset(&a, 0, sizeof a);
-    a.sin_family = AF_INET;
-    a.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
-    if (bind(fd, (struct sockaddr *)&a, sizeof a) == 0 &&
-        getsockname(fd, (struct sockaddr *)&a, &len) == 0)
-        port = ntohs(a.sin_port);
-    close(fd);
-    if (port) snprintf(buf, size, "127.0.0.1:%d", port);
-    return port;
-}
-
 /* h's net on a UDP socket at addr (threads 0: poll mode). */
 static gs_result udp_net(host *h, const char *addr, int threads) {
     gs_udp_desc ud = gs_udp_desc_default();
-    gs_net_desc nd = gs_net_desc_default();
-    gs_udp *u;
-    gs_result r;
     ud.bind = addr;
     ud.threads = threads;
-    r = gs_udp_create(h->w, &ud, &u);
-    if (r != GS_OK) return r;
-    assert_int_equal(gs_udp_transport(u, &nd.transport), GS_OK);
-    r = gs_net_create(h->w, &nd, &h->net);
-    if (r != GS_OK) gs_udp_close(u);
-    return r;
+    return test_udp_open(h->w, &ud, NULL, &h->net);
 }
 
 static void test_udp_peers(void **state) {
@@ -415,7 +379,7 @@ static void test_udp_peers(void **state) {
     gs_udp *u;
     gs_net *net;
     (void)state;
-    assert_true(loopback_addr(a1, sizeof a1) && loopback_addr(a2, sizeof a2));
+    assert_true(loopback_addr(0, a1, sizeof a1) && loopback_addr(0, a2, sizeof a2));
     host_make(&h1, 1, 0.0);
     host_make(&h2, 2, 0.0);
     assert_int_equal(udp_net(&h1, a1, 0), GS_OK);
@@ -464,7 +428,7 @@ static void test_udp_poll_mode(void **state) {
     double start, last, now;
     int frames = 0;
     (void)state;
-    assert_true(loopback_addr(a1, sizeof a1) && loopback_addr(a2, sizeof a2));
+    assert_true(loopback_addr(0, a1, sizeof a1) && loopback_addr(0, a2, sizeof a2));
     host_make(&h1, 1, 0.75);
     host_make(&h2, 2, -1.0);
     assert_int_equal(udp_net(&h1, a1, 0), GS_OK);

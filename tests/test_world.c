@@ -17,14 +17,8 @@
 #include <string.h>
 
 #include "ghostsim.h"
-
-/* An agent's counters by value (gs_agent_get_stats fills an out-pointer). */
-static gs_agent_stats agent_stats(const gs_agent *a) {
-    gs_agent_stats st;
-    memset(&st, 0, sizeof st);
-    gs_agent_get_stats(a, &st);
-    return st;
-}
+#include "alloc_helpers.h"
+#include "world_helpers.h"
 
 /* ---- a custom agent that records what the scheduler does with it ---- */
 
@@ -113,14 +107,7 @@ static void rec_init(rec *r, int id) {
 
 /* A custom agent with a 2-double state backed by r. */
 static gs_agent *add_rec(gs_world *w, rec *r, double dt) {
-    gs_custom_desc cd;
-    memset(&cd, 0, sizeof cd);
-    cd.dt = dt;
-    cd.state_size = 2;
-    cd.step = rec_step;
-    cd.get_state = rec_get;
-    cd.set_state = rec_set;
-    cd.user = r;
+    gs_custom_desc cd = custom_desc(dt, 2, rec_step, rec_get, rec_set, r);
     assert_int_equal(gs_custom_create(w, &cd, &r->self), GS_OK);
     assert_non_null(r->self);
     return r->self;
@@ -759,59 +746,9 @@ static void test_world_defaults(void **state) {
 
 /* ---- allocation ---- */
 
-/* Prefix each block with its size so that frees can be counted in bytes. */
-typedef union block_head {
-    size_t size;
-    long double align_ld;
-    void *align_p;
-    long long align_ll;
-} block_head;
-
-typedef struct counter {
-    long allocs, frees, refused;
-    size_t live, peak;
-    long fail_at; /* allocation number that starts failing; -1 never */
-} counter;
-
-static void *count_alloc(size_t size, void *user) {
-    counter *c = (counter *)user;
-    block_head *h;
-    if (c->fail_at >= 0 && c->allocs >= c->fail_at) {
-        c->refused++;
-        return NULL;
-    }
-    h = (block_head *)malloc(sizeof *h + size);
-    if (!h) return NULL;
-    h->size = size;
-    c->allocs++;
-    c->live += size;
-    if (c->live > c->peak) c->peak = c->live;
-    return h + 1;
-}
-
-static void count_free(void *ptr, void *user) {
-    counter *c = (counter *)user;
-    block_head *h;
-    if (!ptr) return;
-    h = (block_head *)ptr - 1;
-    c->frees++;
-    c->live -= h->size;
-    free(h);
-}
-
-static gs_world_desc counted_desc(counter *c) {
-    gs_world_desc wd = gs_world_desc_default();
-    memset(c, 0, sizeof *c);
-    c->fail_at = -1;
-    wd.allocator.alloc = count_alloc;
-    wd.allocator.free = count_free;
-    wd.allocator.user = c;
-    return wd;
-}
-
 static void test_world_allocator(void **state) {
     counter c;
-    gs_world_desc wd = counted_desc(&c);
+    gs_world_desc wd = counted_world_desc(&c);
     gs_cloth_desc cd = gs_cloth_desc_default();
     gs_world *w;
     gs_agent *cl1, *cl2;
@@ -859,14 +796,14 @@ static void test_world_failing_allocator(void **state) {
     (void)state;
     for (n = 0; n < 64 && !all_ok; ++n) {
         counter c;
-        gs_world_desc wd = counted_desc(&c);
+        gs_world_desc wd = counted_world_desc(&c);
         gs_cloth_desc cd = gs_cloth_desc_default();
         gs_world *w = (gs_world *)&c; /* not NULL before the call */
         gs_agent *a;
         gs_result r;
         rec recs[10];
         int i, count;
-        c.fail_at = n;
+        c.fail_from = n + 1; /* n blocks given, then refusals */
         r = gs_world_create(&wd, &w);
         if (r != GS_OK) {
             assert_int_equal(r, GS_ERR_NO_MEMORY);
@@ -886,16 +823,9 @@ static void test_world_failing_allocator(void **state) {
         }
         /* ten custom agents: the agent list grows past its first size */
         for (i = 0; i < 10; ++i) {
-            gs_custom_desc xd;
+            gs_custom_desc xd = custom_desc(0.01, 2, rec_step, rec_get, rec_set, &recs[i]);
             count = gs_world_agent_count(w);
             rec_init(&recs[i], i);
-            memset(&xd, 0, sizeof xd);
-            xd.dt = 0.01;
-            xd.state_size = 2;
-            xd.step = rec_step;
-            xd.get_state = rec_get;
-            xd.set_state = rec_set;
-            xd.user = &recs[i];
             a = (gs_agent *)&c;
             r = gs_custom_create(w, &xd, &a);
             if (r != GS_OK) {
