@@ -280,10 +280,9 @@
        (nothing freed or changed, the reason in gs_world_error), and
        gs_simnet_destroy is ignored while its run goes on. gs_net_update
        and gs_net_deliver, which any thread may call, return GS_ERR_BUSY
-       from a weight rule or the send callback (the net's queues or its
-       datagram are in use then) and work from a custom step or a
-       behaviour rule. Reading is always allowed (getters,
-       gs_agent_get_state, gs_ghost_get_stats, gs_ghost_render_state,
+       from the send callback (the net's datagram is in use then) and work
+       from a custom step, a behaviour rule or a weight rule. Reading is
+       always allowed (getters, gs_agent_get_state, gs_ghost_get_stats, gs_ghost_render_state,
        gs_net_peer_stats, gs_net_unknown_stats), and so are
        gs_agent_set_priority and gs_agent_set_behaviour.
 
@@ -322,15 +321,18 @@
        (receive, validate, queue) and a scatter thread (send what is due);
        they touch only the net's peers, queues, published states and
        statistics, under one mutex that the world thread also takes when a
-       ghost publishes or blends. gs_net_deliver, gs_net_update and the
-       stats calls are safe from any thread; everything else (adding and
-       removing peers included) belongs to the world's thread.
-       Weight rules run with the net's lock held, and the send callback
-       too: gs_udp's mutex is recursive, so that a rule's calls into the
-       net take it again (stats answer; the calls that change the net
-       return GS_ERR_BUSY) and never deadlock. A lock of your own
-       (gs_net_set_lock) must be recursive as well if your weight rules
-       or send callback call into the net.
+       ghost publishes or takes the snapshots waiting for it. gs_net_deliver,
+       gs_net_update and the stats calls are safe from any thread;
+       everything else (adding and removing peers included) belongs to the
+       world's thread. Weight rules run with no lock held: the snapshots
+       are taken out of the net's queues under the lock and blended after
+       it is released, so a rule may call the calls any thread may (the
+       calls that change the world or the net return GS_ERR_BUSY). The
+       send callback runs with the lock held: gs_udp's mutex is recursive,
+       so that its calls into the net take it again (stats answer; the
+       calls that change the net return GS_ERR_BUSY) and never deadlock. A
+       lock of your own (gs_net_set_lock) must be recursive as well if
+       your send callback calls into the net.
 
    REVISION HISTORY
        0.1.0 (2026-11-23)  world, scheduler, spring-mass agents, integrators,
@@ -477,8 +479,10 @@ typedef enum gs_sync_mode {
                               ghost, every chunk, one time) when the world
                               reaches that time, in a re-run from the last
                               recorded moment before it, then on to the
-                              present, inside the same gs_world_advance;
-                              sets older than the history, or past the
+                              present, inside the same gs_world_advance (a
+                              blend there that changes no state ends the
+                              re-run: the present stands); sets older
+                              than the history, or past the
                               replay budget, blend at the present; partial
                               sets a newer whole one supersedes are dropped.
                               A peer's probe goes on along its velocity
@@ -1388,9 +1392,14 @@ GS_API gs_result gs_scene_attach_ghosts(gs_scene *sc, const gs_ghost_desc *share
 
 /* ========================================================================
    >>sync
-   Between the world and the net. The world calls it at the start of an
-   advance, after each step and at the end of an advance; the scheduler
-   knows nothing of it. It keeps the session clock (gs_sync_desc.clock) and
+   Between the world and the net. The world calls it through two hooks,
+   one that runs an advance and one after each step; the scheduler knows
+   nothing of it. A snapshot's walk: received and queued by the net (>>net,
+   under its lock); at the next advance taken out of the queue under the
+   lock, the world rewound to the frame before its time, stepped to it,
+   every ghost blended there with the lock released (>>ghost), the frames
+   replayed to the present; then the ghosts publish for the net to send.
+   It keeps the session clock (gs_sync_desc.clock) and
    the world history: at the start of each advance, every agent's state,
    its step count, time offset, priority and counters, what the contacts
    remember (a rigid body's own acceleration of its last step, a probe's target, the broad
@@ -1417,7 +1426,11 @@ typedef struct gs_sync_stats {
     int history;           /* frames recorded now (re-runnable) */
     uint64_t rerun_steps;  /* agent steps re-run (gs_world_sync_test) */
     uint64_t replays;      /* advances that re-ran the past to blend */
-    uint64_t replay_steps; /* agent steps those replays ran */
+    uint64_t replay_steps; /* agent steps those replays ran (and the
+                              probes of the skipped ones) */
+    uint64_t replays_skipped; /* advances whose snapshots, blended in the
+                              past, changed no state: the re-run stopped
+                              there and the present stood */
     uint64_t fallbacks;    /* advances whose snapshots (replay mode) were
                               older than the history or past the budget, and
                               blended at the present */
@@ -1982,8 +1995,7 @@ GS_API gs_result gs_net_remove_peer(gs_net *net, uint32_t host);
    stepped back goes on sending) and counted: gs_peer_stats.clock_backwards,
    and the health GS_PEER_CLOCK_BACK until the clock is past its old
    reading again. Call it once a frame, after gs_world_advance (see THE
-   FRAME LOOP at the top). GS_ERR_BUSY from a weight rule or the send
-   callback. */
+   FRAME LOOP at the top). GS_ERR_BUSY from the send callback. */
 GS_API gs_result gs_net_update(gs_net *net, double now);
 /* The frame's network call for a transport that needs one (gs_udp; any
    with a poll): the transport's poll delivers what waits (gs_udp in poll
@@ -2002,8 +2014,8 @@ GS_API gs_result gs_net_poll(gs_net *net, double now);
    GS_ERR_REJECTED (reason in *why, may be NULL) when refused; refused
    datagrams are counted and never blended, and nothing is ever sent back.
    GS_ERR_INVALID_ARG / GS_ERR_NOT_FINITE for a `now` as gs_net_update
-   refuses it, and GS_ERR_BUSY for a call from a weight rule or the send
-   callback (the queues are being read): neither is counted.
+   refuses it, and GS_ERR_BUSY for a call from the send callback: neither
+   is counted.
    Time: a send or echo time outside [0, GS_WIRE_MAX_TIME] is refused
    (GS_REJECT_TIME); a send time more than GS_MAX_AGE off the sender's
    clock as the round trips measured it leaves the snapshot's age unknown
@@ -2541,6 +2553,21 @@ struct gs_agent {
                             last moved) */
 };
 
+/* The two calls the world makes into the layer above it, the sync layer
+   (>>sync), which fills them in when it is created with the world: the
+   world, the scheduler and the agents know nothing else of it (nor of
+   ghosts or the net). `advance` runs one advance's dispatches once the
+   world has checked the call (the sync layer runs them through
+   gs__world_run_setup and gs__world_run_loop, and first rewinds and
+   replays if snapshots belong in the past); `stepped` follows each
+   agent step that succeeded, before the scheduler looks at the agent
+   again (a blend there can move its time, and so whether it runs
+   again). */
+typedef struct gs__world_hooks {
+    gs_result (*advance)(gs_world *w, double seconds, gs_advance_report *rep);
+    void (*stepped)(gs_agent *a);
+} gs__world_hooks;
+
 struct gs_world {
     gs_allocator alloc;
     uint32_t host_id;
@@ -2605,6 +2632,7 @@ struct gs_world {
     gs_material ground_material;
     gs__queue queues[GS_MAX_QUEUES];
     struct gs__sync *sync; /* session clock and history (>>sync) */
+    gs__world_hooks hooks; /* the sync layer's, set with it */
     char error[256];
     char diag[2048];     /* gs_world_diagnose's text */
 };
@@ -3147,11 +3175,9 @@ GS__PRIVATE void gs__activate(gs_world *w, gs_agent *a, double t_min,
     a->stats.activations++;
 }
 
-GS__PRIVATE void gs__sync_after_step(gs_agent *a);
-
-/* One step; then the sync layer sees it (ghosts publish and blend). A
-   step that would take the agent's time past GS_WIRE_MAX_TIME is refused:
-   no clock leaves [0, GS_WIRE_MAX_TIME]. */
+/* One step (the caller then calls the world's `stepped` hook). A step
+   that would take the agent's time past GS_WIRE_MAX_TIME is refused: no
+   clock leaves [0, GS_WIRE_MAX_TIME]. */
 GS__PRIVATE gs_result gs__agent_step(gs_agent *a) {
     gs_result r;
     if (!(gs__agent_time(a) + a->dt <= GS_WIRE_MAX_TIME)) {
@@ -3165,7 +3191,6 @@ GS__PRIVATE gs_result gs__agent_step(gs_agent *a) {
     if (r == GS_OK) {
         a->steps++;
         a->stats.steps++;
-        gs__sync_after_step(a);
     }
     return r;
 }
@@ -3182,15 +3207,6 @@ GS__PRIVATE void gs__sleepers_follow(gs_world *w) {
         gs_agent *a = w->agents[i];
         if (a->sleeping) a->t_offset = w->target - (double)a->steps * a->dt;
     }
-}
-
-GS__PRIVATE void gs__sync_sleeper(gs_agent *a);
-
-/* A sleeper's ghost still publishes and blends, at the target. */
-GS__PRIVATE void gs__sleepers_ghosts(gs_world *w) {
-    int i;
-    for (i = 0; i < w->agent_count; ++i)
-        if (w->agents[i]->sleeping && w->agents[i]->ghost) gs__sync_sleeper(w->agents[i]);
 }
 
 GS__PRIVATE void gs__agent_wake_at(gs_agent *a, double t) {
@@ -3233,6 +3249,7 @@ GS__PRIVATE int gs__dispatch(gs_world *w, gs_result *first_error,
     gs__activate(w, a, t_min, t_max);
     w->dispatches++;
     r = gs__agent_step(a);
+    if (r == GS_OK) w->hooks.stepped(a);
     gs__span_update(a);
     if (r != GS_OK) {
         a->failed = 1;
@@ -3297,24 +3314,25 @@ GS__PRIVATE void gs__world_follow(gs_world *w, double target) {
     }
 }
 
-GS__PRIVATE void gs__sync_begin(gs_world *w, double seconds);
-GS__PRIVATE void gs__net_advanced(gs_world *w, double seconds);
-GS__PRIVATE void gs__sync_target(gs_world *w, double seconds, double before);
-GS__PRIVATE void gs__sync_end(gs_world *w, double seconds, const gs_advance_report *rep);
-GS__PRIVATE gs_result gs__sync_run(gs_world *w, double budget, gs_advance_report *rep);
-
-/* The dispatch loop of one advance, from the target set on: runs until
-   every agent is done or `budget` (s, 0 = none) of the world's clock is
-   spent. */
-GS__PRIVATE gs_result gs__world_run(gs_world *w, double budget, gs_advance_report *rep) {
-    gs_result first_error = GS_OK;
+/* One run of the dispatches, to the target set: the setup (every agent not
+   done queued, the span heaps built), then the loop. Returns the world's
+   clock at the start if `budget` (s, 0 = none) is set. Apart so that the
+   sync layer can blend the sleepers' ghosts in between. */
+GS__PRIVATE double gs__world_run_setup(gs_world *w, double budget) {
     double start = 0.0;
     gs__sleepers_follow(w);
     gs__sap_refresh(w);
     if (budget > 0.0) start = w->clock(w->clock_user);
     gs__queue_all(w);
     gs__span_build(w);
-    gs__sleepers_ghosts(w);
+    return start;
+}
+
+/* The dispatch loop: runs until every agent is done or `budget` of the
+   world's clock from `start` is spent. */
+GS__PRIVATE gs_result gs__world_run_loop(gs_world *w, double budget, double start,
+                                         gs_advance_report *rep) {
+    gs_result first_error = GS_OK;
     rep->reached = 1;
     for (;;) {
         /* the step cap counts the whole advance's dispatches (parts and all) */
@@ -3336,7 +3354,7 @@ GS_API gs_result gs_world_advance(gs_world *w, double seconds,
                                   gs_advance_report *report) {
     gs_advance_report rep;
     gs_result first_error = GS_OK;
-    double before, from;
+    double from;
     memset(&rep, 0, sizeof rep);
     if (!w) return GS_ERR_INVALID_ARG;
     if (gs__world_locked(w))
@@ -3355,15 +3373,7 @@ GS_API gs_result gs_world_advance(gs_world *w, double seconds,
     w->error[0] = '\0'; /* from here on the text is this advance's */
     w->busy = 1;
     w->epoch++;
-    gs__sync_begin(w, seconds);
-    /* the follow after the sync layer's replay, which moves agents */
-    gs__world_follow(w, gs__world_follow_target(w));
-    before = w->target;
-    w->target += seconds;
-    gs__net_advanced(w, seconds);
-    gs__sync_target(w, seconds, before);
-    first_error = gs__sync_run(w, w->budget, &rep);
-    gs__sync_end(w, seconds, &rep);
+    first_error = w->hooks.advance(w, seconds, &rep);
     w->busy = 0;
     if (report) *report = rep;
     return first_error;
@@ -3543,6 +3553,7 @@ GS_API gs_result gs_agent_step(gs_agent *a) {
     gs__agent_wake_at(a, gs__agent_time(a));
     a->world->inside++; /* its step, ghost and weight rules are user code */
     r = gs__agent_step(a);
+    if (r == GS_OK) a->world->hooks.stepped(a);
     a->world->inside--;
     return r;
 }
@@ -8347,8 +8358,6 @@ GS_API double gs_weight_owner(const gs_weight_in *in, void *user) {
 /* One snapshot from one peer, assembled from its chunks as they come. */
 typedef struct gs__snap {
     int used;
-    int held;           /* set aside while the sync layer blends the older
-                           snapshots at their own time (used is 0 then) */
     int waited;         /* replay mode: 1 when an incomplete snapshot was
                            left for its chunks still on the way, 2 after */
     uint32_t seq;
@@ -8378,7 +8387,11 @@ typedef struct gs__base {
 /* What a ghost keeps of one peer slot: its queue, what the blend learnt
    of its clock, and whether it said the object rests. */
 struct gs__ghost_peer {
-    gs__snap *q;          /* queue_size snapshots (and the last values) */
+    gs__snap *q;          /* queue_size snapshots (and the last values),
+                             the net's: read and written under its lock */
+    gs__snap *taken;      /* queue_size slots (in q's block) that a blend
+                             reads: the snapshots taken out of q under the
+                             lock, blended after it is released */
     double divergence;    /* m; RMS distance to its latest snapshot */
     double newest;        /* s; the latest remote time that told the
                              peer's clock, -HUGE_VAL at first */
@@ -8412,7 +8425,8 @@ struct gs__ghost {
     double *local, *scratch;
     double *offset, *offset_next; /* render offsets; a blend writes the next
                                      ones and swaps only if it is applied */
-    double *wq;           /* weight of each queued snapshot in a blend */
+    double *wq;           /* weight of each taken snapshot in a blend */
+    int ntaken;           /* snapshots taken for the blend under way */
     struct gs__src *src;  /* the queued snapshots of a blend, in order */
     int nsrc;
     double offset_t;      /* s; simulation time the offset was last set */
@@ -8526,9 +8540,9 @@ struct gs_net {
     uint64_t unknown_rejected[GS_REJECT_COUNT];
     gs_net_lock lock;
     int inside;               /* under the lock: the net runs user code
-                                 under it (a weight rule in a blend, the
-                                 send callback in gs_net_update), which
-                                 must not re-enter the net */
+                                 under it (the send callback in
+                                 gs_net_update), which must not re-enter
+                                 the net */
     int held;                 /* a gs_simnet_run is running it */
     int published;            /* a ghost published B since gs_udp's scatter
                                  thread last looked (it ticks while they do) */
@@ -8607,9 +8621,11 @@ GS__PRIVATE size_t gs__per_chunk(gs_encoding e) {
 
 /* A ghost's queue for one peer slot: queue_size snapshots, and one more
    (index queue_size, never used as a queue slot) that keeps the newest
-   values received of each chunk, which a heartbeat says still stand. */
+   values received of each chunk, which a heartbeat says still stand; then
+   queue_size slots a blend takes snapshots into (gs__ghost_take), so
+   that taking them allocates nothing. */
 GS__PRIVATE gs__snap *gs__snaps_new(gs_world *w, const gs__ghost *g) {
-    size_t qs = (size_t)g->d.queue_size + 1, vars = g->n - 1, i;
+    size_t qs = 2 * (size_t)g->d.queue_size + 1, vars = g->n - 1, i;
     size_t bytes = qs * (sizeof(gs__snap) + vars * sizeof(double) + (size_t)g->nchunks);
     gs__snap *s = (gs__snap *)gs__alloc(w, bytes);
     char *p;
@@ -8652,11 +8668,12 @@ GS__PRIVATE gs_result gs__ghost_add_peer(gs__ghost *g, int slot) {
     gp->acked_known = gp->ack_known = gp->ack_due = gp->nack_due = 0;
     g->sent_any = 0; /* the new peer has none of our states */
     gp->q = gs__snaps_new(w, g);
+    gp->taken = gp->q ? gp->q + g->d.queue_size + 1 : NULL;
     if (gp->q && g->d.delta && !gp->ring) {
         gp->ring = gs__ring_new(w, g);
         if (!gp->ring) {
             gs__free(w, gp->q);
-            gp->q = NULL;
+            gp->q = gp->taken = NULL;
         }
     }
     return gp->q ? GS_OK : gs__fail(w, GS_ERR_NO_MEMORY, "ghost: out of memory for a peer queue");
@@ -8775,7 +8792,8 @@ GS__PRIVATE int gs__ghost_sizes(size_t n, const gs_ghost_desc *d, size_t *bytes,
         return 0;
     *bytes += vals;
     return gs__size(n - 1, sizeof(double), sizeof(gs__snap) + nchunks, &per) &&
-           gs__size(qs + 1, per, 0, queue); /* + the last values (gs__snaps_new) */
+           gs__size(2 * qs + 1, per, 0, queue); /* + the last values, the taken
+                                                   (gs__snaps_new) */
 }
 
 GS_API gs_result gs_ghost_attach(gs_agent *a, const gs_ghost_desc *desc) {
@@ -9008,15 +9026,34 @@ GS__PRIVATE double gs__snap_xcomp(const gs__ghost *g, const gs__snap *s, double 
     return g->d.raw_time ? s->time - t_i : s->time + s->age - t_i;
 }
 
+/* What a blend reads of the net and gives back to it. It runs with the
+   net's lock not held (weight rules are user code, and gs_udp's threads
+   wait on that lock): the peers' host ids are read before it and the
+   figures it measures are written after it, both under the lock. */
+typedef struct gs__blend_net {
+    uint32_t host[GS__MAX_PEERS]; /* each peer slot's host id */
+    double gap[GS__MAX_PEERS];    /* s; each peer's latest gap (st.gap), */
+    uint32_t gapped;              /* bit p: measured for peer slot p */
+    int fixed_time;               /* time is the clock's: no correction */
+    int skip_equal;               /* a blended state equal bit for bit to
+                                     the local one is not set (replay
+                                     mode): setting it would still reset
+                                     what the kind derives from it (a rigid
+                                     body's own acceleration), so that a
+                                     blend of weight 0 would change the
+                                     run, and a replay could never find it
+                                     changed nothing */
+} gs__blend_net;
+
 /* Notes, for each peer with a snapshot in this blend, that it was heard
    now and its freshest x_comp. */
 GS__PRIVATE void gs__ghost_hear(gs__ghost *g, double t_i) {
     int p, k;
     for (p = 0; p < GS__MAX_PEERS; ++p)
-        for (k = 0; g->gp[p].q && k < g->d.queue_size; ++k) {
+        for (k = 0; g->gp[p].taken && k < g->d.queue_size; ++k) {
             double x;
-            if (!g->gp[p].q[k].used) continue;
-            x = gs__snap_xcomp(g, &g->gp[p].q[k], t_i);
+            if (!g->gp[p].taken[k].used) continue;
+            x = gs__snap_xcomp(g, &g->gp[p].taken[k], t_i);
             if (g->gp[p].heard_at != t_i || x > g->gp[p].heard_x) g->gp[p].heard_x = x;
             g->gp[p].heard_at = t_i;
         }
@@ -9042,19 +9079,21 @@ GS__PRIVATE void gs__ghost_hear(gs__ghost *g, double t_i) {
    ahead sees the tie as well; the host behind still takes a peer more
    than a band ahead for the lead, and follows its time. */
 #define GS__LIVE_TIME 0.5 /* s of local simulation time */
-GS__PRIVATE double gs__ghost_lead(gs__ghost *g, double t_i, uint32_t *lead) {
+GS__PRIVATE double gs__ghost_lead(gs__ghost *g, const gs__blend_net *bn, double t_i,
+                                  uint32_t *lead) {
     const gs_world *wd = g->agent->world;
     double x_max = 0.0, x_live = 0.0, band = gs__time_band(g);
     int p, k;
     gs__ghost_hear(g, t_i);
     for (p = 0; p < GS__MAX_PEERS; ++p) {
-        for (k = 0; g->gp[p].q && k < g->d.queue_size; ++k)
-            if (g->gp[p].q[k].used) x_max = fmax(x_max, gs__snap_xcomp(g, &g->gp[p].q[k], t_i));
+        for (k = 0; g->gp[p].taken && k < g->d.queue_size; ++k)
+            if (g->gp[p].taken[k].used)
+                x_max = fmax(x_max, gs__snap_xcomp(g, &g->gp[p].taken[k], t_i));
         if (t_i - g->gp[p].heard_at <= GS__LIVE_TIME) x_live = fmax(x_live, g->gp[p].heard_x);
     }
     *lead = x_live <= band ? wd->host_id : 0;
     for (p = 0; p < GS__MAX_PEERS; ++p) {
-        uint32_t h = wd->net->peers[p].host;
+        uint32_t h = bn->host[p];
         if (t_i - g->gp[p].heard_at <= GS__LIVE_TIME && g->gp[p].heard_x >= x_live - 2.0 * band &&
             (*lead == 0 || h < *lead))
             *lead = h;
@@ -9062,24 +9101,26 @@ GS__PRIVATE double gs__ghost_lead(gs__ghost *g, double t_i, uint32_t *lead) {
     return x_max;
 }
 
-/* The weight of the local state and of every queued snapshot. Returns the
-   local weight; all weights are scaled so that the largest is 1. */
-GS__PRIVATE double gs__ghost_weigh(gs__ghost *g, double t_i, double *wq) {
+/* The weight of the local state and of every taken snapshot. Returns the
+   local weight; all weights are scaled so that the largest is 1. The
+   user's rules run here, with no lock held. */
+GS__PRIVATE double gs__ghost_weigh(gs__ghost *g, const gs__blend_net *bn, double t_i,
+                                   double *wq) {
     gs_world *wd = g->agent->world;
     gs_weight_in in0 = gs__weight_in(g, wd->host_id, 0.0, 0.0, 1);
     double x_max, w0, wmax;
     uint32_t lead;
     int p, k, m = 0;
-    x_max = gs__ghost_lead(g, t_i, &lead);
+    x_max = gs__ghost_lead(g, bn, t_i, &lead);
     in0.x_max = x_max;
     in0.lead = lead;
     wmax = w0 = gs__sane_weight(g, g->d.weight(&in0, g->d.weight_user));
     for (p = 0; p < GS__MAX_PEERS; ++p)
-        for (k = 0; g->gp[p].q && k < g->d.queue_size; ++k) {
-            const gs__snap *s = &g->gp[p].q[k];
+        for (k = 0; g->gp[p].taken && k < g->d.queue_size; ++k) {
+            const gs__snap *s = &g->gp[p].taken[k];
             gs_weight_in in;
             if (!s->used) continue;
-            in = gs__weight_in(g, wd->net->peers[p].host, s->time - t_i, s->age, 0);
+            in = gs__weight_in(g, bn->host[p], s->time - t_i, s->age, 0);
             in.x_max = x_max;
             in.lead = lead;
             wq[m] = gs__sane_weight(g, g->d.weight(&in, g->d.weight_user));
@@ -9091,16 +9132,34 @@ GS__PRIVATE double gs__ghost_weigh(gs__ghost *g, double t_i, double *wq) {
     return w0 / wmax;
 }
 
+/* Moves the snapshots queued for g whose time is at most t (all, for t =
+   HUGE_VAL), but for one left for its chunks still on the way when
+   keep_waiting says so, out of the net's queue into the slots the blend
+   reads. A swap of slots: nothing is copied or allocated. Under the net's
+   lock. Returns how many. */
+GS__PRIVATE int gs__ghost_take(gs__ghost *g, double t, int keep_waiting) {
+    int p, k, m = 0;
+    for (p = 0; p < GS__MAX_PEERS; ++p)
+        for (k = 0; g->gp[p].q && k < g->d.queue_size; ++k) {
+            gs__snap *s = &g->gp[p].q[k], *b = &g->gp[p].taken[k], tmp;
+            b->used = 0;
+            if (!s->used || s->time > t || (keep_waiting && s->waited == 1)) continue;
+            tmp = *b;
+            *b = *s;
+            *s = tmp; /* the queue's slot is free again */
+            s->used = s->chunks = s->waited = 0;
+            memset(s->got, 0, (size_t)g->nchunks);
+            m++;
+        }
+    return m;
+}
+
+/* After a blend: what it took is spent. */
 GS__PRIVATE void gs__ghost_clear(gs__ghost *g) {
     int p, k;
     for (p = 0; p < GS__MAX_PEERS; ++p)
-        for (k = 0; g->gp[p].q && k < g->d.queue_size; ++k) {
-            gs__snap *s = &g->gp[p].q[k];
-            if (!s->used) continue;
-            s->used = 0;
-            s->chunks = 0;
-            memset(s->got, 0, (size_t)g->nchunks);
-        }
+        for (k = 0; g->gp[p].taken && k < g->d.queue_size; ++k) g->gp[p].taken[k].used = 0;
+    g->ntaken = 0;
 }
 
 /* The peer's divergence: the largest over the world's objects of the
@@ -9134,7 +9193,7 @@ GS__PRIVATE int gs__snap_tells_time(const gs__ghost *g, int p, const gs__snap *s
     if (gs__time_literal(g)) return 1;
     if (s->time < g->gp[p].newest && s->time > g->gp[p].newest - 1.0) return 0;
     for (k = 0; k < g->d.queue_size; ++k)
-        if (g->gp[p].q[k].used && g->gp[p].q[k].time > s->time) return 0;
+        if (g->gp[p].taken[k].used && g->gp[p].taken[k].time > s->time) return 0;
     return s->age_known || s->time > t_i;
 }
 
@@ -9155,17 +9214,16 @@ GS__PRIVATE double gs__peer_lead(gs__ghost *g, int p, double x, double t_i) {
     return g->gp[p].lead;
 }
 
-/* Lists every queued snapshot with its weight in g->src, in queue order,
-   and sums the blended time; fills the per-peer gap. Returns the number of
+/* Lists every taken snapshot with its weight in g->src, in queue order,
+   and sums the blended time; notes the per-peer gap. Returns the number of
    snapshots. */
-GS__PRIVATE int gs__ghost_gather(gs__ghost *g, double t_i, double *num_t,
+GS__PRIVATE int gs__ghost_gather(gs__ghost *g, gs__blend_net *bn, double t_i, double *num_t,
                                  double *den_t) {
-    gs_net *net = g->agent->world->net;
     int p, k, m = 0;
     for (p = 0; p < GS__MAX_PEERS; ++p) {
         double newest = g->gp[p].newest;
-        for (k = 0; g->gp[p].q && k < g->d.queue_size; ++k) {
-            gs__snap *s = &g->gp[p].q[k];
+        for (k = 0; g->gp[p].taken && k < g->d.queue_size; ++k) {
+            gs__snap *s = &g->gp[p].taken[k];
             gs__src *src = &g->src[m];
             double tq;
             if (!s->used) continue;
@@ -9177,7 +9235,8 @@ GS__PRIVATE int gs__ghost_gather(gs__ghost *g, double t_i, double *num_t,
             src->counted = 0;
             src->peer = p;
             tq = g->d.raw_time ? s->time : s->time + s->age;
-            net->peers[p].st.gap = s->time - t_i;
+            bn->gap[p] = s->time - t_i;
+            bn->gapped |= (uint32_t)1 << p;
             if (gs__snap_tells_time(g, p, s, t_i)) {
                 *num_t += src->w * gs__peer_lead(g, p, tq - t_i, t_i);
                 *den_t += src->w;
@@ -9379,14 +9438,12 @@ GS__PRIVATE uint32_t gs__ghost_divergence(gs__ghost *g) {
    estimate (the clock offset's, and a snapshot's wait to be sent, which
    the age does not count): applied at every blend it would push the time on, and the agent
    would skip steps to stay on its world's clock. A host far behind (one
-   that joins late) is pulled to the others at once. */
-GS__PRIVATE int gs__sync_session(const gs_world *w);
-GS__PRIVATE int gs__sync_replay(const gs_world *w);
-
-GS__PRIVATE double gs__time_correction(const gs__ghost *g, double gap, double dt) {
-    /* on the session clock time is the clock's, not the blend's: a stepped
-       clock misreads the ages until the net measures the offset again */
-    if (gs__sync_session(g->agent->world) || gs__sync_replay(g->agent->world)) return 0.0;
+   that joins late) is pulled to the others at once. On the session clock
+   (bn->fixed_time) time is the clock's, not the blend's: a stepped clock
+   misreads the ages until the net measures the offset again. */
+GS__PRIVATE double gs__time_correction(const gs__ghost *g, const gs__blend_net *bn, double gap,
+                                       double dt) {
+    if (bn->fixed_time) return 0.0;
     return fabs(gap) > gs__time_band(g) ? dt : 0.0;
 }
 
@@ -9411,13 +9468,10 @@ GS__PRIVATE double gs__time_bound(gs__ghost *g, double t_i, double corr) {
 
 /* Applies a blended state (scratch) that the pass found finite: the kind
    may still refuse it (a zero quaternion), and then nothing moves. */
-GS__PRIVATE void gs__sync_log_blend(gs_agent *a, const double *in);
-
 GS__PRIVATE int gs__blend_apply(gs__ghost *g, double t_i) {
     double *t;
     int e;
     if (gs__agent_put_state(g->agent, g->scratch) != GS_OK) return 0;
-    gs__sync_log_blend(g->agent, g->scratch);
     g->moved += fabs(g->scratch[0] - t_i);
     /* the formula as written pulls back at every blend, and the clock
        stays: the time pulled back is simulated again (the latency trap) */
@@ -9430,23 +9484,24 @@ GS__PRIVATE int gs__blend_apply(gs__ghost *g, double t_i) {
     return 1;
 }
 
-/* The paper's ghost update, after a step: blend every queued snapshot once
-   with the local state, then empty the queues. One pass over the state
-   after the agent's get_state, then its set_state. Returns the peers whose
-   divergence it measured (bit p for peer slot p). */
-GS__PRIVATE uint32_t gs__ghost_blend(gs__ghost *g, gs_net *net) {
+/* The paper's ghost update: blend every taken snapshot once with the
+   local state (gs__ghost_take took them from the queues). One pass over
+   the state after the agent's get_state, then its set_state. No lock is
+   held: the weight rules are the user's. Returns the peers whose
+   divergence it measured (bit p for peer slot p); *applied says whether
+   the agent took the blended state (g->scratch). */
+GS__PRIVATE uint32_t gs__ghost_blend(gs__ghost *g, gs__blend_net *bn, int *applied) {
     size_t n = g->n;
     double t_i, num_t = 0.0, den_t = 0.0;
     gs__pass ps;
     uint32_t seen = 0;
     int used;
-    gs__lock(net);
-    net->inside++; /* the weight rules run under the lock */
+    *applied = 0;
     gs_agent_get_state(g->agent, g->local, n);
     t_i = g->local[0];
     memset(&ps, 0, sizeof ps);
-    ps.w0 = gs__ghost_weigh(g, t_i, g->wq);
-    used = ps.w0 < 0.0 ? 0 : gs__ghost_gather(g, t_i, &num_t, &den_t);
+    ps.w0 = gs__ghost_weigh(g, bn, t_i, g->wq);
+    used = ps.w0 < 0.0 ? 0 : gs__ghost_gather(g, bn, t_i, &num_t, &den_t);
     if (used > 0) {
         /* the band applies to the gap to the others (their weighted mean
            time), not to the correction, which is only part of it: otherwise
@@ -9454,25 +9509,26 @@ GS__PRIVATE uint32_t gs__ghost_blend(gs__ghost *g, gs_net *net) {
         g->scratch[0] = t_i;
         if (den_t > 0.0)
             g->scratch[0] = gs__time_bound(
-                g, t_i, gs__time_correction(g, num_t / den_t, num_t / (ps.w0 + den_t)));
+                g, t_i, gs__time_correction(g, bn, num_t / den_t, num_t / (ps.w0 + den_t)));
         ps.fade = gs__offset_fade(g, g->scratch[0]);
         ps.finite = g->scratch[0] - g->scratch[0] == 0.0;
         ps.finite = gs__blend_pass(g, &ps);
         seen = gs__ghost_divergence(g);
-        if (ps.finite && gs__blend_apply(g, t_i)) {
+        if (ps.finite && bn->skip_equal && memcmp(g->scratch, g->local, n * sizeof(double)) == 0) {
+            g->stats.blends++;
+            g->stats.snapshots_blended += (uint64_t)used;
+            g->stats.last_correction = 0.0;
+        } else if (ps.finite && gs__blend_apply(g, t_i)) {
             double c2 = (ps.corr2[0] + ps.corr2[1]) + (ps.corr2[2] + ps.corr2[3]);
             g->stats.blends++;
             g->stats.snapshots_blended += (uint64_t)used;
             g->stats.last_correction = n > 1 ? sqrt(c2 / (double)(n - 1)) : 0.0;
+            *applied = 1;
         }
     }
     gs__ghost_clear(g);
-    net->inside--;
-    gs__unlock(net);
     return seen;
 }
-
-GS__PRIVATE void gs__world_blend(gs_world *w);
 
 /* Any snapshot waiting? Read under the lock by the caller. */
 GS__PRIVATE int gs__ghost_pending(const gs__ghost *g) {
@@ -9481,67 +9537,6 @@ GS__PRIVATE int gs__ghost_pending(const gs__ghost *g) {
         for (k = 0; g->gp[p].q && k < g->d.queue_size; ++k)
             if (g->gp[p].q[k].used) return 1;
     return 0;
-}
-
-/* After a step: publish, and if a snapshot waits for this ghost, every
-   ghost of the world blends what waits for it, at once (gs__world_blend).
-   Blended one agent at a time, as each one steps, the snapshots of one
-   remote moment would land at different moments here: a sphere copied
-   onto a cloth not copied yet sinks a millimetre into it and is thrown
-   (at metres a second), and the cloth it dents throws the next copy too. */
-GS__PRIVATE void gs__ghost_after_step(gs_agent *a) {
-    gs__ghost *g = gs__ghost_of(a);
-    gs_net *net = a->world->net;
-    int pending;
-    /* on the session clock, ghosts publish at the end of the advance (all
-       at the target time: the send time then tells the session's time) */
-    if (!gs__sync_session(a->world)) gs__ghost_publish(g, net);
-    if (!net) return;
-    gs__lock(net);
-    g->t_local = gs__agent_time(a);
-    pending = gs__ghost_pending(g);
-    gs__unlock(net);
-    if (pending) gs__world_blend(a->world);
-}
-
-/* A peer's divergence is the largest over the world's objects: taken once
-   per peer after every ghost has blended (per snapshot, a world blend
-   would be O(agents^2)). */
-GS__PRIVATE void gs__world_blend(gs_world *w) {
-    uint32_t seen = 0;
-    int i, pending;
-    int back = 0;
-    double pull = HUGE_VAL;
-    if (!w->net) return;
-    for (i = 0; i < w->agent_count; ++i) {
-        gs__ghost *g = gs__ghost_of(w->agents[i]);
-        if (!g || w->agents[i]->failed) continue;
-        gs__lock(w->net);
-        pending = gs__ghost_pending(g);
-        gs__unlock(w->net);
-        if (!pending) continue;
-        g->pulled = 0.0;
-        seen |= gs__ghost_blend(g, w->net);
-        if (g->pulled > 0.0) {
-            back++;
-            pull = fmin(pull, g->pulled);
-        }
-    }
-    /* The world's clock follows its agents back too: when the blends took
-       most of them back (a host in step that copies its lead, ahead of it
-       by more than the time band), the clock goes back with them, the
-       least of their moves. Otherwise they would step on to the clock
-       again from the states they took, and the next blend take them back
-       again (or not, as each object's snapshot says), all the time:
-       objects a few tens of ms apart in time push each other (a sphere
-       resting on the cloth is kicked off it). */
-    if (2 * back > w->agent_count && pull < HUGE_VAL)
-        w->target = w->target - pull > 0.0 ? w->target - pull : 0.0;
-    if (!seen) return;
-    gs__lock(w->net);
-    for (i = 0; i < GS__MAX_PEERS; ++i)
-        if (seen & ((uint32_t)1 << i)) w->net->peers[i].st.divergence = gs__peer_divergence(w, i);
-    gs__unlock(w->net);
 }
 
 /* ========================================================================
@@ -9636,8 +9631,17 @@ typedef struct gs__sync {
     double at_split;     /* s; the blend time being blended at, NAN else */
     uint64_t frame_steps; /* agent steps of the last advance */
     uint64_t replay_seq; /* the frame being re-run */
+    /* A replay first probes (see gs__sync_take): */
+    int probing;         /* no blend of this re-run changed a state yet */
+    int changed;         /* the last world blend changed an agent's state */
+    int stopped;         /* the re-run stopped at a blend that changed none */
+    double stopped_at;   /* s; that blend's time */
 } gs__sync;
 
+GS__PRIVATE gs_result gs__sync_advance(gs_world *w, double seconds, gs_advance_report *rep);
+GS__PRIVATE void gs__sync_stepped(gs_agent *a);
+
+/* With the world: the layer and the world's two hooks into it. */
 GS__PRIVATE gs_result gs__sync_create(gs_world *w, const gs_sync_desc *d) {
     gs__sync *sy = (gs__sync *)gs__alloc(w, sizeof *sy);
     if (!sy) return GS_ERR_NO_MEMORY;
@@ -9646,6 +9650,8 @@ GS__PRIVATE gs_result gs__sync_create(gs_world *w, const gs_sync_desc *d) {
     sy->st.timekeeper = w->host_id;
     sy->at_split = NAN;
     w->sync = sy;
+    w->hooks.advance = gs__sync_advance;
+    w->hooks.stepped = gs__sync_stepped;
     return GS_OK;
 }
 
@@ -9933,6 +9939,102 @@ GS__PRIVATE int gs__sync_have(const gs__sync *sy, uint64_t seq) {
     return f->seq == seq && f->log_at >= sy->log_tail;
 }
 
+/* ---- the blend: every ghost of the world at once. Blended one agent at
+   a time, as each one steps, the snapshots of one remote moment would land
+   at different moments here: a sphere copied onto a cloth not copied yet
+   sinks a millimetre into it and is thrown (at metres a second), and the
+   cloth it dents throws the next copy too. ---- */
+
+/* Under the net's lock: each live agent's ghost takes what waits for it
+   (gs__ghost_take), and bn the peers' host ids. Returns 1 if any took. */
+GS__PRIVATE int gs__sync_take_all(gs_world *w, double t, int keep_waiting, gs__blend_net *bn) {
+    int i, p, any = 0;
+    gs__lock(w->net);
+    for (p = 0; p < GS__MAX_PEERS; ++p) bn->host[p] = w->net->peers[p].host;
+    for (i = 0; i < w->agent_count; ++i) {
+        gs__ghost *g = gs__ghost_of(w->agents[i]);
+        if (!g) continue;
+        g->ntaken = w->agents[i]->failed ? 0 : gs__ghost_take(g, t, keep_waiting);
+        any |= g->ntaken > 0;
+    }
+    gs__unlock(w->net);
+    return any;
+}
+
+/* Under the lock again: what the blends measured, for gs_net_peer_stats.
+   A peer's divergence is the largest over the world's objects, taken once
+   per peer after every ghost has blended (per snapshot, a world blend
+   would be O(agents^2)). */
+GS__PRIVATE void gs__sync_give_back(gs_world *w, const gs__blend_net *bn, uint32_t seen) {
+    int p;
+    gs__lock(w->net);
+    for (p = 0; p < GS__MAX_PEERS; ++p) {
+        if (bn->gapped & ((uint32_t)1 << p)) w->net->peers[p].st.gap = bn->gap[p];
+        if (seen & ((uint32_t)1 << p)) w->net->peers[p].st.divergence = gs__peer_divergence(w, p);
+    }
+    gs__unlock(w->net);
+}
+
+/* Every ghost blends the snapshots waiting for it whose time is at most t
+   (see gs__ghost_take): taken under the net's lock, blended with it
+   released, so that the weight rules run with no lock held; each blend
+   applied is an input of the history.
+   The world's clock follows its agents back too: when the blends took
+   most of them back (a host in step that copies its lead, ahead of it by
+   more than the time band), the clock goes back with them, the least of
+   their moves. Otherwise they would step on to the clock again from the
+   states they took, and the next blend take them back again (or not, as
+   each object's snapshot says), all the time: objects a few tens of ms
+   apart in time push each other (a sphere resting on the cloth is kicked
+   off it). */
+GS__PRIVATE void gs__sync_blend(gs_world *w, double t, int keep_waiting) {
+    gs__sync *sy = w->sync;
+    gs__blend_net bn;
+    uint32_t seen = 0;
+    int i, back = 0, applied;
+    double pull = HUGE_VAL;
+    if (!w->net) return;
+    memset(&bn, 0, sizeof bn);
+    bn.fixed_time = gs__sync_session(w) || gs__sync_replay(w);
+    bn.skip_equal = gs__sync_replay(w);
+    if (!gs__sync_take_all(w, t, keep_waiting, &bn)) return;
+    for (i = 0; i < w->agent_count; ++i) {
+        gs__ghost *g = gs__ghost_of(w->agents[i]);
+        if (!g || g->ntaken == 0) continue;
+        g->pulled = 0.0;
+        seen |= gs__ghost_blend(g, &bn, &applied);
+        if (applied) { /* in replay mode only a state that differs is set */
+            sy->changed = 1;
+            gs__sync_log_blend(g->agent, g->scratch);
+        }
+        if (g->pulled > 0.0) {
+            back++;
+            pull = fmin(pull, g->pulled);
+        }
+    }
+    if (2 * back > w->agent_count && pull < HUGE_VAL)
+        w->target = w->target - pull > 0.0 ? w->target - pull : 0.0;
+    gs__sync_give_back(w, &bn, seen);
+}
+
+/* Present mode, after a ghost's agent stepped (a sleeper's: at each run
+   of the dispatches): it publishes, and if a snapshot waits for it, every
+   ghost of the world blends what waits for it. */
+GS__PRIVATE void gs__sync_ghost_stepped(gs_agent *a) {
+    gs__ghost *g = gs__ghost_of(a);
+    gs_net *net = a->world->net;
+    int pending;
+    /* on the session clock, ghosts publish at the end of the advance (all
+       at the target time: the send time then tells the session's time) */
+    if (!gs__sync_session(a->world)) gs__ghost_publish(g, net);
+    if (!net) return;
+    gs__lock(net);
+    g->t_local = gs__agent_time(a);
+    pending = gs__ghost_pending(g);
+    gs__unlock(net);
+    if (pending) gs__sync_blend(a->world, HUGE_VAL, 0);
+}
+
 /* ---- the hooks the world calls ---- */
 
 GS__PRIVATE void gs__sync_take(gs_world *w);
@@ -10074,29 +10176,40 @@ GS__PRIVATE void gs__sync_carry(gs_agent *a) {
     r->target = gs__madd(r->x, r->v, a->dt);
 }
 
-/* After a step: in a re-run the logged inputs of this dispatch; else the
-   agent's ghost publishes and blends. */
-GS__PRIVATE void gs__sync_after_step(gs_agent *a) {
+/* The world's hook after a step (a dispatch, gs_agent_step): in a re-run
+   the logged inputs of this dispatch; else the agent's ghost publishes and
+   (present mode) blends. */
+GS__PRIVATE void gs__sync_stepped(gs_agent *a) {
     gs_world *w = a->world;
     gs__sync *sy = w->sync;
     if (sy->replaying) gs__sync_apply_log(w, sy->replay_seq, w->dispatches, 0.0);
     if (sy->d.mode == GS_SYNC_REPLAY) gs__sync_carry(a);
     if (sy->replaying == GS__RERUN_TEST) return;
     if (sy->d.mode != GS_SYNC_REPLAY) {
-        if (a->ghost) gs__ghost_after_step(a);
+        if (a->ghost) gs__sync_ghost_stepped(a);
         return;
     }
     if (a->ghost && !sy->replaying && !gs__sync_session(w)) gs__ghost_publish(gs__ghost_of(a), w->net);
 }
 
-/* A sleeper's ghost at each run of the dispatches (it takes no steps to
-   publish and blend after): as after a step, but no logged inputs are
-   its (they are applied by dispatch), and in replay mode the session
-   clock's publish at the end of the advance covers it. */
-GS__PRIVATE void gs__sync_sleeper(gs_agent *a) {
-    gs__sync *sy = a->world->sync;
+/* The sleepers' ghosts at each run of the dispatches (they take no steps
+   to publish and blend after): as after a step, but no logged inputs are
+   theirs (they are applied by dispatch), and in replay mode the session
+   clock's publish at the end of the advance covers them. */
+GS__PRIVATE void gs__sync_sleepers(gs_world *w) {
+    gs__sync *sy = w->sync;
+    int i;
     if (sy->replaying || sy->d.mode == GS_SYNC_REPLAY) return;
-    gs__ghost_after_step(a);
+    for (i = 0; i < w->agent_count; ++i)
+        if (w->agents[i]->sleeping && w->agents[i]->ghost) gs__sync_ghost_stepped(w->agents[i]);
+}
+
+/* One run of the world's dispatches (gs__world_run), with the sleepers'
+   ghosts between its setup and its loop. */
+GS__PRIVATE gs_result gs__sync_run_part(gs_world *w, double budget, gs_advance_report *rep) {
+    double start = gs__world_run_setup(w, budget);
+    gs__sync_sleepers(w);
+    return gs__world_run_loop(w, budget, start, rep);
 }
 
 /* At the end of an advance: on the session clock every ghost due
@@ -10153,32 +10266,16 @@ GS__PRIVATE int gs__sync_is_fresh(const gs__sync *sy, double t) {
 }
 
 /* Every ghost blends the snapshots waiting whose time is at most t (the
-   later ones are held aside meanwhile): each snapshot at its own time.
+   later ones, and those still waiting for chunks, stay in the queues):
+   each snapshot at its own time.
    Blended together, a sphere from one frame would land on the cloth of
    the frame before and be thrown. */
 GS__PRIVATE void gs__sync_blend_to(gs_world *w, double t) {
-    int i, p, q, pass;
-    for (pass = 0; pass < 2; ++pass) {
-        gs__lock(w->net);
-        for (i = 0; i < w->agent_count; ++i) {
-            gs__ghost *g = gs__ghost_of(w->agents[i]);
-            for (p = 0; g && p < GS__MAX_PEERS; ++p)
-                for (q = 0; g->gp[p].q && q < g->d.queue_size; ++q) {
-                    gs__snap *sn = &g->gp[p].q[q];
-                    if (pass == 0 && sn->used && (sn->time > t || sn->waited == 1)) {
-                        sn->used = 0;
-                        sn->held = 1;
-                    }
-                    if (pass == 1 && sn->held) { sn->used = 1; sn->held = 0; }
-                }
-        }
-        gs__unlock(w->net);
-        if (pass == 0) {
-            w->sync->at_split = t;
-            gs__world_blend(w);
-            w->sync->at_split = NAN;
-        }
-    }
+    int i;
+    w->sync->changed = 0;
+    w->sync->at_split = t;
+    gs__sync_blend(w, t, 1);
+    w->sync->at_split = NAN;
     for (i = 0; i < w->agent_count; ++i) gs__sync_carry(w->agents[i]);
 }
 
@@ -10200,11 +10297,22 @@ GS__PRIVATE gs_result gs__sync_split_run(gs_world *w, gs__hframe *f, double budg
             if (left <= 0.0) continue;
         }
         w->target = f->split[i];
-        r = gs__world_run(w, left, rep);
+        r = gs__sync_run_part(w, left, rep);
         if (first == GS_OK) first = r;
         if (sy->replaying) gs__sync_apply_log(w, sy->replay_seq, GS__SYNC_SPLIT, f->split[i]);
-        if (sy->replaying != GS__RERUN_TEST && gs__sync_is_fresh(sy, f->split[i]))
+        if (sy->replaying != GS__RERUN_TEST && gs__sync_is_fresh(sy, f->split[i])) {
             gs__sync_blend_to(w, f->split[i]);
+            if (sy->probing && !sy->changed) { /* see gs__sync_replay_from */
+                sy->stopped = 1;
+                sy->stopped_at = f->split[i];
+                kept--; /* the frame runs as it did: no stop there */
+                for (++i; i < f->nsplit; ++i) f->split[kept++] = f->split[i];
+                f->nsplit = kept;
+                w->target = end;
+                return first;
+            }
+            sy->probing = 0;
+        }
     }
     if (f) f->nsplit = kept;
     w->target = end;
@@ -10212,11 +10320,12 @@ GS__PRIVATE gs_result gs__sync_split_run(gs_world *w, gs__hframe *f, double budg
         left = budget - (w->clock(w->clock_user) - start);
         if (left <= 0.0) left = 1e-12; /* spent: the run stops at once */
     }
-    r = gs__world_run(w, left, rep);
+    r = gs__sync_run_part(w, left, rep);
     return first == GS_OK ? r : first;
 }
 
-/* The hook gs_world_advance runs its dispatches through. */
+/* An advance's dispatches (gs__sync_advance), to the blend times its frame
+   holds first. */
 GS__PRIVATE gs_result gs__sync_run(gs_world *w, double budget, gs_advance_report *rep) {
     gs__sync *sy = w->sync;
     gs__hframe *f = NULL;
@@ -10268,18 +10377,12 @@ GS__PRIVATE uint64_t gs__sync_rerun(gs_world *w, uint64_t from, int how) {
         gs__sync_split_run(w, f, 0.0, &rep);
         w->busy = busy;
         steps += rep.steps;
+        if (sy->stopped) break;
     }
     sy->replaying = 0;
     return steps;
 }
 
-/* Replay mode, at the start of an advance: the snapshots waiting get no
-   wire age (they blend at their own time), and the oldest one's time is
-   when every ghost blends. If it lies in the history, the frames from the
-   last one that starts before it are run again with that blend in them,
-   and the world is at its present again, corrected; the inputs of this
-   frame (probe targets now, states set by hand since) are applied again.
-   Weight rules run in the re-run, outside the net's lock. */
 /* Adds t to the ascending list sy->fresh (times within `half` are one).
    Returns 0 when the list is full: blended at another time, a set would
    put its objects where they were at another moment. */
@@ -10372,9 +10475,41 @@ GS__PRIVATE int gs__sync_frame_of(const gs__sync *sy, double t, double half, uin
     return 0;
 }
 
+/* The re-run of a replay, probing first: from the frame before the oldest
+   snapshot time, to that time, where every ghost blends. If the blend
+   changed no state (every weight of the snapshots 0, as for a leader's own
+   objects, or the snapshots equal to the states here), the frames after
+   it would run again as they ran: it stops there, the time goes from the
+   frame's blend times (so that it re-runs as it ran), and the next
+   snapshot time is probed from its own frame. The first blend that
+   changes a state runs on to the present. Stopped (sy->stopped) at the
+   last, the present stands as it was. */
+GS__PRIVATE void gs__sync_replay_from(gs_world *w, double half, double target) {
+    gs__sync *sy = w->sync;
+    uint64_t j, from = 0;
+    int k;
+    gs__sync_frame_of(sy, sy->fresh[0], half, &from);
+    for (k = 0; k < sy->nfresh && sy->fresh[k] < target; ++k) {
+        if (!gs__sync_frame_of(sy, sy->fresh[k], half, &j) || j < from) j = from;
+        sy->probing = 1;
+        sy->stopped = 0;
+        sy->st.replay_steps += gs__sync_rerun(w, j, GS__RERUN_BLEND);
+        if (!sy->stopped) break;
+        while (k + 1 < sy->nfresh && sy->fresh[k + 1] <= sy->stopped_at) k++;
+    }
+    sy->probing = 0;
+}
+
+/* Replay mode, at the start of an advance: the snapshots waiting get no
+   wire age (they blend at their own time), and the oldest one's time is
+   when every ghost blends. If it lies in the history, the frames from the
+   last one that starts before it are run again with that blend in them
+   (gs__sync_replay_from), and the world is at its present again,
+   corrected; the inputs of this frame (probe targets now, states set by
+   hand since) are applied again. */
 GS__PRIVATE void gs__sync_take(gs_world *w) {
     gs__sync *sy = w->sync;
-    double *present, half = HUGE_VAL;
+    double *present, half = HUGE_VAL, target = w->target;
     uint64_t from = 0, dispatches = w->dispatches, j;
     int i, k;
     for (i = 0; i < w->agent_count; ++i) half = fmin(half, 0.5 * w->agents[i]->dt);
@@ -10385,7 +10520,7 @@ GS__PRIVATE void gs__sync_take(gs_world *w) {
         sy->st.fallbacks++; /* older than the history, or past the budget */
         sy->nfresh = 0;
         sy->at_start = 1;
-        gs__world_blend(w);
+        gs__sync_blend(w, HUGE_VAL, 0);
         sy->at_start = 0;
         return;
     }
@@ -10400,11 +10535,52 @@ GS__PRIVATE void gs__sync_take(gs_world *w) {
     }
     present = sy->ring + (size_t)sy->cap * sy->stride;
     gs__sync_save(w, present);
-    sy->st.replay_steps += gs__sync_rerun(w, from, GS__RERUN_BLEND);
-    sy->st.replays++;
+    gs__sync_replay_from(w, half, target);
+    if (sy->stopped) { /* no blend changed a state: the present stands */
+        sy->stopped = 0;
+        gs__sync_load(w, present);
+        w->target = target;
+        sy->st.replays_skipped++;
+    } else {
+        sy->st.replays++;
+    }
     gs__sync_load_targets(w, present);
     gs__sync_apply_log(w, sy->seq, GS__SYNC_NONE, 0.0);
     w->dispatches = dispatches;
+}
+
+/* The seconds an advance is given count toward the net's check for a
+   missing gs_net_update (see unsent_world). */
+GS__PRIVATE void gs__net_advanced(gs_world *w, double seconds) {
+    gs_net *net = w->net;
+    if (!net) return;
+    gs__lock(net);
+    net->unsent_world += seconds;
+    gs__unlock(net);
+}
+
+/* The world's hook for one advance, the walk of a snapshot from the net's
+   queues to the next host: gs__sync_begin takes what was received (replay
+   mode), rewinds the world to the frame of the history before it, runs
+   the frames again to the present with each blend at its snapshot's time
+   (gs__sync_rerun), and records the present as a new frame; the world's
+   clock then follows its agents and moves on by `seconds` (the session's
+   time on the session clock, gs__sync_target); the dispatches step every
+   agent to the target (gs__sync_run: present mode blends after the steps,
+   gs__sync_stepped), and gs__sync_end publishes (session clock). */
+GS__PRIVATE gs_result gs__sync_advance(gs_world *w, double seconds, gs_advance_report *rep) {
+    gs_result r;
+    double before;
+    gs__sync_begin(w, seconds);
+    /* the follow after the replay, which moves agents */
+    gs__world_follow(w, gs__world_follow_target(w));
+    before = w->target;
+    w->target += seconds;
+    gs__net_advanced(w, seconds);
+    gs__sync_target(w, seconds, before);
+    r = gs__sync_run(w, w->budget, rep);
+    gs__sync_end(w, seconds, rep);
+    return r;
 }
 
 GS_API gs_result gs_world_sync_stats(const gs_world *w, gs_sync_stats *out) {
@@ -11964,14 +12140,6 @@ GS__PRIVATE void gs__diag_roll(gs__peer_diag *d, double now) {
 /* An advance of the world by `seconds` (its hook, as the sync layer's):
    the net counts them until its next update. Under the net lock: gs_udp's
    scatter thread updates. */
-GS__PRIVATE void gs__net_advanced(gs_world *w, double seconds) {
-    gs_net *net = w->net;
-    if (!net) return;
-    gs__lock(net);
-    net->unsent_world += seconds;
-    gs__unlock(net);
-}
-
 GS__PRIVATE void gs__diag_taken(gs__peer_diag *d, double now) {
     gs__diag_roll(d, now);
     d->win[0].taken++;
@@ -12270,7 +12438,7 @@ GS__PRIVATE void gs__net_free(gs_world *w, gs_net *net) {
         gs__ghost *g = gs__ghost_of(w->agents[i]);
         for (p = 0; g && p < GS__MAX_PEERS; ++p) {
             gs__free(w, g->gp[p].q);
-            g->gp[p].q = NULL;
+            g->gp[p].q = g->gp[p].taken = NULL;
         }
     }
     w->net = NULL;
@@ -12293,8 +12461,7 @@ GS_API void gs_net_set_lock(gs_net *net, gs_net_lock lock) {
 
 /* The guard of the calls that change the net: the world's (these belong
    to its thread), then, under the net's lock, the net's own (a send
-   callback or weight rule that calls back). Returns GS_OK with the lock
-   NOT held. */
+   callback that calls back). Returns GS_OK with the lock NOT held. */
 GS__PRIVATE gs_result gs__net_unlocked(gs_net *net, const char *who) {
     int inside;
     gs_result r;
@@ -12305,7 +12472,7 @@ GS__PRIVATE gs_result gs__net_unlocked(gs_net *net, const char *who) {
     inside = net->inside;
     gs__unlock(net);
     return inside ? gs__fail(net->world, GS_ERR_BUSY, "%s: called from a callback the "
-                             "net runs (a send or a weight rule)", who)
+                             "net runs (a send)", who)
                   : GS_OK;
 }
 
@@ -12323,7 +12490,7 @@ GS__PRIVATE void gs__net_drop_queues(gs_world *w, int p) {
         gs__ghost *g = gs__ghost_of(w->agents[i]);
         if (!g) continue;
         gs__free(w, g->gp[p].q);
-        g->gp[p].q = NULL;
+        g->gp[p].q = g->gp[p].taken = NULL;
         gs__free(w, g->gp[p].ring);
         g->gp[p].ring = NULL;
     }
@@ -13046,12 +13213,14 @@ GS_API gs_result gs_net_update(gs_net *net, double now) {
     int p, i, peers = 0, n = 0, tight;
     double need = 0.0, budget, spent = 0.0;
     size_t size;
+    gs_result err;
+    uint32_t err_host;
     if (!net) return GS_ERR_INVALID_ARG;
     if (!gs__finite(now)) return GS_ERR_NOT_FINITE;
     if (!gs__wire_time_ok(now)) return GS_ERR_INVALID_ARG; /* a clock */
     w = net->world;
     gs__lock(net);
-    if (net->inside) { /* from its own send callback or a weight rule */
+    if (net->inside) { /* from its own send callback */
         gs__unlock(net);
         return GS_ERR_BUSY;
     }
@@ -13089,15 +13258,19 @@ GS_API gs_result gs_net_update(gs_net *net, double now) {
         gs__send_acks(net, now, &size);
         gs__datagram_flush(net, now, &size);
     }
+    /* read under the lock: another thread's update (gs_udp's scatter)
+       may write them as soon as it is released */
+    err = net->send_error;
+    err_host = net->send_error_host;
     net->inside--;
     gs__unlock(net);
-    if (net->send_error != GS_OK) {
+    if (err != GS_OK) {
         gs_peer_stats ps;
-        gs_net_peer_stats(net, net->send_error_host, &ps);
-        return gs__fail(w, net->send_error,
+        gs_net_peer_stats(net, err_host, &ps);
+        return gs__fail(w, err,
                         "gs_net_update: the send callback failed for host %lu (%s); %llu "
                         "datagrams to it have failed, the rest went out",
-                        (unsigned long)net->send_error_host, gs_result_str(net->send_error),
+                        (unsigned long)err_host, gs_result_str(err),
                         (unsigned long long)ps.send_failures);
     }
     return GS_OK;
@@ -13111,8 +13284,8 @@ GS_API gs_result gs_net_poll(gs_net *net, double now) {
     if (!gs__finite(now)) return GS_ERR_NOT_FINITE;
     if (!gs__wire_time_ok(now)) return GS_ERR_INVALID_ARG; /* as gs_net_update */
     if (net->d.transport.poll) {
-        /* the poll delivers into queues that a weight rule may be
-           blending: it belongs to the world's thread, outside callbacks */
+        /* the poll belongs to the world's thread, outside its callbacks
+           (a transport's poll is not required to be reentrant) */
         r = gs__net_unlocked(net, "gs_net_poll");
         if (r != GS_OK) return r;
         r = net->d.transport.poll(net->d.transport.user, net, now);
@@ -13617,8 +13790,8 @@ GS_API gs_result gs_net_deliver(gs_net *net, const void *data, size_t size,
     if (!gs__wire_time_ok(now)) /* a clock; NaN included */
         return gs__finite(now) ? GS_ERR_INVALID_ARG : GS_ERR_NOT_FINITE;
     gs__lock(net);
-    /* from a weight rule (the queues are being blended) or the send
-       callback: refused, not counted */
+    /* from the send callback (its datagram is the net's buffer): refused,
+       not counted */
     r = net->inside ? GS_ERR_BUSY : gs__deliver_locked(net, data, size, now, why);
     gs__unlock(net);
     return r;
@@ -14511,8 +14684,8 @@ GS_API gs_result gs_udp_create(gs_world *w, const gs_udp_desc *desc, gs_udp **ou
     u->world = w;
     u->fd = -1;
     u->threads = desc->threads;
-    {   /* recursive: a weight rule runs under it, and its calls into the
-           net (stats; the refused ones see net->inside) take it again */
+    {   /* recursive: the send callback runs under it, and its calls into
+           the net (stats; the refused ones see net->inside) take it again */
         pthread_mutexattr_t ma;
         pthread_mutexattr_init(&ma);
         pthread_mutexattr_settype(&ma, PTHREAD_MUTEX_RECURSIVE);
@@ -14570,8 +14743,8 @@ GS__PRIVATE void gs__udp_detach(void *user, gs_net *net) {
     gs__udp_free(u);
 }
 
-/* From a callback of its world (a weight rule holds the lock that its
-   threads wait on): refused, as gs_world_destroy. */
+/* From a callback of its world: refused, as gs_world_destroy (the world
+   may be taking the net's snapshots or publishing under its lock). */
 GS_API void gs_udp_close(gs_udp *u) {
     gs_world *w;
     if (!u) return;
