@@ -338,11 +338,14 @@
        0.1.0 (2026-11-23)  world, scheduler, spring-mass agents, integrators,
                            rigid bodies, probes, contacts, the paper's scene,
                            ghosts, wire format v1, simnet, POSIX UDP.
-       unreleased          wire format v2 (v1 refused as GS_REJECT_OLD_VERSION):
-                           GS_ENCODING_QUANT, send on change with heartbeats,
-                           priority within a peer's budget, gs_wire_values;
-                           delta coding against acknowledged baselines
-                           (gs_ghost_desc.delta, GS_REJECT_BASELINE).
+       unreleased          wire format v3 (v1 and v2 refused as
+                           GS_REJECT_OLD_VERSION): GS_ENCODING_QUANT, send on
+                           change with heartbeats, priority within a peer's
+                           budget, gs_wire_values; delta coding against
+                           acknowledged baselines (gs_ghost_desc.delta,
+                           GS_REJECT_BASELINE); compact chunk headers coded
+                           against the chunk before, lengths implied, a
+                           Rice coding of deltas.
                            One way to make a net: gs_net_create on a
                            gs_transport (gs_simnet_transport,
                            gs_udp_create + gs_udp_transport, or yours);
@@ -1452,19 +1455,40 @@ GS_API gs_result gs_world_sync_test(gs_world *w, int frames, int *bad_agent);
 
 /* ========================================================================
    >>wire
-   Wire format v2, little-endian. A datagram (at most GS_WIRE_MAX_DATAGRAM
+   Wire format v3, little-endian. A datagram (at most GS_WIRE_MAX_DATAGRAM
    bytes) is a header, whole chunks, and a CRC-32 of everything before it:
-     header (48 B): magic "GSIM", version u8 = 2, flags u8, chunk count u16,
-       session u32, sender host u32, datagram sequence u32, run u32 (drawn
-       by the sender at each start, so that its peers know it started again
-       and its sequence with it; 0: not said),
-       send time f64 (s, sender's clock), echo time f64 (the latest send time
-       received from the destination), echo hold f64 (s it was held since)
-     chunk (32 B + payload): object id u32, snapshot sequence u32,
-       simulation time f64 (always exact), chunk index u16, chunk count
-       u16, first element u32 (of the state after its time), element count
-       u16, encoding u8, chunk flags u8, payload bytes u16, reserved u16
-       (0); then the payload: count values as f64 or f32, or in
+     header (48 B): magic "GSIM", version u8 = 3, flags u8, chunk count u16
+       (1..GS_WIRE_MAX_CHUNKS), session u32, sender host u32, datagram
+       sequence u32, run u32 (drawn by the sender at each start, so that
+       its peers know it started again and its sequence with it; 0: not
+       said), send time f64 (s, sender's clock), echo time f64 (the latest
+       send time received from the destination), echo hold f64 (s it was
+       held since)
+     chunk: a header of 3 to GS_WIRE_CHUNK_HEADER bytes, coded against the
+       datagram's chunk before it (an acknowledgement chunk aside: nothing
+       before the first), then its payload, whose length its contents
+       imply. Varints are unsigned LEB128; "zigzag" maps a signed
+       difference d (u32 arithmetic read as signed) to 2d or -2d - 1.
+       kind u8: bits 0-1 the chunk's kind (0 values, 1 delta, 2 heartbeat,
+         3 acknowledgements), bit 2 a time follows, bits 3-4 the encoding
+         (1 f64, 2 f32, 3 GS_ENCODING_QUANT), bit 5 the state is split
+         (index, count and first follow), bits 6-7 0;
+       object id: zigzag(id - the chunk before's) varint (at most 5 bytes);
+       snapshot sequence: zigzag(sequence - the chunk before's) varint;
+       the simulation time f64 (exact) if bit 2, else the chunk before's
+         (the first chunk of a datagram always says it);
+       if bit 5: chunk index, chunk count (varints of at most 3 bytes,
+         index < count <= 65535) and first element (of the state after its
+         time; at most 5 bytes); without it 0 of 1 from 0 (and bit 5 with
+         those is refused: one datagram, one meaning);
+       element count varint (at most 2 bytes; a heartbeat has none: 0);
+       an acknowledgement chunk is the kind byte (bits 2 and 5 clear, the
+         encoding 3), the host it is for as a varint and its entry count
+         (1..GS_WIRE_MAX_ACKS), nothing else: the chunk after it is coded
+         against the chunk before it.
+       A chunk of 10 f64 after one of the same time and sequence: 4 bytes
+       of header; a heartbeat 3. The payload: count values as f64 or f32,
+       or in
        GS_ENCODING_QUANT a segment count u8 (1..GS_WIRE_MAX_SEGMENTS) and
        segments whose value counts add up to the element count:
          scalar (kind 1): count u16, step f64 (> 0), width u8 (0..32),
@@ -1486,11 +1510,12 @@ GS_API gs_result gs_world_sync_test(gs_world *w, int frames, int *bad_agent);
        quaternion of a rotation is sent normalized, each of its three
        components off by at most sqrt(2) / (2 (2^bits - 1)) (1.1e-5 at 16
        bits), its rotation by about twice that in radians.
-     Chunk flags: bit 0 (GS_WIRE_CHUNK_REST): a heartbeat: no values
+     The chunk kinds are the chunk flags of gs_wire_chunk:
+     Kind 2 (GS_WIRE_CHUNK_REST): a heartbeat: no values
        (element count 0, payload 0 bytes, chunk index 0); the object is at
        rest at the time it carries, its state within the sender's
        rest_threshold of the last snapshot it sent of it.
-     Bit 1 (GS_WIRE_CHUNK_DELTA, GS_ENCODING_QUANT only, element count
+     Kind 1 (GS_WIRE_CHUNK_DELTA, GS_ENCODING_QUANT only, element count
        1..GS_WIRE_QUANT_CHUNK): the chunk's values as differences from the same chunk of an earlier snapshot of
        the object (its baseline), in the integers of the quantized state:
        a scalar's integer is its value over its segment's step (base + q
@@ -1501,30 +1526,36 @@ GS_API gs_result gs_world_sync_test(gs_world *w, int frames, int *bad_agent);
        so the receiver's state is the sender's quantized state bit for
        bit. Payload: sequence - baseline sequence (u32 arithmetic) as an
        unsigned LEB128 varint, 1..2^31; one byte: the width w (0..32) in
-       bits 0-5 and the coding in bit 7; then
+       bits 0-5 and the coding in bits 6-7; then
          coding 0 (packed): element-count zigzag differences of w bits,
            packed as above;
          coding 1 (changed bitmap): element-count bits, bit i set when
            difference i is not 0 (padded with 0 bits to a whole byte),
-           then for each set bit zigzag(difference) - 1 in w bits.
-       The sender picks whichever is smaller. A receiver that does not hold
+           then for each set bit zigzag(difference) - 1 in w bits;
+         coding 2 (Rice, w = k in 0..24): per difference z = its zigzag,
+           q = z >> k: if q < 16, q 0 bits, a 1 bit and z's k low bits;
+           else 16 0 bits and z in 32 bits (only then); packed as above,
+           the run padded with 0 bits to a whole byte.
+       The sender picks whichever is smaller (Rice by an estimate from the
+       differences' bit lengths): small differences with a few large ones
+       take Rice about 2 bits fewer a value than packing at the largest's
+       width. A receiver that does not hold
        the baseline's chunk, or whose decoded integers leave the ranges
        above (a scalar past 2^51 - 2^32 steps, a quaternion component past
        2^bits - 1 or its three squares over 0.76), refuses that chunk
        (GS_REJECT_BASELINE, counted; the rest of the datagram stands) and
        says so in its next acknowledgement.
-     Bit 2 (GS_WIRE_CHUNK_ACK): acknowledgements, no values: object id =
-       the host they are for (every other host skips the chunk), sequence
-       0, time 0, chunk index 0, count 1, first element 0, encoding
-       GS_ENCODING_QUANT, element count = the number of entries (1..
-       GS_WIRE_MAX_ACKS), then per entry two unsigned LEB128 varints of at
+     Kind 3 (GS_WIRE_CHUNK_ACK): acknowledgements, no values: object id =
+       the host they are for (every other host skips the chunk), decoded
+       as sequence 0, time 0, chunk index 0, count 1, first element 0,
+       encoding GS_ENCODING_QUANT, element count = the number of entries
+       (1..GS_WIRE_MAX_ACKS), then per entry two unsigned LEB128 varints of at
        most 5 bytes: zigzag(object id - the previous entry's, from 0) * 2
        + refused, and zigzag(sequence - the previous entry's, from 0). An
        entry tells the newest snapshot of that object the sender of the
        chunk holds whole (every chunk), or with refused = 1 that it
        refused a delta of it: the next goes whole.
-     At most one flag is set.
-   v1 datagrams are refused as GS_REJECT_OLD_VERSION.
+   v1 and v2 datagrams are refused as GS_REJECT_OLD_VERSION.
    A snapshot too big for one datagram is cut into chunks that each stand
    alone: a lost chunk leaves its range unblended, the rest still counts.
    A chunk carries at most GS_WIRE_CHUNK_ROOM bytes of values, so that a
@@ -1547,7 +1578,7 @@ GS_API gs_result gs_world_sync_test(gs_world *w, int frames, int *bad_agent);
    a nonce under the same key; the epoch orders a peer's runs so that a
    recorded earlier run cannot be replayed once a later one was heard.
    ======================================================================== */
-#define GS_WIRE_VERSION 2
+#define GS_WIRE_VERSION 3
 #define GS_WIRE_MAX_SEGMENTS 4 /* segments in a quantized chunk */
 #define GS_WIRE_CHUNK_REST 0x01 /* chunk flag: a heartbeat */
 #define GS_WIRE_CHUNK_DELTA 0x02 /* chunk flag: differences from a baseline */
@@ -1555,8 +1586,8 @@ GS_API gs_result gs_world_sync_test(gs_world *w, int frames, int *bad_agent);
 #define GS_WIRE_MAX_ACKS 100 /* entries in one acknowledgement chunk */
 #define GS_WIRE_MAX_DATAGRAM 1200
 #define GS_WIRE_HEADER 48
-#define GS_WIRE_CHUNK_HEADER 32
-#define GS_WIRE_MAX_CHUNKS 64 /* chunks one datagram may carry */
+#define GS_WIRE_CHUNK_HEADER 32 /* the most a chunk's header takes */
+#define GS_WIRE_MAX_CHUNKS 255 /* chunks one datagram may carry */
 /* Chunks one snapshot may have (its chunk index and count are u16): a
    state of at most 8 847 225 values in f64 (135 a chunk), 17 694 450 in
    f32 (270), e.g. a cloth of up to 1214 x 1214 particles in f64. */
@@ -1659,8 +1690,8 @@ typedef struct gs_wire_view {
       "earlier run of its sender")                                             \
     X(GS_REJECT_RATE, "over the sender's cap of datagrams per second")        \
     X(GS_REJECT_OLD_VERSION,                                                   \
-      "wire format v1 (a ghostsim before wire v2): every host of a session "  \
-      "must speak v2")                                                        \
+      "wire format v1 or v2 (a ghostsim before wire v3): every host of a "    \
+      "session must speak v3")                                                \
     X(GS_REJECT_BASELINE,                                                      \
       "a delta chunk whose baseline is not held (lost, too old, from before "  \
       "a restart) or that leaves its ranges: that chunk only")
@@ -2259,9 +2290,12 @@ GS_API double gs_udp_now(void);
 #if defined(__GNUC__) || defined(__clang__)
 #define GS__PRIVATE static __attribute__((unused))
 #define GS__PRINTF(f, a) __attribute__((format(printf, f, a)))
+/* an inner loop's step, inlined where the compiler would call it */
+#define GS__PRIVATE_INLINE static inline __attribute__((unused, always_inline))
 #else
 #define GS__PRIVATE static
 #define GS__PRINTF(f, a)
+#define GS__PRIVATE_INLINE static
 #endif
 
 #ifdef __cplusplus
@@ -8557,6 +8591,15 @@ typedef struct gs__peer {
     double clock_at;          /* way; that round trip (s) and when (s) */
 } gs__peer;
 
+/* A chunk's header is coded against the datagram's chunk before it (see
+   >>wire): its object id, sequence and time. Nothing before the first
+   (any 0): its time is always written. */
+typedef struct gs__wire_ctx {
+    uint32_t id, seq;
+    double time;
+    int any;
+} gs__wire_ctx;
+
 struct gs_net {
     gs_world *world;
     gs_net_desc d;
@@ -8595,6 +8638,7 @@ struct gs_net {
     struct gs__ghost **order; /* the due ghosts of an update, by priority */
     int order_cap;            /* its room: at least the world's ghosts */
     unsigned char buf[GS_WIRE_MAX_DATAGRAM];
+    gs__wire_ctx wctx;        /* what buf's next chunk is coded against */
     gs_wire_view view;        /* decode scratch (too big for the stack) */
     gs__net_guard guard;      /* key, nonces, opened datagram (>>net) */
 };
@@ -10923,10 +10967,10 @@ GS__PRIVATE size_t gs__quant_put(unsigned char *p, size_t room, const gs_wire_ch
 
 GS__PRIVATE int gs__quant_quats_ok(const gs_wire_segment *s);
 
-/* Reads the segments of a quantized payload of len bytes into c, checking
-   every length and bound: the values it gives are finite, under 2^51 *
-   step in size. 0 if anything is off. */
-GS__PRIVATE int gs__quant_parse(gs_wire_chunk *c, const unsigned char *p, size_t len) {
+/* Reads the segments of a quantized payload (within len bytes) into c,
+   checking every length and bound: the values it gives are finite, under
+   2^51 * step in size. Its length, or 0 if anything is off. */
+GS__PRIVATE size_t gs__quant_parse(gs_wire_chunk *c, const unsigned char *p, size_t len) {
     size_t off = 1, need;
     int k, sum = 0;
     if (len < 1) return 0;
@@ -10970,7 +11014,7 @@ GS__PRIVATE int gs__quant_parse(gs_wire_chunk *c, const unsigned char *p, size_t
         if (s->kind == GS_WIRE_QUATERNION && !gs__quant_quats_ok(s)) return 0;
         sum += s->count;
     }
-    return off == len && sum == c->elements;
+    return sum == c->elements ? off : 0;
 }
 
 /* The packed bytes of a parsed segment. */
@@ -11069,7 +11113,8 @@ GS__PRIVATE double gs__quant_value(const gs_wire_chunk *c, int i) {
 /* ---- GS_WIRE_CHUNK_DELTA and GS_WIRE_CHUNK_ACK ---- */
 
 /* An unsigned LEB128 varint at *p of at most max bytes before end; 0 if
-   it is cut short or longer. */
+   it is cut short, longer, or not in its fewest bytes (a last byte 0 after
+   others: one datagram, one meaning). */
 GS__PRIVATE int gs__varint_get(const unsigned char **p, const unsigned char *end, int max,
                                uint64_t *out) {
     uint64_t z = 0;
@@ -11077,7 +11122,10 @@ GS__PRIVATE int gs__varint_get(const unsigned char **p, const unsigned char *end
     for (i = 0; i < max && *p < end; ++i) {
         unsigned b = *(*p)++;
         z |= (uint64_t)(b & 0x7f) << (7 * i);
-        if (!(b & 0x80)) { *out = z; return 1; }
+        if (!(b & 0x80)) {
+            *out = z;
+            return b != 0 || i == 0;
+        }
     }
     return 0;
 }
@@ -11090,9 +11138,90 @@ GS__PRIVATE size_t gs__varint_put(unsigned char *p, uint64_t z) {
 /* zigzag of a u32 difference read as signed (wraps both ways) */
 GS__PRIVATE uint64_t gs__zigzag32(uint32_t d) { return gs__zigzag((int64_t)(int32_t)d); }
 
+/* GS_WIRE_CHUNK_DELTA's Rice coding (coding 2, see >>wire): each value z
+   as z >> k in unary (that many 0 bits, then a 1) and its k low bits, or
+   past GS__RICE_ESCAPE zeros z in 32 bits. */
+#define GS__RICE_ESCAPE 16
+#define GS__RICE_MAX_K 24
+
+/* The index of the lowest set bit of v (v != 0). */
+GS__PRIVATE int gs__ctz64(uint64_t v) {
+#if defined(__GNUC__) || defined(__clang__)
+    return __builtin_ctzll(v);
+#else
+    int n = 0;
+    while (!(v & 1u)) { v >>= 1; ++n; }
+    return n;
+#endif
+}
+
+/* A reader of a Rice run that never reads past end (0 bits there); bits
+   counts what it took, so that a parse can tell a run that overran. */
+typedef struct gs__rice {
+    const unsigned char *p, *end;
+    uint64_t acc;
+    int n;
+    size_t bits;
+} gs__rice;
+GS__PRIVATE_INLINE void gs__rice_fill(gs__rice *r) {
+    if (r->n > 56) return;
+    if (r->end - r->p >= 8) { /* whole words: the bytes above n go in again, the same */
+        r->acc |= gs__get64(r->p) << r->n;
+        r->p += (63 - r->n) >> 3;
+        r->n |= 56;
+        return;
+    }
+    while (r->n <= 56) {
+        r->acc |= (uint64_t)(r->p < r->end ? *r->p++ : 0u) << r->n;
+        r->n += 8;
+    }
+}
+/* The next value z; *esc set when it came escaped. */
+GS__PRIVATE_INLINE uint64_t gs__rice_get(gs__rice *r, int k, int *esc) {
+    uint64_t z;
+    int tz;
+    gs__rice_fill(r);
+    tz = gs__ctz64(r->acc | (uint64_t)1 << GS__RICE_ESCAPE);
+    if (tz < GS__RICE_ESCAPE) {
+        r->acc >>= tz + 1;
+        z = (uint64_t)tz << k | (r->acc & (((uint64_t)1 << k) - 1));
+        r->acc >>= k;
+        r->n -= tz + 1 + k;
+        r->bits += (size_t)(tz + 1 + k);
+        *esc = 0;
+        return z;
+    }
+    r->acc >>= GS__RICE_ESCAPE;
+    z = r->acc & 0xffffffffu;
+    r->acc >>= 32;
+    r->n -= GS__RICE_ESCAPE + 32;
+    r->bits += GS__RICE_ESCAPE + 32;
+    *esc = 1;
+    return z;
+}
+GS__PRIVATE void gs__rice_init(gs__rice *r, const unsigned char *p, const unsigned char *end) {
+    r->p = p; r->end = end; r->acc = 0; r->n = 0; r->bits = 0;
+}
+
+/* The bits a Rice run of parameter k takes, estimated from the values'
+   bit lengths (hist[L]: values of L bits; a value of L > k bits has z >>
+   k between 2^(L-k-1) and 2^(L-k) - 1, taken as 3/4 of 2^(L-k)). */
+GS__PRIVATE double gs__rice_cost(const int *hist, int k) {
+    double bits = 0.0;
+    int L;
+    for (L = 0; L <= 32; ++L) {
+        double q;
+        if (!hist[L]) continue;
+        q = L <= k ? 0.0 : 0.75 * (double)((uint64_t)1 << (L - k));
+        bits += hist[L] * (q >= GS__RICE_ESCAPE ? GS__RICE_ESCAPE + 32.0 : q + 1.0 + k);
+    }
+    return bits;
+}
+
 /* Reads a delta chunk's differences in order. */
 typedef struct gs__dread {
     gs__bitr map, val;
+    gs__rice rice;
     int coding, width;
 } gs__dread;
 GS__PRIVATE void gs__dread_init(const gs_wire_chunk *c, gs__dread *d) {
@@ -11106,16 +11235,19 @@ GS__PRIVATE void gs__dread_init(const gs_wire_chunk *c, gs__dread *d) {
     d->map.p = q; d->map.end = q + bm; d->map.acc = 0; d->map.n = 0;
     if (d->coding == 0) bm = 0;
     d->val.p = q + bm; d->val.end = end; d->val.acc = 0; d->val.n = 0;
+    gs__rice_init(&d->rice, q, end);
 }
 GS__PRIVATE int64_t gs__dread_next(gs__dread *d) {
+    int esc;
+    if (d->coding == 2) return gs__unzigzag(gs__rice_get(&d->rice, d->width, &esc));
     if (d->coding == 0) return gs__unzigzag(gs__bitr_get(&d->val, d->width));
     if (!gs__bitr_get(&d->map, 1)) return 0;
     return gs__unzigzag((uint64_t)gs__bitr_get(&d->val, d->width) + 1u);
 }
 
-/* Checks a delta payload of len bytes and fills c's baseline, coding and
-   width. */
-GS__PRIVATE int gs__delta_parse(gs_wire_chunk *c, const unsigned char *p, size_t len) {
+/* Checks a delta payload (within len bytes) and fills c's baseline,
+   coding and width: its length, or 0. */
+GS__PRIVATE size_t gs__delta_parse(gs_wire_chunk *c, const unsigned char *p, size_t len) {
     const unsigned char *q = p, *end = p + len;
     uint64_t dist = 0;
     size_t need, bm, i;
@@ -11126,11 +11258,24 @@ GS__PRIVATE int gs__delta_parse(gs_wire_chunk *c, const unsigned char *p, size_t
     if (!gs__varint_get(&q, end, 5, &dist) || dist < 1 || dist > 0x80000000u || q >= end)
         return 0;
     c->delta_width = *q & 0x3f;
-    c->delta_coding = *q >> 7;
-    if ((*q & 0x40) || c->delta_width > 32) return 0;
+    c->delta_coding = *q >> 6;
+    if (c->delta_coding == 3 || c->delta_width > (c->delta_coding == 2 ? GS__RICE_MAX_K : 32))
+        return 0;
     ++q;
     c->baseline = c->sequence - (uint32_t)dist;
-    if (c->delta_coding == 0) {
+    if (c->delta_coding == 2) { /* walked: its length is where it ends */
+        gs__rice r;
+        int esc;
+        gs__rice_init(&r, q, end);
+        for (i = 0; i < c->elements; ++i) {
+            uint64_t z = gs__rice_get(&r, c->delta_width, &esc);
+            /* one meaning: an escape only for what unary cannot say */
+            if (r.bits > 8 * (size_t)(end - q) || (esc && z >> c->delta_width < GS__RICE_ESCAPE))
+                return 0;
+        }
+        need = (r.bits + 7) / 8;
+        if (r.bits % 8 && q[need - 1] >> (r.bits % 8)) return 0; /* padding 0 */
+    } else if (c->delta_coding == 0) {
         need = ((size_t)c->elements * (size_t)c->delta_width + 7) / 8;
     } else {
         bm = ((size_t)c->elements + 7) / 8;
@@ -11143,12 +11288,14 @@ GS__PRIVATE int gs__delta_parse(gs_wire_chunk *c, const unsigned char *p, size_t
         if (c->elements % 8 && q[bm - 1] >> (c->elements % 8)) return 0;
         need = bm + ((size_t)nz * (size_t)c->delta_width + 7) / 8;
     }
-    return need == (size_t)(end - q);
+    if (need > (size_t)(end - q)) return 0;
+    c->payload_bytes = (uint16_t)((size_t)(q - p) + need);
+    return c->payload_bytes;
 }
 
-/* Checks an acknowledgement payload: element count entries of two
-   varints each, within their ranges, filling exactly len bytes. */
-GS__PRIVATE int gs__ack_parse(const gs_wire_chunk *c, const unsigned char *p, size_t len) {
+/* Checks an acknowledgement payload (within len bytes): element count
+   entries of two varints each, within their ranges. Its length, or 0. */
+GS__PRIVATE size_t gs__ack_parse(const gs_wire_chunk *c, const unsigned char *p, size_t len) {
     const unsigned char *q = p, *end = p + len;
     int i;
     if (c->encoding != GS_ENCODING_QUANT || c->elements < 1 || c->elements > GS_WIRE_MAX_ACKS ||
@@ -11159,7 +11306,7 @@ GS__PRIVATE int gs__ack_parse(const gs_wire_chunk *c, const unsigned char *p, si
         if (!gs__varint_get(&q, end, 5, &a) || !gs__varint_get(&q, end, 5, &b)) return 0;
         if (a >> 33 || b >> 32) return 0;
     }
-    return q == end;
+    return (size_t)(q - p);
 }
 
 GS_API int gs_wire_acks(const gs_wire_chunk *c, gs_wire_ack *out, int max) {
@@ -11212,6 +11359,13 @@ GS_API void gs_wire_deltas(const gs_wire_chunk *c, int64_t *out) {
     q++;
     w = c->delta_width;
     mask = ((uint64_t)1 << w) - 1;
+    if (c->delta_coding == 2) {
+        gs__rice r;
+        int esc;
+        gs__rice_init(&r, q, end);
+        for (i = 0; i < c->elements; ++i) out[i] = gs__unzigzag(gs__rice_get(&r, w, &esc));
+        return;
+    }
     if (c->delta_coding) {
         map = q;
         q += ((size_t)c->elements + 7) / 8;
@@ -11223,6 +11377,42 @@ GS_API void gs_wire_deltas(const gs_wire_chunk *c, int64_t *out) {
     }
 }
 
+/* The index of the highest set bit of v (v != 0), from the top. */
+GS__PRIVATE int gs__clz64(uint64_t v) {
+#if defined(__GNUC__) || defined(__clang__)
+    return __builtin_clzll(v);
+#else
+    int n = 0;
+    while (!(v >> 63)) { v <<= 1; ++n; }
+    return n;
+#endif
+}
+
+/* A delta payload in the Rice coding of parameter k at p (room bytes,
+   the head of hn bytes first): its size, or 0 if it does not fit. */
+GS__PRIVATE size_t gs__delta_put_rice(unsigned char *p, size_t room, const gs_wire_chunk *c,
+                                      const int64_t *d, const unsigned char *head, size_t hn,
+                                      int k) {
+    gs__bitw w;
+    int i;
+    if (hn + 1 > room) return 0;
+    memcpy(p, head, hn);
+    p[hn] = (unsigned char)(k | 2 << 6);
+    w.p = p + hn + 1; w.end = p + room; w.acc = 0; w.n = 0; w.over = 0;
+    for (i = 0; i < c->elements; ++i) {
+        uint64_t z = gs__zigzag(d[i]), q = z >> k;
+        if (q < GS__RICE_ESCAPE) {
+            gs__bitw_put(&w, (uint64_t)1 << q, (int)q + 1);
+            if (k) gs__bitw_put(&w, z & (((uint64_t)1 << k) - 1), k);
+        } else {
+            gs__bitw_put(&w, 0, GS__RICE_ESCAPE);
+            gs__bitw_put(&w, z, 32);
+        }
+    }
+    gs__bitw_flush(&w);
+    return w.over ? 0 : (size_t)(w.p - p);
+}
+
 /* Writes a delta payload at p (room bytes): its size, or 0 if it does not
    fit. The differences are within +-2^31 (checked by the caller). */
 GS__PRIVATE size_t gs__delta_put(unsigned char *p, size_t room, const gs_wire_chunk *c,
@@ -11231,22 +11421,34 @@ GS__PRIVATE size_t gs__delta_put(unsigned char *p, size_t room, const gs_wire_ch
     size_t hn = gs__varint_put(head, (uint64_t)(uint32_t)(c->sequence - c->baseline));
     size_t need0, need1, need;
     uint64_t m0 = 0, m1 = 0;
-    int i, nz = 0, w0 = 0, w1 = 0, coding, wd;
+    int i, nz = 0, w0 = 0, w1 = 0, coding, wd, hist[33], k, k0 = 0, rk = 0, below = 0;
+    double rbits = HUGE_VAL;
+    memset(hist, 0, sizeof hist);
     for (i = 0; i < c->elements; ++i) {
         uint64_t z = gs__zigzag(d[i]);
         m0 |= z;
-        if (z) { nz++; m1 |= z - 1; }
+        if (z) { nz++; m1 |= z - 1; hist[64 - gs__clz64(z)]++; } else hist[0]++;
     }
+    /* Rice's best k is near the median's bit length (the mean would follow
+       the few large values, which escape anyway): the four about it are
+       tried, a cost each of 33 bit lengths, not one per value */
+    for (k0 = 0; k0 < 32 && 2 * (below + hist[k0]) < c->elements; ++k0) below += hist[k0];
     while (w0 < 32 && m0 >> w0) ++w0;
     while (w1 < 32 && m1 >> w1) ++w1;
     need0 = ((size_t)c->elements * (size_t)w0 + 7) / 8;
     need1 = ((size_t)c->elements + 7) / 8 + ((size_t)nz * (size_t)w1 + 7) / 8;
     coding = need1 < need0;
     wd = coding ? w1 : w0;
+    for (k = k0 > 2 ? k0 - 2 : 0; k <= k0 + 1 && k <= GS__RICE_MAX_K; ++k) {
+        double b = gs__rice_cost(hist, k);
+        if (b < rbits) { rbits = b; rk = k; }
+    }
+    if (rbits / 8.0 + 1.0 < (double)(coding ? need1 : need0))
+        return gs__delta_put_rice(p, room, c, d, head, hn, rk);
     need = hn + 1 + (coding ? need1 : need0);
     if (need > room) return 0;
     memcpy(p, head, hn);
-    p[hn] = (unsigned char)(wd | coding << 7);
+    p[hn] = (unsigned char)(wd | coding << 6);
     /* the writer in locals (as gs__quant_put_scalar); need counts every
        bit, so the 32-bit stores stay inside it */
     {
@@ -11350,83 +11552,160 @@ GS__PRIVATE gs_result gs__wire_put_quant(unsigned char *p, size_t room, const gs
     return *len ? GS_OK : GS_ERR_CAPACITY;
 }
 
-/* The room left for a chunk's payload after *size bytes (the chunk header
-   and the checksum kept free), or an error: a *size that gs_wire_begin and
-   gs_wire_add cannot have left (a wild one would wrap the room check), a
-   datagram with GS_WIRE_MAX_CHUNKS chunks already or no room. */
+/* The chunk kinds (bits 0-1 of a chunk's first byte) and its flag bits. */
+#define GS__KIND_VALUES 0u
+#define GS__KIND_DELTA 1u
+#define GS__KIND_REST 2u
+#define GS__KIND_ACK 3u
+#define GS__KIND_TIME 0x04u  /* a time follows; else the previous chunk's */
+#define GS__KIND_SPLIT 0x20u /* index, count and first follow; else 0, 1, 0 */
+#define GS__KIND_BITS 0x3fu  /* bits 6-7: 0 */
+
+/* The chunk flags of c as its kind (GS_WIRE_CHUNK_*: at most one). */
+GS__PRIVATE unsigned gs__chunk_kind(const gs_wire_chunk *c) {
+    return c->flags & GS_WIRE_CHUNK_DELTA ? GS__KIND_DELTA
+           : c->flags & GS_WIRE_CHUNK_REST ? GS__KIND_REST
+           : c->flags & GS_WIRE_CHUNK_ACK  ? GS__KIND_ACK
+                                           : GS__KIND_VALUES;
+}
+
+/* The header of c at p (at most GS_WIRE_CHUNK_HEADER bytes), coded
+   against x; its length. */
+GS__PRIVATE size_t gs__chunk_head(unsigned char *p, const gs__wire_ctx *x,
+                                  const gs_wire_chunk *c) {
+    unsigned kind = gs__chunk_kind(c), b = kind | (unsigned)c->encoding << 3;
+    size_t n = 1;
+    if (kind == GS__KIND_ACK) { /* the host it is for, and its entries */
+        n += gs__varint_put(p + n, c->object_id);
+        n += gs__varint_put(p + n, c->elements);
+        p[0] = (unsigned char)b;
+        return n;
+    }
+    n += gs__varint_put(p + n, gs__zigzag32(c->object_id - x->id));
+    n += gs__varint_put(p + n, gs__zigzag32(c->sequence - x->seq));
+    if (!x->any || memcmp(&c->time, &x->time, sizeof c->time) != 0) {
+        b |= GS__KIND_TIME;
+        gs__putf64(p + n, c->time);
+        n += 8;
+    }
+    if (c->index || c->count != 1 || c->first) {
+        b |= GS__KIND_SPLIT;
+        n += gs__varint_put(p + n, c->index);
+        n += gs__varint_put(p + n, c->count);
+        n += gs__varint_put(p + n, c->first);
+    }
+    if (kind != GS__KIND_REST) n += gs__varint_put(p + n, c->elements);
+    p[0] = (unsigned char)b;
+    return n;
+}
+
+/* The room left for a chunk's payload after *size bytes and its header of
+   hn bytes (the checksum kept free), or an error: a *size that
+   gs_wire_begin and gs_wire_add cannot have left (a wild one would wrap
+   the room check), a datagram with GS_WIRE_MAX_CHUNKS chunks already or
+   no room. */
 GS__PRIVATE gs_result gs__wire_room(const unsigned char *buf, size_t cap, const size_t *size,
-                                    size_t *room) {
+                                    size_t hn, size_t *room) {
     if (*size < GS_WIRE_HEADER || *size > cap || *size > GS_WIRE_MAX_DATAGRAM)
         return GS_ERR_INVALID_ARG;
     if (gs__hdr_chunks(buf) >= GS_WIRE_MAX_CHUNKS) return GS_ERR_CAPACITY;
     *room = cap < GS_WIRE_MAX_DATAGRAM ? cap : GS_WIRE_MAX_DATAGRAM;
-    if (GS_WIRE_CHUNK_HEADER + 4 > *room - *size) return GS_ERR_CAPACITY;
-    *room -= *size + GS_WIRE_CHUNK_HEADER + 4;
+    if (hn + 4 > *room - *size) return GS_ERR_CAPACITY;
+    *room -= *size + hn + 4;
     return GS_OK;
 }
 
-/* The chunk header of c (payload vs bytes, already written after it) at
-   *size, and the chunk counted. */
-GS__PRIVATE void gs__wire_put_head(unsigned char *buf, size_t *size, const gs_wire_chunk *c,
+/* The chunk's header (head, hn bytes; its payload of vs bytes already
+   written after it) at *size, the chunk counted and x moved on to it. */
+GS__PRIVATE void gs__wire_put_head(unsigned char *buf, size_t *size, gs__wire_ctx *x,
+                                   const gs_wire_chunk *c, const unsigned char *head, size_t hn,
                                    size_t vs) {
-    unsigned char *p = buf + *size;
-    gs__put32(p, c->object_id);
-    gs__put32(p + 4, c->sequence);
-    gs__putf64(p + 8, c->time);
-    gs__put16(p + 16, c->index);
-    gs__put16(p + 18, c->count);
-    gs__put32(p + 20, c->first);
-    gs__put16(p + 24, c->elements);
-    p[26] = (unsigned char)c->encoding;
-    p[27] = (unsigned char)c->flags;
-    gs__put16(p + 28, (uint16_t)vs);
-    gs__put16(p + 30, 0);
-    *size += GS_WIRE_CHUNK_HEADER + vs;
+    memcpy(buf + *size, head, hn);
+    *size += hn + vs;
     gs__hdr_set_chunks(buf, gs__hdr_chunks(buf) + 1);
+    if (c->flags & GS_WIRE_CHUNK_ACK) return; /* it says no id, sequence or time */
+    x->id = c->object_id;
+    x->seq = c->sequence;
+    x->time = c->time;
+    x->any = 1;
 }
 
-GS_API gs_result gs_wire_add(unsigned char *buf, size_t cap, size_t *size,
-                             const gs_wire_chunk *c, const double *values) {
-    size_t vs, room;
+GS__PRIVATE int gs__wire_chunk(const unsigned char *buf, size_t end, size_t *off,
+                               gs__wire_ctx *x, gs_wire_chunk *c, gs_reject *why);
+
+/* The context of the chunk after the size bytes of the datagram in buf,
+   read from its chunks (the public calls take no context: tests build
+   datagrams a chunk at a time; the net keeps its own). 0 if those bytes
+   are not a datagram gs_wire_begin and gs_wire_add can have left. */
+GS__PRIVATE int gs__wire_scan(const unsigned char *buf, size_t cap, size_t size,
+                              gs__wire_ctx *x) {
+    gs_wire_chunk c;
+    gs_reject why;
+    size_t off = GS_WIRE_HEADER;
+    int i, n;
+    memset(x, 0, sizeof *x);
+    if (size < GS_WIRE_HEADER || size > cap || size > GS_WIRE_MAX_DATAGRAM) return 0;
+    n = gs__hdr_chunks(buf);
+    for (i = 0; i < n; ++i)
+        if (!gs__wire_chunk(buf, size, &off, x, &c, &why)) return 0;
+    return off == size;
+}
+
+/* gs_wire_add with the context known. */
+GS__PRIVATE gs_result gs__wire_add_in(unsigned char *buf, size_t cap, size_t *size,
+                                      gs__wire_ctx *x, const gs_wire_chunk *c,
+                                      const double *values) {
+    unsigned char head[GS_WIRE_CHUNK_HEADER];
+    size_t vs, room, hn;
     gs_result r;
     int rest;
-    if (!buf || !size || !c || (c->elements && !values)) return GS_ERR_INVALID_ARG;
     if (c->encoding != GS_ENCODING_F64 && c->encoding != GS_ENCODING_F32 &&
         c->encoding != GS_ENCODING_QUANT)
         return GS_ERR_INVALID_ARG;
     rest = (c->flags & GS_WIRE_CHUNK_REST) != 0;
-    if ((c->flags & ~(unsigned)GS_WIRE_CHUNK_REST) || (rest && (c->elements || c->index)))
+    if ((c->flags & ~(unsigned)GS_WIRE_CHUNK_REST) || (rest && (c->elements || c->index)) ||
+        c->count == 0 || c->index >= c->count)
         return GS_ERR_INVALID_ARG;
-    r = gs__wire_room(buf, cap, size, &room);
+    if (!gs__finite(c->time)) return GS_ERR_NOT_FINITE;
+    if (c->time < 0.0 || c->time > GS_WIRE_MAX_TIME) return GS_ERR_INVALID_ARG;
+    hn = gs__chunk_head(head, x, c);
+    r = gs__wire_room(buf, cap, size, hn, &room);
     if (r != GS_OK) return r;
     if (c->encoding != GS_ENCODING_QUANT && !rest &&
         gs__value_size(c->encoding) * c->elements > room)
         return GS_ERR_CAPACITY;
-    if (!gs__finite(c->time)) return GS_ERR_NOT_FINITE;
-    if (c->time < 0.0 || c->time > GS_WIRE_MAX_TIME) return GS_ERR_INVALID_ARG;
     /* the values first, checked as they are written: the bytes past *size
        are the caller's scratch until the chunk is counted below */
     if (c->encoding == GS_ENCODING_QUANT) {
-        r = gs__wire_put_quant(buf + *size + GS_WIRE_CHUNK_HEADER, room, c, values, &vs);
+        r = gs__wire_put_quant(buf + *size + hn, room, c, values, &vs);
         if (r != GS_OK) return r;
     } else {
         vs = rest ? 0 : gs__value_size(c->encoding) * c->elements;
-        if (!gs__wire_put_values(buf + *size + GS_WIRE_CHUNK_HEADER, c->encoding, values,
-                                 rest ? 0 : c->elements))
+        if (!gs__wire_put_values(buf + *size + hn, c->encoding, values, rest ? 0 : c->elements))
             return GS_ERR_NOT_FINITE;
     }
-    gs__wire_put_head(buf, size, c, vs);
+    gs__wire_put_head(buf, size, x, c, head, hn, vs);
     return GS_OK;
 }
 
-GS_API gs_result gs_wire_add_delta(unsigned char *buf, size_t cap, size_t *size,
-                                   const gs_wire_chunk *c, const int64_t *diff) {
-    size_t vs, room;
+GS_API gs_result gs_wire_add(unsigned char *buf, size_t cap, size_t *size,
+                             const gs_wire_chunk *c, const double *values) {
+    gs__wire_ctx x;
+    if (!buf || !size || !c || (c->elements && !values)) return GS_ERR_INVALID_ARG;
+    if (!gs__wire_scan(buf, cap, *size, &x)) return GS_ERR_INVALID_ARG;
+    return gs__wire_add_in(buf, cap, size, &x, c, values);
+}
+
+/* gs_wire_add_delta with the context known. */
+GS__PRIVATE gs_result gs__wire_add_delta_in(unsigned char *buf, size_t cap, size_t *size,
+                                            gs__wire_ctx *x, const gs_wire_chunk *c,
+                                            const int64_t *diff) {
+    unsigned char head[GS_WIRE_CHUNK_HEADER];
+    size_t vs, room, hn;
     uint32_t dist;
     gs_result r;
     int i;
-    if (!buf || !size || !c || !diff || c->elements == 0 || c->elements > GS_WIRE_QUANT_CHUNK)
-        return GS_ERR_INVALID_ARG;
+    if (c->elements == 0 || c->elements > GS_WIRE_QUANT_CHUNK) return GS_ERR_INVALID_ARG;
     dist = c->sequence - c->baseline;
     if (c->encoding != GS_ENCODING_QUANT || c->flags != GS_WIRE_CHUNK_DELTA || dist == 0 ||
         dist > 0x80000000u || c->count == 0 || c->index >= c->count)
@@ -11435,23 +11714,34 @@ GS_API gs_result gs_wire_add_delta(unsigned char *buf, size_t cap, size_t *size,
         if (diff[i] < -2147483648LL || diff[i] > 2147483647LL) return GS_ERR_INVALID_ARG;
     if (!gs__finite(c->time)) return GS_ERR_NOT_FINITE;
     if (c->time < 0.0 || c->time > GS_WIRE_MAX_TIME) return GS_ERR_INVALID_ARG;
-    r = gs__wire_room(buf, cap, size, &room);
+    hn = gs__chunk_head(head, x, c);
+    r = gs__wire_room(buf, cap, size, hn, &room);
     if (r != GS_OK) return r;
-    vs = gs__delta_put(buf + *size + GS_WIRE_CHUNK_HEADER, room, c, diff);
+    vs = gs__delta_put(buf + *size + hn, room, c, diff);
     if (!vs) return GS_ERR_CAPACITY;
-    gs__wire_put_head(buf, size, c, vs);
+    gs__wire_put_head(buf, size, x, c, head, hn, vs);
     return GS_OK;
 }
 
-GS_API gs_result gs_wire_add_ack(unsigned char *buf, size_t cap, size_t *size, uint32_t to,
-                                 const gs_wire_ack *acks, int n) {
-    unsigned char tmp[GS_WIRE_MAX_ACKS * 10];
+GS_API gs_result gs_wire_add_delta(unsigned char *buf, size_t cap, size_t *size,
+                                   const gs_wire_chunk *c, const int64_t *diff) {
+    gs__wire_ctx x;
+    if (!buf || !size || !c || !diff) return GS_ERR_INVALID_ARG;
+    if (!gs__wire_scan(buf, cap, *size, &x)) return GS_ERR_INVALID_ARG;
+    return gs__wire_add_delta_in(buf, cap, size, &x, c, diff);
+}
+
+/* gs_wire_add_ack with the context known. */
+GS__PRIVATE gs_result gs__wire_add_ack_in(unsigned char *buf, size_t cap, size_t *size,
+                                          gs__wire_ctx *x, uint32_t to, const gs_wire_ack *acks,
+                                          int n) {
+    unsigned char tmp[GS_WIRE_MAX_ACKS * 10], head[GS_WIRE_CHUNK_HEADER];
     uint32_t obj = 0, seq = 0;
-    size_t len = 0, room;
+    size_t len = 0, room, hn;
     gs_wire_chunk c;
     gs_result r;
     int i;
-    if (!buf || !size || !acks || n < 1 || n > GS_WIRE_MAX_ACKS) return GS_ERR_INVALID_ARG;
+    if (n < 1 || n > GS_WIRE_MAX_ACKS) return GS_ERR_INVALID_ARG;
     for (i = 0; i < n; ++i) {
         len += gs__varint_put(tmp + len, gs__zigzag32(acks[i].object_id - obj) << 1 |
                                              (uint64_t)(acks[i].refused != 0));
@@ -11459,18 +11749,27 @@ GS_API gs_result gs_wire_add_ack(unsigned char *buf, size_t cap, size_t *size, u
         obj = acks[i].object_id;
         seq = acks[i].sequence;
     }
-    r = gs__wire_room(buf, cap, size, &room);
-    if (r != GS_OK) return r;
-    if (len > room) return GS_ERR_CAPACITY;
     memset(&c, 0, sizeof c);
     c.object_id = to;
     c.count = 1;
     c.elements = (uint16_t)n;
     c.encoding = GS_ENCODING_QUANT;
     c.flags = GS_WIRE_CHUNK_ACK;
-    memcpy(buf + *size + GS_WIRE_CHUNK_HEADER, tmp, len);
-    gs__wire_put_head(buf, size, &c, len);
+    hn = gs__chunk_head(head, x, &c);
+    r = gs__wire_room(buf, cap, size, hn, &room);
+    if (r != GS_OK) return r;
+    if (len > room) return GS_ERR_CAPACITY;
+    memcpy(buf + *size + hn, tmp, len);
+    gs__wire_put_head(buf, size, x, &c, head, hn, len);
     return GS_OK;
+}
+
+GS_API gs_result gs_wire_add_ack(unsigned char *buf, size_t cap, size_t *size, uint32_t to,
+                                 const gs_wire_ack *acks, int n) {
+    gs__wire_ctx x;
+    if (!buf || !size || !acks || n < 1 || n > GS_WIRE_MAX_ACKS) return GS_ERR_INVALID_ARG;
+    if (!gs__wire_scan(buf, cap, *size, &x)) return GS_ERR_INVALID_ARG;
+    return gs__wire_add_ack_in(buf, cap, size, &x, to, acks, n);
 }
 
 GS_API size_t gs_wire_end(unsigned char *buf, size_t size) {
@@ -11550,50 +11849,107 @@ GS__PRIVATE void gs__wire_get_values(const gs_wire_chunk *c, double *out) {
 /* A time the wire carries (s): in [0, GS_WIRE_MAX_TIME], NaN excluded. */
 GS__PRIVATE int gs__wire_time_ok(double t) { return t >= 0.0 && t <= GS_WIRE_MAX_TIME; }
 
-/* One chunk at *off: its header, its length, its values all finite. */
-GS__PRIVATE int gs__wire_chunk(const unsigned char *buf, size_t end, size_t *off,
-                               gs_wire_chunk *c, gs_reject *why) {
+/* An unsigned LEB128 varint at *off of at most max bytes before end, at
+   most top: 0 if cut short (*off then end), longer, or over. */
+GS__PRIVATE int gs__head_varint(const unsigned char *buf, size_t end, size_t *off, int max,
+                                uint64_t top, uint64_t *out) {
     const unsigned char *p = buf + *off;
-    size_t len;
-    if (*off + GS_WIRE_CHUNK_HEADER > end) { *why = GS_REJECT_SHORT; return 0; }
-    c->object_id = gs__get32(p);
-    c->sequence = gs__get32(p + 4);
-    c->time = gs__getf64(p + 8);
-    c->index = gs__get16(p + 16);
-    c->count = gs__get16(p + 18);
-    c->first = gs__get32(p + 20);
-    c->elements = gs__get16(p + 24);
-    c->encoding = (gs_encoding)p[26];
-    c->flags = p[27];
+    int ok = gs__varint_get(&p, buf + end, max, out);
+    if (!ok && p == buf + end) *off = end;
+    if (!ok || *out > top) return 0;
+    *off = (size_t)(p - buf);
+    return 1;
+}
+
+/* The header fields of the chunk at *off (see >>wire), against x. */
+GS__PRIVATE int gs__chunk_head_get(const unsigned char *buf, size_t end, size_t *off,
+                                   const gs__wire_ctx *x, gs_wire_chunk *c, unsigned *kind) {
+    uint64_t id = 0, seq = 0, idx = 0, cnt = 1, first = 0, el = 0;
+    unsigned b = buf[(*off)++], k = b & 3u;
+    *kind = k;
+    c->encoding = (gs_encoding)(b >> 3 & 3u);
+    c->flags = k == GS__KIND_DELTA ? GS_WIRE_CHUNK_DELTA : k == GS__KIND_REST ? GS_WIRE_CHUNK_REST
+               : k == GS__KIND_ACK ? GS_WIRE_CHUNK_ACK : 0u;
+    if ((b & ~GS__KIND_BITS) || c->encoding == 0) return 0;
+    if (k == GS__KIND_ACK) {
+        if (b & (GS__KIND_TIME | GS__KIND_SPLIT) || c->encoding != GS_ENCODING_QUANT ||
+            !gs__head_varint(buf, end, off, 5, 0xffffffffu, &id) ||
+            !gs__head_varint(buf, end, off, 2, GS_WIRE_MAX_ACKS, &el) || el < 1)
+            return 0;
+        c->object_id = (uint32_t)id;
+        c->sequence = 0;
+        c->time = 0.0;
+    } else {
+        if (!gs__head_varint(buf, end, off, 5, 0x1ffffffffull, &id) ||
+            !gs__head_varint(buf, end, off, 5, 0x1ffffffffull, &seq))
+            return 0;
+        c->object_id = x->id + (uint32_t)gs__unzigzag(id);
+        c->sequence = x->seq + (uint32_t)gs__unzigzag(seq);
+        if (b & GS__KIND_TIME) {
+            if (*off + 8 > end) { *off = end; return 0; }
+            c->time = gs__getf64(buf + *off);
+            *off += 8;
+            /* one meaning: a time is said only where it changes */
+            if (x->any && memcmp(&c->time, &x->time, sizeof c->time) == 0) return 0;
+        } else {
+            if (!x->any) return 0; /* the first chunk says its time */
+            c->time = x->time;
+        }
+        if ((b & GS__KIND_SPLIT) &&
+            (!gs__head_varint(buf, end, off, 3, 0xffff, &idx) ||
+             !gs__head_varint(buf, end, off, 3, 0xffff, &cnt) ||
+             !gs__head_varint(buf, end, off, 5, 0xffffffffu, &first) || idx >= cnt ||
+             (idx == 0 && cnt == 1 && first == 0))) /* one meaning: not split */
+            return 0;
+        if (k != GS__KIND_REST && !gs__head_varint(buf, end, off, 2, 0xffff, &el)) return 0;
+    }
+    c->index = (uint16_t)idx;
+    c->count = (uint16_t)cnt;
+    c->first = (uint32_t)first;
+    c->elements = (uint16_t)el;
+    return 1;
+}
+
+/* One chunk at *off, coded against x (moved on to it): its header, its
+   payload (whose length its contents imply), its values all finite. */
+GS__PRIVATE int gs__wire_chunk(const unsigned char *buf, size_t end, size_t *off,
+                               gs__wire_ctx *x, gs_wire_chunk *c, gs_reject *why) {
+    size_t len, avail;
+    unsigned kind;
     c->segment_count = 0;
     c->baseline = 0;
     c->delta_coding = c->delta_width = 0;
-    c->payload_bytes = gs__get16(p + 28);
-    if ((c->encoding != GS_ENCODING_F64 && c->encoding != GS_ENCODING_F32 &&
-         c->encoding != GS_ENCODING_QUANT) ||
-        c->count == 0 || c->index >= c->count ||
-        (c->flags & ~(unsigned)(GS_WIRE_CHUNK_REST | GS_WIRE_CHUNK_DELTA | GS_WIRE_CHUNK_ACK)) ||
-        (c->flags & (c->flags - 1)) || /* at most one */
-        ((c->flags & (GS_WIRE_CHUNK_DELTA | GS_WIRE_CHUNK_ACK)) &&
-         c->encoding != GS_ENCODING_QUANT) ||
-        gs__get16(p + 30) != 0) { *why = GS_REJECT_LAYOUT; return 0; }
-    len = c->encoding == GS_ENCODING_QUANT ? gs__get16(p + 28)
-                                           : gs__value_size(c->encoding) * c->elements;
-    if (c->flags & GS_WIRE_CHUNK_REST) len = 0;
-    if (*off + GS_WIRE_CHUNK_HEADER + len > end) { *why = GS_REJECT_SHORT; return 0; }
-    if (gs__get16(p + 28) != len ||
-        ((c->flags & GS_WIRE_CHUNK_REST) && (c->elements || c->index))) {
-        *why = GS_REJECT_LAYOUT;
+    if (*off >= end) { *why = GS_REJECT_SHORT; return 0; }
+    if (!gs__chunk_head_get(buf, end, off, x, c, &kind)) {
+        /* cut short where the bytes ran out, else inconsistent */
+        *why = *off >= end ? GS_REJECT_SHORT : GS_REJECT_LAYOUT;
         return 0;
     }
+    if ((kind == GS__KIND_DELTA && c->encoding != GS_ENCODING_QUANT) ||
+        (kind == GS__KIND_REST && c->index)) { *why = GS_REJECT_LAYOUT; return 0; }
     if (!gs__wire_time_ok(c->time)) { *why = GS_REJECT_TIME; return 0; }
-    c->payload = p + GS_WIRE_CHUNK_HEADER;
-    if (c->flags & GS_WIRE_CHUNK_DELTA ? !gs__delta_parse(c, c->payload, len)
-        : c->flags & GS_WIRE_CHUNK_ACK ? !gs__ack_parse(c, c->payload, len)
-        : c->encoding == GS_ENCODING_QUANT && !(c->flags & GS_WIRE_CHUNK_REST) &&
-              !gs__quant_parse(c, c->payload, len)) { *why = GS_REJECT_LAYOUT; return 0; }
+    c->payload = buf + *off;
+    avail = end - *off;
+    if (kind == GS__KIND_REST) {
+        len = 0;
+    } else if (kind == GS__KIND_VALUES && c->encoding != GS_ENCODING_QUANT) {
+        len = gs__value_size(c->encoding) * c->elements;
+        if (len > avail) { *why = GS_REJECT_SHORT; return 0; }
+    } else {
+        len = kind == GS__KIND_DELTA ? gs__delta_parse(c, c->payload, avail)
+              : kind == GS__KIND_ACK ? gs__ack_parse(c, c->payload, avail)
+                                     : gs__quant_parse(c, c->payload, avail);
+        if (!len) { *why = GS_REJECT_LAYOUT; return 0; }
+    }
+    c->payload_bytes = (uint16_t)len;
     if (!gs__wire_values_finite(c)) { *why = GS_REJECT_NOT_FINITE; return 0; }
-    *off += GS_WIRE_CHUNK_HEADER + len;
+    *off += len;
+    if (kind != GS__KIND_ACK) {
+        x->id = c->object_id;
+        x->seq = c->sequence;
+        x->time = c->time;
+        x->any = 1;
+    }
     return 1;
 }
 
@@ -11603,7 +11959,10 @@ GS__PRIVATE int gs__wire_front(const unsigned char *buf, size_t size, gs_reject 
     if (!buf || size < GS_WIRE_HEADER + 4) { *why = GS_REJECT_SHORT; return 0; }
     if (size > GS_WIRE_MAX_DATAGRAM) { *why = GS_REJECT_LAYOUT; return 0; }
     if (memcmp(buf, "GSIM", 4) != 0) { *why = GS_REJECT_MAGIC; return 0; }
-    if (gs__hdr_version(buf) == 1) { *why = GS_REJECT_OLD_VERSION; return 0; }
+    if (gs__hdr_version(buf) == 1 || gs__hdr_version(buf) == 2) {
+        *why = GS_REJECT_OLD_VERSION;
+        return 0;
+    }
     if (gs__hdr_version(buf) != GS_WIRE_VERSION) { *why = GS_REJECT_VERSION; return 0; }
     return 1;
 }
@@ -11613,6 +11972,7 @@ GS__PRIVATE int gs__wire_front(const unsigned char *buf, size_t size, gs_reject 
 GS__PRIVATE int gs__wire_parse(const unsigned char *buf, size_t end, gs_wire_view *out,
                                gs_reject *why) {
     size_t off = GS_WIRE_HEADER;
+    gs__wire_ctx x;
     int i, n = gs__hdr_chunks(buf);
     if (n < 1 || n > GS_WIRE_MAX_CHUNKS) { *why = GS_REJECT_LAYOUT; return 0; }
     out->header.session = gs__get32(buf + 8);
@@ -11630,8 +11990,9 @@ GS__PRIVATE int gs__wire_parse(const unsigned char *buf, size_t end, gs_wire_vie
         *why = GS_REJECT_TIME;
         return 0;
     }
+    memset(&x, 0, sizeof x);
     for (i = 0; i < n; ++i)
-        if (!gs__wire_chunk(buf, end, &off, &out->chunks[i], why)) return 0;
+        if (!gs__wire_chunk(buf, end, &off, &x, &out->chunks[i], why)) return 0;
     if (off != end) { *why = GS_REJECT_LAYOUT; return 0; }
     out->chunk_count = n;
     return 1;
@@ -12385,6 +12746,7 @@ GS__PRIVATE void gs__datagram_begin(gs_net *net, double now, size_t *size) {
     h.run = net->run;
     h.send_time = now;
     gs_wire_begin(net->buf, sizeof net->buf, &h, size);
+    memset(&net->wctx, 0, sizeof net->wctx);
 }
 
 /* Room for chunks in net->buf: a sealed datagram's trailer must fit. */
@@ -12699,8 +13061,8 @@ GS__PRIVATE gs_result gs__put_chunk(gs_net *net, double now, size_t *size,
     gs_result r = GS_ERR_CAPACITY;
     for (k = 0; k < 2 && r == GS_ERR_CAPACITY; ++k) {
         if (k) gs__datagram_flush(net, now, size);
-        r = d ? gs_wire_add_delta(net->buf, gs__net_cap(net), size, ch, d)
-              : gs_wire_add(net->buf, gs__net_cap(net), size, ch, v);
+        r = d ? gs__wire_add_delta_in(net->buf, gs__net_cap(net), size, &net->wctx, ch, d)
+              : gs__wire_add_in(net->buf, gs__net_cap(net), size, &net->wctx, ch, v);
     }
     return r;
 }
@@ -12777,11 +13139,11 @@ GS__PRIVATE void gs__send_ghost(gs_net *net, gs__ghost *g, double now, size_t *s
             bytes += *size >= at ? *size - at : *size - GS_WIRE_HEADER;
             continue;
         }
-        if (gs_wire_add(net->buf, gs__net_cap(net), size, &ch, g->B + 1 + first) ==
-            GS_ERR_CAPACITY) {
+        if (gs__wire_add_in(net->buf, gs__net_cap(net), size, &net->wctx, &ch,
+                            g->B + 1 + first) == GS_ERR_CAPACITY) {
             gs__datagram_flush(net, now, size);
             before = *size;
-            gs_wire_add(net->buf, gs__net_cap(net), size, &ch, g->B + 1 + first);
+            gs__wire_add_in(net->buf, gs__net_cap(net), size, &net->wctx, &ch, g->B + 1 + first);
         }
         bytes += *size - before;
     }
@@ -12848,8 +13210,8 @@ GS__PRIVATE void gs__send_acks(gs_net *net, double now, size_t *size) {
                 gs_result r = GS_ERR_CAPACITY;
                 for (k = 0; k < 2 && r == GS_ERR_CAPACITY; ++k) {
                     if (k) gs__datagram_flush(net, now, size);
-                    r = gs_wire_add_ack(net->buf, gs__net_cap(net), size, net->peers[p].host,
-                                        acks, n);
+                    r = gs__wire_add_ack_in(net->buf, gs__net_cap(net), size, &net->wctx,
+                                            net->peers[p].host, acks, n);
                 }
                 n = 0;
             }
