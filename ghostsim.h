@@ -2548,6 +2548,8 @@ struct gs_world {
     struct gs__rigid **wide;   /* bodies with a sweep over wide_at */
     int nwide;
     struct gs__rigid **cand;   /* the answer to a query (bodies_cap) */
+    struct gs__rigid **cand_tmp; /* scratch for putting a long answer in
+                                    order (bodies_cap) */
     struct gs__rigid **touched; /* the bodies the stepping body's contacts
                                    push, whose push lands when its step
                                    ends (bodies_cap) */
@@ -7107,9 +7109,9 @@ GS__PRIVATE gs_result gs__sap_add(gs_world *w, gs__rigid *r) {
     int sorted;
     if (w->nbodies == w->bodies_cap) {
         int cap = w->bodies_cap ? 2 * w->bodies_cap : 16;
-        if (w->bodies_cap > INT_MAX / 2 || (size_t)cap > SIZE_MAX / (7 * sizeof(struct gs__rigid *)))
+        if (w->bodies_cap > INT_MAX / 2 || (size_t)cap > SIZE_MAX / (8 * sizeof(struct gs__rigid *)))
             return gs__fail(w, GS_ERR_CAPACITY, "broad phase: too many bodies");
-        struct gs__rigid **list = (struct gs__rigid **)gs__alloc(w, 7 * (size_t)cap * sizeof *list);
+        struct gs__rigid **list = (struct gs__rigid **)gs__alloc(w, 8 * (size_t)cap * sizeof *list);
         if (!list) return gs__fail(w, GS_ERR_NO_MEMORY, "broad phase: out of memory");
         if (w->nbodies) {
             memcpy(list, w->bodies, (size_t)w->nbodies * sizeof *list);
@@ -7123,6 +7125,7 @@ GS__PRIVATE gs_result gs__sap_add(gs_world *w, gs__rigid *r) {
         w->cand = list + 3 * cap;
         w->grid = list + 4 * cap;
         w->touched = list + 6 * cap;
+        w->cand_tmp = list + 7 * cap;
         w->bodies_cap = cap;
         gs__grid_rebuild(w);
     }
@@ -7217,14 +7220,35 @@ GS__PRIVATE int gs__sap_first(const gs_world *w, double lo, double lag) {
     return a;
 }
 
-/* The candidates in the order of bodies (a query finds few). */
+/* The candidates in the order of bodies. A body's query finds a few, in
+   an order near that one: insertion. A range that crosses the world (a
+   wall, a cloth) finds up to every body, where insertion is O(n^2): a
+   merge sort through cand_tmp. The sap indices are distinct, so either
+   gives the one order. */
+#define GS__ORDER_INSERTION 32
 GS__PRIVATE void gs__sap_order(gs_world *w, int n) {
-    int i, j;
-    for (i = 1; i < n; ++i) {
-        gs__rigid *r = w->cand[i];
-        for (j = i; j > 0 && w->cand[j - 1]->sap > r->sap; --j) w->cand[j] = w->cand[j - 1];
-        w->cand[j] = r;
+    gs__rigid **src = w->cand, **dst = w->cand_tmp, **t;
+    int i, j, width;
+    for (i = 0; i < n; i += GS__ORDER_INSERTION) { /* sorted runs */
+        int end = n - i > GS__ORDER_INSERTION ? i + GS__ORDER_INSERTION : n;
+        for (j = i + 1; j < end; ++j) {
+            gs__rigid *r = src[j];
+            int k;
+            for (k = j; k > i && src[k - 1]->sap > r->sap; --k) src[k] = src[k - 1];
+            src[k] = r;
+        }
     }
+    for (width = GS__ORDER_INSERTION; width < n; width *= 2) {
+        for (i = 0; i < n; i += 2 * width) {
+            int a = i, m = n - i > width ? i + width : n, b = m, k = i;
+            int e = n - i > 2 * width ? i + 2 * width : n;
+            while (a < m && b < e) dst[k++] = src[b]->sap < src[a]->sap ? src[b++] : src[a++];
+            while (a < m) dst[k++] = src[a++];
+            while (b < e) dst[k++] = src[b++];
+        }
+        t = src; src = dst; dst = t;
+    }
+    if (src != w->cand) memcpy(w->cand, src, (size_t)n * sizeof *src);
 }
 
 /* Every body that may meet [lo, hi] on x when taken up to lag seconds from
