@@ -7316,6 +7316,70 @@ GS__PRIVATE int gs__sap_query_near(gs_world *w, const gs__rigid *r, double lag) 
     return n;
 }
 
+/* Does o's reach meet [lo, hi] on all three axes? */
+GS__PRIVATE int gs__sap_meets_box(const gs__rigid *o, gs_vec3 lo, gs_vec3 hi, double lag) {
+    double reach = gs__sap_reach(o, lag);
+    double ex = 1e-12 * (fabs(lo.x) + fabs(hi.x)), ey = 1e-12 * (fabs(lo.y) + fabs(hi.y));
+    double ez = 1e-12 * (fabs(lo.z) + fabs(hi.z));
+    return o->x.x - reach <= hi.x + ex && o->x.x + reach >= lo.x - ex &&
+           o->x.y - reach <= hi.y + ey && o->x.y + reach >= lo.y - ey &&
+           o->x.z - reach <= hi.z + ez && o->x.z + reach >= lo.z - ez;
+}
+
+/* The first body of near from i on whose near_key is over top. */
+GS__PRIVATE int gs__sap_past(const gs_world *w, int a, double top) {
+    int b = w->nbodies;
+    while (a < b) {
+        int mid = a + (b - a) / 2;
+        if (w->near[mid]->near_key <= top) a = mid + 1;
+        else b = mid;
+    }
+    return a;
+}
+
+/* Every body whose reach may meet the box [lo, hi] (the box of a probe's
+   shape: a wall's bounding sphere spans the world), into w->cand in the
+   order of bodies. The grid's cells over the box, or near's slab of it on
+   x, whichever looks at fewer: a wall across the pile on x has a slab of
+   every body and a face of O(n^(2/3)) cells. Returns how many. */
+GS__PRIVATE int gs__sap_query_box(gs_world *w, gs_vec3 lo, gs_vec3 hi, double lag) {
+    double pad = (w->bound_max + w->speed_max * lag) * (1.0 + 1e-9) + 1e-12;
+    double top = hi.x + w->speed_max * lag;
+    int n = 0, i, first, past;
+    int64_t a[3], b[3], c[3];
+    gs__sap_sort(w);
+    top += 1e-9 * (1.0 + fabs(top));
+    first = gs__sap_first(w, lo.x, lag);
+    past = gs__sap_past(w, first, top);
+    for (i = 0; i < w->nwide; ++i)
+        if (gs__sap_meets_box(w->wide[i], lo, hi, lag)) w->cand[n++] = w->wide[i];
+    if (w->cell > 0.0) {
+        double cells = 1.0;
+        a[0] = gs__grid_coord(w, lo.x - pad); b[0] = gs__grid_coord(w, hi.x + pad);
+        a[1] = gs__grid_coord(w, lo.y - pad); b[1] = gs__grid_coord(w, hi.y + pad);
+        a[2] = gs__grid_coord(w, lo.z - pad); b[2] = gs__grid_coord(w, hi.z + pad);
+        for (i = 0; i < 3; ++i) cells *= (double)(b[i] - a[i]) + 1.0;
+        if (cells < (double)(past - first)) {
+            for (c[0] = a[0]; c[0] <= b[0]; ++c[0])
+                for (c[1] = a[1]; c[1] <= b[1]; ++c[1])
+                    for (c[2] = a[2]; c[2] <= b[2]; ++c[2]) {
+                        gs__rigid *o;
+                        for (o = w->grid[gs__grid_bucket(w, c)]; o; o = o->gnext)
+                            if (o->cell[0] == c[0] && o->cell[1] == c[1] && o->cell[2] == c[2] &&
+                                gs__sap_meets_box(o, lo, hi, lag))
+                                w->cand[n++] = o;
+                    }
+            gs__sap_order(w, n);
+            return n;
+        }
+    }
+    for (i = first; i < past; ++i)
+        if (w->near[i]->wide < 0 && gs__sap_meets_box(w->near[i], lo, hi, lag))
+            w->cand[n++] = w->near[i];
+    gs__sap_order(w, n);
+    return n;
+}
+
 /* How far r's shape reaches from its centre when a contact takes r up to
    lag seconds on along its velocity (gs__rigid_vs_rigid does, to the time
    of a body that is ahead of it within its substep). */
@@ -7828,8 +7892,17 @@ GS__PRIVATE void gs__mesh_bounds(const gs_agent *a, gs_vec3 *lo, gs_vec3 *hi);
 GS__PRIVATE void gs__probe_wake(gs__rigid *p) {
     gs_world *w = p->base.world;
     double t = gs__agent_time(&p->base);
+    gs_vec3 ext = gs__v3(p->shape.bound, p->shape.bound, p->shape.bound);
     int n, i;
     if (w->sleep_time < 0.0 || !(p->base.rest < w->sleep_time)) return;
+    if (p->shape.type == GS_SHAPE_BOX) { /* the half extents of its box on each axis */
+        gs_vec3 h = p->shape.half, ax = gs__rotate(p->q, gs__v3(h.x, 0.0, 0.0));
+        gs_vec3 ay = gs__rotate(p->q, gs__v3(0.0, h.y, 0.0)), az = gs__rotate(p->q, gs__v3(0.0, 0.0, h.z));
+        ext = gs__v3(fabs(ax.x) + fabs(ay.x) + fabs(az.x), fabs(ax.y) + fabs(ay.y) + fabs(az.y),
+                     fabs(ax.z) + fabs(ay.z) + fabs(az.z));
+        ext = gs__scale(ext, 1.0 + 1e-9); /* rounding of the rotation */
+        ext = gs__v3(fmin(ext.x, p->shape.bound), fmin(ext.y, p->shape.bound), fmin(ext.z, p->shape.bound));
+    }
     if (w->meshes_dirty) gs__meshes_list(w);
     for (i = 0; i < w->nmeshes; ++i) { /* a mesh within its reach (boxes) */
         gs_agent *m = w->meshes[i];
@@ -7840,7 +7913,7 @@ GS__PRIVATE void gs__probe_wake(gs__rigid *p) {
             p->x.y - b <= hi.y && p->x.z + b >= lo.z && p->x.z - b <= hi.z)
             gs__agent_wake_at(m, t);
     }
-    n = gs__sap_query_near(w, p, gs__lag_bound(w, t, 0.1));
+    n = gs__sap_query_box(w, gs__sub(p->x, ext), gs__add(p->x, ext), gs__lag_bound(w, t, 0.1));
     for (i = 0; i < n; ++i) {
         gs__rigid *o = w->cand[i];
         double reach = p->shape.bound + o->shape.bound;
