@@ -2545,6 +2545,10 @@ struct gs_world {
     int sap_dirty;       /* near is not sorted yet: creation appends, the
                             next query or advance sorts */
     struct gs__rigid **near;   /* the same sorted by x - bound (searched) */
+    double *near_keys;   /* m; near's keys in its order (bodies_cap): the
+                            bubble and the searches compare these, not a
+                            field of each body (a cache miss each in a
+                            pile bigger than the cache) */
     struct gs__rigid **wide;   /* bodies with a sweep over wide_at */
     int nwide;
     struct gs__rigid **cand;   /* the answer to a query (bodies_cap) */
@@ -6964,27 +6968,27 @@ GS_API double gs_rigid_stable_dt(const gs_agent *a) {
    A body's query looks in a uniform grid of the bodies not wide (a range
    on x, a mesh's, searches near). Either gathers candidates, adds the wide
    ones, then puts them in the order of bodies. */
-GS__PRIVATE void gs__sap_swap(gs__rigid **list, int i, int j, int near) {
-    struct gs__rigid *t = list[i];
-    list[i] = list[j];
-    list[j] = t;
-    if (near) {
-        list[i]->near = i;
-        list[j]->near = j;
-    } else {
-        list[i]->sap = i;
-        list[j]->sap = j;
-    }
+/* Swaps near[i] and near[j], with their keys. */
+GS__PRIVATE void gs__sap_swap(gs_world *w, int i, int j) {
+    struct gs__rigid *t = w->near[i];
+    double k = w->near_keys[i];
+    w->near[i] = w->near[j];
+    w->near[j] = t;
+    w->near_keys[i] = w->near_keys[j];
+    w->near_keys[j] = k;
+    w->near[i]->near = i;
+    w->near[j]->near = j;
 }
 
 /* Moves r to its place in near (by near_key). A list not sorted yet waits
    for gs__sap_sort. */
-GS__PRIVATE void gs__sap_bubble(gs__rigid **list, int n, gs__rigid *r) {
-    int i = r->near;
+GS__PRIVATE void gs__sap_bubble(gs_world *w, gs__rigid *r) {
+    int i = r->near, n = w->nbodies;
     double k = r->near_key;
-    if (r->base.world->sap_dirty) return;
-    while (i > 0 && list[i - 1]->near_key > k) { gs__sap_swap(list, i - 1, i, 1); --i; }
-    while (i + 1 < n && list[i + 1]->near_key < k) { gs__sap_swap(list, i, i + 1, 1); ++i; }
+    const double *keys = w->near_keys;
+    if (w->sap_dirty) return;
+    while (i > 0 && keys[i - 1] > k) { gs__sap_swap(w, i - 1, i); --i; }
+    while (i + 1 < n && keys[i + 1] < k) { gs__sap_swap(w, i, i + 1); ++i; }
 }
 
 /* Puts r in the wide list or takes it out, as its sweep says. */
@@ -7062,18 +7066,19 @@ GS__PRIVATE void gs__grid_rebuild(gs_world *w) {
 /* A body's speed for the broad phase: what its carried position moves by
    per second of lag (gs__rigid_vs_rigid: its velocity, and the change of
    velocity of its last step over up to one step). */
-GS__PRIVATE void gs__sap_sweep(const gs_world *w, gs__rigid *r) {
+GS__PRIVATE void gs__sap_sweep(gs_world *w, gs__rigid *r) {
     double v = gs__len(r->v) + gs__len(r->a_own) * r->base.dt;
     r->sweep = r->shape.bound + (w->wide_lag > 0.0 ? w->wide_lag : 0.1) * v;
     r->speed = r->probe ? 0.0 : v;
     r->near_key = r->x.x - r->shape.bound;
+    w->near_keys[r->near] = r->near_key;
 }
 
 GS__PRIVATE void gs__sap_update(gs__rigid *r) {
     gs_world *w = r->base.world;
     gs__sap_sweep(w, r);
     gs__sap_classify(w, r);
-    gs__sap_bubble(w->near, w->nbodies, r);
+    gs__sap_bubble(w, r);
     gs__grid_place(w, r);
 }
 
@@ -7102,8 +7107,10 @@ GS__PRIVATE void gs__sap_sort_list(gs__rigid **list, gs__rigid **tmp, int n) {
 /* Sorts near if bodies were appended since (cand is the scratch: nothing
    is being asked then). */
 GS__PRIVATE void gs__sap_sort(gs_world *w) {
+    int i;
     if (!w->sap_dirty) return;
     gs__sap_sort_list(w->near, w->cand, w->nbodies);
+    for (i = 0; i < w->nbodies; ++i) w->near_keys[i] = w->near[i]->near_key;
     w->sap_dirty = 0;
 }
 
@@ -7111,15 +7118,21 @@ GS__PRIVATE gs_result gs__sap_add(gs_world *w, gs__rigid *r) {
     int sorted;
     if (w->nbodies == w->bodies_cap) {
         int cap = w->bodies_cap ? 2 * w->bodies_cap : 16;
-        if (w->bodies_cap > INT_MAX / 2 || (size_t)cap > SIZE_MAX / (8 * sizeof(struct gs__rigid *)))
+        if (w->bodies_cap > INT_MAX / 2 ||
+            (size_t)cap > SIZE_MAX / (8 * sizeof(struct gs__rigid *) + sizeof(double)))
             return gs__fail(w, GS_ERR_CAPACITY, "broad phase: too many bodies");
-        struct gs__rigid **list = (struct gs__rigid **)gs__alloc(w, 8 * (size_t)cap * sizeof *list);
+        /* 8 lists of pointers, then near's keys (8 cap pointers keep
+           them aligned) */
+        struct gs__rigid **list = (struct gs__rigid **)gs__alloc(
+            w, 8 * (size_t)cap * sizeof *list + (size_t)cap * sizeof(double));
         if (!list) return gs__fail(w, GS_ERR_NO_MEMORY, "broad phase: out of memory");
         if (w->nbodies) {
             memcpy(list, w->bodies, (size_t)w->nbodies * sizeof *list);
             memcpy(list + cap, w->near, (size_t)w->nbodies * sizeof *list);
         }
         if (w->nwide) memcpy(list + 2 * cap, w->wide, (size_t)w->nwide * sizeof *list);
+        if (w->nbodies)
+            memcpy((void *)(list + 8 * cap), w->near_keys, (size_t)w->nbodies * sizeof(double));
         gs__free(w, w->bodies);
         w->bodies = list;
         w->near = list + cap;
@@ -7128,6 +7141,7 @@ GS__PRIVATE gs_result gs__sap_add(gs_world *w, gs__rigid *r) {
         w->grid = list + 4 * cap;
         w->touched = list + 6 * cap;
         w->cand_tmp = list + 7 * cap;
+        w->near_keys = (double *)(void *)(list + 8 * cap);
         w->bodies_cap = cap;
         gs__grid_rebuild(w);
     }
@@ -7139,7 +7153,7 @@ GS__PRIVATE gs_result gs__sap_add(gs_world *w, gs__rigid *r) {
     sorted = !w->sap_dirty;
     w->sap_dirty = 1; /* appended, not bubbled in: gs__sap_sort will */
     gs__sap_update(r);
-    if (sorted && (r->near == 0 || w->near[r->near - 1]->near_key <= r->near_key))
+    if (sorted && (r->near == 0 || w->near_keys[r->near - 1] <= r->near_key))
         w->sap_dirty = 0; /* it belongs at the end */
     return GS_OK;
 }
@@ -7157,6 +7171,7 @@ GS__PRIVATE void gs__sap_remove(gs_world *w, gs__rigid *r) {
     }
     for (i = r->near + 1; i < w->nbodies; ++i) {
         w->near[i - 1] = w->near[i];
+        w->near_keys[i - 1] = w->near_keys[i];
         w->near[i - 1]->near = i - 1;
     }
     w->nbodies--;
@@ -7216,7 +7231,7 @@ GS__PRIVATE int gs__sap_first(const gs_world *w, double lo, double lag) {
     lo -= 1e-9 * (1.0 + fabs(lo));
     while (a < b) {
         int mid = (a + b) / 2;
-        if (w->near[mid]->near_key < lo) a = mid + 1;
+        if (w->near_keys[mid] < lo) a = mid + 1;
         else b = mid;
     }
     return a;
@@ -7262,7 +7277,7 @@ GS__PRIVATE int gs__sap_query(gs_world *w, double lo, double hi, double lag) {
     top += 1e-9 * (1.0 + fabs(top));
     for (i = 0; i < w->nwide; ++i)
         if (gs__sap_meets(w->wide[i], lo, hi, lag)) w->cand[n++] = w->wide[i];
-    for (i = gs__sap_first(w, lo, lag); i < w->nbodies && w->near[i]->near_key <= top; ++i)
+    for (i = gs__sap_first(w, lo, lag); i < w->nbodies && w->near_keys[i] <= top; ++i)
         if (w->near[i]->wide < 0 && gs__sap_meets(w->near[i], lo, hi, lag)) w->cand[n++] = w->near[i];
     gs__sap_order(w, n);
     return n;
@@ -7343,7 +7358,7 @@ GS__PRIVATE int gs__sap_past(const gs_world *w, int a, double top) {
     int b = w->nbodies;
     while (a < b) {
         int mid = a + (b - a) / 2;
-        if (w->near[mid]->near_key <= top) a = mid + 1;
+        if (w->near_keys[mid] <= top) a = mid + 1;
         else b = mid;
     }
     return a;
