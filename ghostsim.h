@@ -6966,8 +6966,10 @@ GS_API double gs_rigid_stable_dt(const gs_agent *a) {
    search: one wall would otherwise stretch every query over the whole
    world.
    A body's query looks in a uniform grid of the bodies not wide (a range
-   on x, a mesh's, searches near). Either gathers candidates, adds the wide
-   ones, then puts them in the order of bodies. */
+   on x, a mesh's, searches near; the box of a probe's shape, for the
+   sleepers it wakes, takes whichever of the two looks at fewer bodies).
+   Each gathers candidates, adds the wide ones, then puts them in the
+   order of bodies. */
 /* Swaps near[i] and near[j], with their keys. */
 GS__PRIVATE void gs__sap_swap(gs_world *w, int i, int j) {
     struct gs__rigid *t = w->near[i];
