@@ -280,10 +280,9 @@
        (nothing freed or changed, the reason in gs_world_error), and
        gs_simnet_destroy is ignored while its run goes on. gs_net_update
        and gs_net_deliver, which any thread may call, return GS_ERR_BUSY
-       from a weight rule or the send callback (the net's queues or its
-       datagram are in use then) and work from a custom step or a
-       behaviour rule. Reading is always allowed (getters,
-       gs_agent_get_state, gs_ghost_get_stats, gs_ghost_render_state,
+       from the send callback (the net's datagram is in use then) and work
+       from a custom step, a behaviour rule or a weight rule. Reading is
+       always allowed (getters, gs_agent_get_state, gs_ghost_get_stats, gs_ghost_render_state,
        gs_net_peer_stats, gs_net_unknown_stats), and so are
        gs_agent_set_priority and gs_agent_set_behaviour.
 
@@ -322,25 +321,31 @@
        (receive, validate, queue) and a scatter thread (send what is due);
        they touch only the net's peers, queues, published states and
        statistics, under one mutex that the world thread also takes when a
-       ghost publishes or blends. gs_net_deliver, gs_net_update and the
-       stats calls are safe from any thread; everything else (adding and
-       removing peers included) belongs to the world's thread.
-       Weight rules run with the net's lock held, and the send callback
-       too: gs_udp's mutex is recursive, so that a rule's calls into the
-       net take it again (stats answer; the calls that change the net
-       return GS_ERR_BUSY) and never deadlock. A lock of your own
-       (gs_net_set_lock) must be recursive as well if your weight rules
-       or send callback call into the net.
+       ghost publishes or takes the snapshots waiting for it. gs_net_deliver,
+       gs_net_update and the stats calls are safe from any thread;
+       everything else (adding and removing peers included) belongs to the
+       world's thread. Weight rules run with no lock held: the snapshots
+       are taken out of the net's queues under the lock and blended after
+       it is released, so a rule may call the calls any thread may (the
+       calls that change the world or the net return GS_ERR_BUSY). The
+       send callback runs with the lock held: gs_udp's mutex is recursive,
+       so that its calls into the net take it again (stats answer; the
+       calls that change the net return GS_ERR_BUSY) and never deadlock. A
+       lock of your own (gs_net_set_lock) must be recursive as well if
+       your send callback calls into the net.
 
    REVISION HISTORY
        0.1.0 (2026-11-23)  world, scheduler, spring-mass agents, integrators,
                            rigid bodies, probes, contacts, the paper's scene,
                            ghosts, wire format v1, simnet, POSIX UDP.
-       unreleased          wire format v2 (v1 refused as GS_REJECT_OLD_VERSION):
-                           GS_ENCODING_QUANT, send on change with heartbeats,
-                           priority within a peer's budget, gs_wire_values;
-                           delta coding against acknowledged baselines
-                           (gs_ghost_desc.delta, GS_REJECT_BASELINE).
+       unreleased          wire format v3 (v1 and v2 refused as
+                           GS_REJECT_OLD_VERSION): GS_ENCODING_QUANT, send on
+                           change with heartbeats, priority within a peer's
+                           budget, gs_wire_values; delta coding against
+                           acknowledged baselines (gs_ghost_desc.delta,
+                           GS_REJECT_BASELINE); compact chunk headers coded
+                           against the chunk before, lengths implied, a
+                           Rice coding of deltas.
                            One way to make a net: gs_net_create on a
                            gs_transport (gs_simnet_transport,
                            gs_udp_create + gs_udp_transport, or yours);
@@ -474,8 +479,10 @@ typedef enum gs_sync_mode {
                               ghost, every chunk, one time) when the world
                               reaches that time, in a re-run from the last
                               recorded moment before it, then on to the
-                              present, inside the same gs_world_advance;
-                              sets older than the history, or past the
+                              present, inside the same gs_world_advance (a
+                              blend there that changes no state ends the
+                              re-run: the present stands); sets older
+                              than the history, or past the
                               replay budget, blend at the present; partial
                               sets a newer whole one supersedes are dropped.
                               A peer's probe goes on along its velocity
@@ -1385,9 +1392,14 @@ GS_API gs_result gs_scene_attach_ghosts(gs_scene *sc, const gs_ghost_desc *share
 
 /* ========================================================================
    >>sync
-   Between the world and the net. The world calls it at the start of an
-   advance, after each step and at the end of an advance; the scheduler
-   knows nothing of it. It keeps the session clock (gs_sync_desc.clock) and
+   Between the world and the net. The world calls it through two hooks,
+   one that runs an advance and one after each step; the scheduler knows
+   nothing of it. A snapshot's walk: received and queued by the net (>>net,
+   under its lock); at the next advance taken out of the queue under the
+   lock, the world rewound to the frame before its time, stepped to it,
+   every ghost blended there with the lock released (>>ghost), the frames
+   replayed to the present; then the ghosts publish for the net to send.
+   It keeps the session clock (gs_sync_desc.clock) and
    the world history: at the start of each advance, every agent's state,
    its step count, time offset, priority and counters, what the contacts
    remember (a rigid body's own acceleration of its last step, a probe's target, the broad
@@ -1414,7 +1426,11 @@ typedef struct gs_sync_stats {
     int history;           /* frames recorded now (re-runnable) */
     uint64_t rerun_steps;  /* agent steps re-run (gs_world_sync_test) */
     uint64_t replays;      /* advances that re-ran the past to blend */
-    uint64_t replay_steps; /* agent steps those replays ran */
+    uint64_t replay_steps; /* agent steps those replays ran (and the
+                              probes of the skipped ones) */
+    uint64_t replays_skipped; /* advances whose snapshots, blended in the
+                              past, changed no state: the re-run stopped
+                              there and the present stood */
     uint64_t fallbacks;    /* advances whose snapshots (replay mode) were
                               older than the history or past the budget, and
                               blended at the present */
@@ -1439,19 +1455,40 @@ GS_API gs_result gs_world_sync_test(gs_world *w, int frames, int *bad_agent);
 
 /* ========================================================================
    >>wire
-   Wire format v2, little-endian. A datagram (at most GS_WIRE_MAX_DATAGRAM
+   Wire format v3, little-endian. A datagram (at most GS_WIRE_MAX_DATAGRAM
    bytes) is a header, whole chunks, and a CRC-32 of everything before it:
-     header (48 B): magic "GSIM", version u8 = 2, flags u8, chunk count u16,
-       session u32, sender host u32, datagram sequence u32, run u32 (drawn
-       by the sender at each start, so that its peers know it started again
-       and its sequence with it; 0: not said),
-       send time f64 (s, sender's clock), echo time f64 (the latest send time
-       received from the destination), echo hold f64 (s it was held since)
-     chunk (32 B + payload): object id u32, snapshot sequence u32,
-       simulation time f64 (always exact), chunk index u16, chunk count
-       u16, first element u32 (of the state after its time), element count
-       u16, encoding u8, chunk flags u8, payload bytes u16, reserved u16
-       (0); then the payload: count values as f64 or f32, or in
+     header (48 B): magic "GSIM", version u8 = 3, flags u8, chunk count u16
+       (1..GS_WIRE_MAX_CHUNKS), session u32, sender host u32, datagram
+       sequence u32, run u32 (drawn by the sender at each start, so that
+       its peers know it started again and its sequence with it; 0: not
+       said), send time f64 (s, sender's clock), echo time f64 (the latest
+       send time received from the destination), echo hold f64 (s it was
+       held since)
+     chunk: a header of 3 to GS_WIRE_CHUNK_HEADER bytes, coded against the
+       datagram's chunk before it (an acknowledgement chunk aside: nothing
+       before the first), then its payload, whose length its contents
+       imply. Varints are unsigned LEB128; "zigzag" maps a signed
+       difference d (u32 arithmetic read as signed) to 2d or -2d - 1.
+       kind u8: bits 0-1 the chunk's kind (0 values, 1 delta, 2 heartbeat,
+         3 acknowledgements), bit 2 a time follows, bits 3-4 the encoding
+         (1 f64, 2 f32, 3 GS_ENCODING_QUANT), bit 5 the state is split
+         (index, count and first follow), bits 6-7 0;
+       object id: zigzag(id - the chunk before's) varint (at most 5 bytes);
+       snapshot sequence: zigzag(sequence - the chunk before's) varint;
+       the simulation time f64 (exact) if bit 2, else the chunk before's
+         (the first chunk of a datagram always says it);
+       if bit 5: chunk index, chunk count (varints of at most 3 bytes,
+         index < count <= 65535) and first element (of the state after its
+         time; at most 5 bytes); without it 0 of 1 from 0 (and bit 5 with
+         those is refused: one datagram, one meaning);
+       element count varint (at most 2 bytes; a heartbeat has none: 0);
+       an acknowledgement chunk is the kind byte (bits 2 and 5 clear, the
+         encoding 3), the host it is for as a varint and its entry count
+         (1..GS_WIRE_MAX_ACKS), nothing else: the chunk after it is coded
+         against the chunk before it.
+       A chunk of 10 f64 after one of the same time and sequence: 4 bytes
+       of header; a heartbeat 3. The payload: count values as f64 or f32,
+       or in
        GS_ENCODING_QUANT a segment count u8 (1..GS_WIRE_MAX_SEGMENTS) and
        segments whose value counts add up to the element count:
          scalar (kind 1): count u16, step f64 (> 0), width u8 (0..32),
@@ -1473,11 +1510,12 @@ GS_API gs_result gs_world_sync_test(gs_world *w, int frames, int *bad_agent);
        quaternion of a rotation is sent normalized, each of its three
        components off by at most sqrt(2) / (2 (2^bits - 1)) (1.1e-5 at 16
        bits), its rotation by about twice that in radians.
-     Chunk flags: bit 0 (GS_WIRE_CHUNK_REST): a heartbeat: no values
+     The chunk kinds are the chunk flags of gs_wire_chunk:
+     Kind 2 (GS_WIRE_CHUNK_REST): a heartbeat: no values
        (element count 0, payload 0 bytes, chunk index 0); the object is at
        rest at the time it carries, its state within the sender's
        rest_threshold of the last snapshot it sent of it.
-     Bit 1 (GS_WIRE_CHUNK_DELTA, GS_ENCODING_QUANT only, element count
+     Kind 1 (GS_WIRE_CHUNK_DELTA, GS_ENCODING_QUANT only, element count
        1..GS_WIRE_QUANT_CHUNK): the chunk's values as differences from the same chunk of an earlier snapshot of
        the object (its baseline), in the integers of the quantized state:
        a scalar's integer is its value over its segment's step (base + q
@@ -1488,30 +1526,36 @@ GS_API gs_result gs_world_sync_test(gs_world *w, int frames, int *bad_agent);
        so the receiver's state is the sender's quantized state bit for
        bit. Payload: sequence - baseline sequence (u32 arithmetic) as an
        unsigned LEB128 varint, 1..2^31; one byte: the width w (0..32) in
-       bits 0-5 and the coding in bit 7; then
+       bits 0-5 and the coding in bits 6-7; then
          coding 0 (packed): element-count zigzag differences of w bits,
            packed as above;
          coding 1 (changed bitmap): element-count bits, bit i set when
            difference i is not 0 (padded with 0 bits to a whole byte),
-           then for each set bit zigzag(difference) - 1 in w bits.
-       The sender picks whichever is smaller. A receiver that does not hold
+           then for each set bit zigzag(difference) - 1 in w bits;
+         coding 2 (Rice, w = k in 0..24): per difference z = its zigzag,
+           q = z >> k: if q < 16, q 0 bits, a 1 bit and z's k low bits;
+           else 16 0 bits and z in 32 bits (only then); packed as above,
+           the run padded with 0 bits to a whole byte.
+       The sender picks whichever is smaller (Rice by an estimate from the
+       differences' bit lengths): small differences with a few large ones
+       take Rice about 2 bits fewer a value than packing at the largest's
+       width. A receiver that does not hold
        the baseline's chunk, or whose decoded integers leave the ranges
        above (a scalar past 2^51 - 2^32 steps, a quaternion component past
        2^bits - 1 or its three squares over 0.76), refuses that chunk
        (GS_REJECT_BASELINE, counted; the rest of the datagram stands) and
        says so in its next acknowledgement.
-     Bit 2 (GS_WIRE_CHUNK_ACK): acknowledgements, no values: object id =
-       the host they are for (every other host skips the chunk), sequence
-       0, time 0, chunk index 0, count 1, first element 0, encoding
-       GS_ENCODING_QUANT, element count = the number of entries (1..
-       GS_WIRE_MAX_ACKS), then per entry two unsigned LEB128 varints of at
+     Kind 3 (GS_WIRE_CHUNK_ACK): acknowledgements, no values: object id =
+       the host they are for (every other host skips the chunk), decoded
+       as sequence 0, time 0, chunk index 0, count 1, first element 0,
+       encoding GS_ENCODING_QUANT, element count = the number of entries
+       (1..GS_WIRE_MAX_ACKS), then per entry two unsigned LEB128 varints of at
        most 5 bytes: zigzag(object id - the previous entry's, from 0) * 2
        + refused, and zigzag(sequence - the previous entry's, from 0). An
        entry tells the newest snapshot of that object the sender of the
        chunk holds whole (every chunk), or with refused = 1 that it
        refused a delta of it: the next goes whole.
-     At most one flag is set.
-   v1 datagrams are refused as GS_REJECT_OLD_VERSION.
+   v1 and v2 datagrams are refused as GS_REJECT_OLD_VERSION.
    A snapshot too big for one datagram is cut into chunks that each stand
    alone: a lost chunk leaves its range unblended, the rest still counts.
    A chunk carries at most GS_WIRE_CHUNK_ROOM bytes of values, so that a
@@ -1534,7 +1578,7 @@ GS_API gs_result gs_world_sync_test(gs_world *w, int frames, int *bad_agent);
    a nonce under the same key; the epoch orders a peer's runs so that a
    recorded earlier run cannot be replayed once a later one was heard.
    ======================================================================== */
-#define GS_WIRE_VERSION 2
+#define GS_WIRE_VERSION 3
 #define GS_WIRE_MAX_SEGMENTS 4 /* segments in a quantized chunk */
 #define GS_WIRE_CHUNK_REST 0x01 /* chunk flag: a heartbeat */
 #define GS_WIRE_CHUNK_DELTA 0x02 /* chunk flag: differences from a baseline */
@@ -1542,8 +1586,8 @@ GS_API gs_result gs_world_sync_test(gs_world *w, int frames, int *bad_agent);
 #define GS_WIRE_MAX_ACKS 100 /* entries in one acknowledgement chunk */
 #define GS_WIRE_MAX_DATAGRAM 1200
 #define GS_WIRE_HEADER 48
-#define GS_WIRE_CHUNK_HEADER 32
-#define GS_WIRE_MAX_CHUNKS 64 /* chunks one datagram may carry */
+#define GS_WIRE_CHUNK_HEADER 32 /* the most a chunk's header takes */
+#define GS_WIRE_MAX_CHUNKS 255 /* chunks one datagram may carry */
 /* Chunks one snapshot may have (its chunk index and count are u16): a
    state of at most 8 847 225 values in f64 (135 a chunk), 17 694 450 in
    f32 (270), e.g. a cloth of up to 1214 x 1214 particles in f64. */
@@ -1646,8 +1690,8 @@ typedef struct gs_wire_view {
       "earlier run of its sender")                                             \
     X(GS_REJECT_RATE, "over the sender's cap of datagrams per second")        \
     X(GS_REJECT_OLD_VERSION,                                                   \
-      "wire format v1 (a ghostsim before wire v2): every host of a session "  \
-      "must speak v2")                                                        \
+      "wire format v1 or v2 (a ghostsim before wire v3): every host of a "    \
+      "session must speak v3")                                                \
     X(GS_REJECT_BASELINE,                                                      \
       "a delta chunk whose baseline is not held (lost, too old, from before "  \
       "a restart) or that leaves its ranges: that chunk only")
@@ -1951,8 +1995,7 @@ GS_API gs_result gs_net_remove_peer(gs_net *net, uint32_t host);
    stepped back goes on sending) and counted: gs_peer_stats.clock_backwards,
    and the health GS_PEER_CLOCK_BACK until the clock is past its old
    reading again. Call it once a frame, after gs_world_advance (see THE
-   FRAME LOOP at the top). GS_ERR_BUSY from a weight rule or the send
-   callback. */
+   FRAME LOOP at the top). GS_ERR_BUSY from the send callback. */
 GS_API gs_result gs_net_update(gs_net *net, double now);
 /* The frame's network call for a transport that needs one (gs_udp; any
    with a poll): the transport's poll delivers what waits (gs_udp in poll
@@ -1971,8 +2014,8 @@ GS_API gs_result gs_net_poll(gs_net *net, double now);
    GS_ERR_REJECTED (reason in *why, may be NULL) when refused; refused
    datagrams are counted and never blended, and nothing is ever sent back.
    GS_ERR_INVALID_ARG / GS_ERR_NOT_FINITE for a `now` as gs_net_update
-   refuses it, and GS_ERR_BUSY for a call from a weight rule or the send
-   callback (the queues are being read): neither is counted.
+   refuses it, and GS_ERR_BUSY for a call from the send callback: neither
+   is counted.
    Time: a send or echo time outside [0, GS_WIRE_MAX_TIME] is refused
    (GS_REJECT_TIME); a send time more than GS_MAX_AGE off the sender's
    clock as the round trips measured it leaves the snapshot's age unknown
@@ -2247,9 +2290,12 @@ GS_API double gs_udp_now(void);
 #if defined(__GNUC__) || defined(__clang__)
 #define GS__PRIVATE static __attribute__((unused))
 #define GS__PRINTF(f, a) __attribute__((format(printf, f, a)))
+/* an inner loop's step, inlined where the compiler would call it */
+#define GS__PRIVATE_INLINE static inline __attribute__((unused, always_inline))
 #else
 #define GS__PRIVATE static
 #define GS__PRINTF(f, a)
+#define GS__PRIVATE_INLINE static
 #endif
 
 #ifdef __cplusplus
@@ -2507,6 +2553,21 @@ struct gs_agent {
                             last moved) */
 };
 
+/* The two calls the world makes into the layer above it, the sync layer
+   (>>sync), which fills them in when it is created with the world: the
+   world, the scheduler and the agents know nothing else of it (nor of
+   ghosts or the net). `advance` runs one advance's dispatches once the
+   world has checked the call (the sync layer runs them through
+   gs__world_run_setup and gs__world_run_loop, and first rewinds and
+   replays if snapshots belong in the past); `stepped` follows each
+   agent step that succeeded, before the scheduler looks at the agent
+   again (a blend there can move its time, and so whether it runs
+   again). */
+typedef struct gs__world_hooks {
+    gs_result (*advance)(gs_world *w, double seconds, gs_advance_report *rep);
+    void (*stepped)(gs_agent *a);
+} gs__world_hooks;
+
 struct gs_world {
     gs_allocator alloc;
     uint32_t host_id;
@@ -2577,6 +2638,7 @@ struct gs_world {
     gs_material ground_material;
     gs__queue queues[GS_MAX_QUEUES];
     struct gs__sync *sync; /* session clock and history (>>sync) */
+    gs__world_hooks hooks; /* the sync layer's, set with it */
     char error[256];
     char diag[2048];     /* gs_world_diagnose's text */
 };
@@ -3119,11 +3181,9 @@ GS__PRIVATE void gs__activate(gs_world *w, gs_agent *a, double t_min,
     a->stats.activations++;
 }
 
-GS__PRIVATE void gs__sync_after_step(gs_agent *a);
-
-/* One step; then the sync layer sees it (ghosts publish and blend). A
-   step that would take the agent's time past GS_WIRE_MAX_TIME is refused:
-   no clock leaves [0, GS_WIRE_MAX_TIME]. */
+/* One step (the caller then calls the world's `stepped` hook). A step
+   that would take the agent's time past GS_WIRE_MAX_TIME is refused: no
+   clock leaves [0, GS_WIRE_MAX_TIME]. */
 GS__PRIVATE gs_result gs__agent_step(gs_agent *a) {
     gs_result r;
     if (!(gs__agent_time(a) + a->dt <= GS_WIRE_MAX_TIME)) {
@@ -3137,7 +3197,6 @@ GS__PRIVATE gs_result gs__agent_step(gs_agent *a) {
     if (r == GS_OK) {
         a->steps++;
         a->stats.steps++;
-        gs__sync_after_step(a);
     }
     return r;
 }
@@ -3154,15 +3213,6 @@ GS__PRIVATE void gs__sleepers_follow(gs_world *w) {
         gs_agent *a = w->agents[i];
         if (a->sleeping) a->t_offset = w->target - (double)a->steps * a->dt;
     }
-}
-
-GS__PRIVATE void gs__sync_sleeper(gs_agent *a);
-
-/* A sleeper's ghost still publishes and blends, at the target. */
-GS__PRIVATE void gs__sleepers_ghosts(gs_world *w) {
-    int i;
-    for (i = 0; i < w->agent_count; ++i)
-        if (w->agents[i]->sleeping && w->agents[i]->ghost) gs__sync_sleeper(w->agents[i]);
 }
 
 GS__PRIVATE void gs__agent_wake_at(gs_agent *a, double t) {
@@ -3205,6 +3255,7 @@ GS__PRIVATE int gs__dispatch(gs_world *w, gs_result *first_error,
     gs__activate(w, a, t_min, t_max);
     w->dispatches++;
     r = gs__agent_step(a);
+    if (r == GS_OK) w->hooks.stepped(a);
     gs__span_update(a);
     if (r != GS_OK) {
         a->failed = 1;
@@ -3269,24 +3320,25 @@ GS__PRIVATE void gs__world_follow(gs_world *w, double target) {
     }
 }
 
-GS__PRIVATE void gs__sync_begin(gs_world *w, double seconds);
-GS__PRIVATE void gs__net_advanced(gs_world *w, double seconds);
-GS__PRIVATE void gs__sync_target(gs_world *w, double seconds, double before);
-GS__PRIVATE void gs__sync_end(gs_world *w, double seconds, const gs_advance_report *rep);
-GS__PRIVATE gs_result gs__sync_run(gs_world *w, double budget, gs_advance_report *rep);
-
-/* The dispatch loop of one advance, from the target set on: runs until
-   every agent is done or `budget` (s, 0 = none) of the world's clock is
-   spent. */
-GS__PRIVATE gs_result gs__world_run(gs_world *w, double budget, gs_advance_report *rep) {
-    gs_result first_error = GS_OK;
+/* One run of the dispatches, to the target set: the setup (every agent not
+   done queued, the span heaps built), then the loop. Returns the world's
+   clock at the start if `budget` (s, 0 = none) is set. Apart so that the
+   sync layer can blend the sleepers' ghosts in between. */
+GS__PRIVATE double gs__world_run_setup(gs_world *w, double budget) {
     double start = 0.0;
     gs__sleepers_follow(w);
     gs__sap_refresh(w);
     if (budget > 0.0) start = w->clock(w->clock_user);
     gs__queue_all(w);
     gs__span_build(w);
-    gs__sleepers_ghosts(w);
+    return start;
+}
+
+/* The dispatch loop: runs until every agent is done or `budget` of the
+   world's clock from `start` is spent. */
+GS__PRIVATE gs_result gs__world_run_loop(gs_world *w, double budget, double start,
+                                         gs_advance_report *rep) {
+    gs_result first_error = GS_OK;
     rep->reached = 1;
     for (;;) {
         /* the step cap counts the whole advance's dispatches (parts and all) */
@@ -3308,7 +3360,7 @@ GS_API gs_result gs_world_advance(gs_world *w, double seconds,
                                   gs_advance_report *report) {
     gs_advance_report rep;
     gs_result first_error = GS_OK;
-    double before, from;
+    double from;
     memset(&rep, 0, sizeof rep);
     if (!w) return GS_ERR_INVALID_ARG;
     if (gs__world_locked(w))
@@ -3327,15 +3379,7 @@ GS_API gs_result gs_world_advance(gs_world *w, double seconds,
     w->error[0] = '\0'; /* from here on the text is this advance's */
     w->busy = 1;
     w->epoch++;
-    gs__sync_begin(w, seconds);
-    /* the follow after the sync layer's replay, which moves agents */
-    gs__world_follow(w, gs__world_follow_target(w));
-    before = w->target;
-    w->target += seconds;
-    gs__net_advanced(w, seconds);
-    gs__sync_target(w, seconds, before);
-    first_error = gs__sync_run(w, w->budget, &rep);
-    gs__sync_end(w, seconds, &rep);
+    first_error = w->hooks.advance(w, seconds, &rep);
     w->busy = 0;
     if (report) *report = rep;
     return first_error;
@@ -3515,6 +3559,7 @@ GS_API gs_result gs_agent_step(gs_agent *a) {
     gs__agent_wake_at(a, gs__agent_time(a));
     a->world->inside++; /* its step, ghost and weight rules are user code */
     r = gs__agent_step(a);
+    if (r == GS_OK) a->world->hooks.stepped(a);
     a->world->inside--;
     return r;
 }
@@ -8439,8 +8484,6 @@ GS_API double gs_weight_owner(const gs_weight_in *in, void *user) {
 /* One snapshot from one peer, assembled from its chunks as they come. */
 typedef struct gs__snap {
     int used;
-    int held;           /* set aside while the sync layer blends the older
-                           snapshots at their own time (used is 0 then) */
     int waited;         /* replay mode: 1 when an incomplete snapshot was
                            left for its chunks still on the way, 2 after */
     uint32_t seq;
@@ -8470,7 +8513,11 @@ typedef struct gs__base {
 /* What a ghost keeps of one peer slot: its queue, what the blend learnt
    of its clock, and whether it said the object rests. */
 struct gs__ghost_peer {
-    gs__snap *q;          /* queue_size snapshots (and the last values) */
+    gs__snap *q;          /* queue_size snapshots (and the last values),
+                             the net's: read and written under its lock */
+    gs__snap *taken;      /* queue_size slots (in q's block) that a blend
+                             reads: the snapshots taken out of q under the
+                             lock, blended after it is released */
     double divergence;    /* m; RMS distance to its latest snapshot */
     double newest;        /* s; the latest remote time that told the
                              peer's clock, -HUGE_VAL at first */
@@ -8504,7 +8551,8 @@ struct gs__ghost {
     double *local, *scratch;
     double *offset, *offset_next; /* render offsets; a blend writes the next
                                      ones and swaps only if it is applied */
-    double *wq;           /* weight of each queued snapshot in a blend */
+    double *wq;           /* weight of each taken snapshot in a blend */
+    int ntaken;           /* snapshots taken for the blend under way */
     struct gs__src *src;  /* the queued snapshots of a blend, in order */
     int nsrc;
     double offset_t;      /* s; simulation time the offset was last set */
@@ -8601,6 +8649,15 @@ typedef struct gs__peer {
     double clock_at;          /* way; that round trip (s) and when (s) */
 } gs__peer;
 
+/* A chunk's header is coded against the datagram's chunk before it (see
+   >>wire): its object id, sequence and time. Nothing before the first
+   (any 0): its time is always written. */
+typedef struct gs__wire_ctx {
+    uint32_t id, seq;
+    double time;
+    int any;
+} gs__wire_ctx;
+
 struct gs_net {
     gs_world *world;
     gs_net_desc d;
@@ -8609,9 +8666,9 @@ struct gs_net {
     uint64_t unknown_rejected[GS_REJECT_COUNT];
     gs_net_lock lock;
     int inside;               /* under the lock: the net runs user code
-                                 under it (a weight rule in a blend, the
-                                 send callback in gs_net_update), which
-                                 must not re-enter the net */
+                                 under it (the send callback in
+                                 gs_net_update), which must not re-enter
+                                 the net */
     int held;                 /* a gs_simnet_run is running it */
     int published;            /* a ghost published B since gs_udp's scatter
                                  thread last looked (it ticks while they do) */
@@ -8639,6 +8696,7 @@ struct gs_net {
     struct gs__ghost **order; /* the due ghosts of an update, by priority */
     int order_cap;            /* its room: at least the world's ghosts */
     unsigned char buf[GS_WIRE_MAX_DATAGRAM];
+    gs__wire_ctx wctx;        /* what buf's next chunk is coded against */
     gs_wire_view view;        /* decode scratch (too big for the stack) */
     gs__net_guard guard;      /* key, nonces, opened datagram (>>net) */
 };
@@ -8689,9 +8747,11 @@ GS__PRIVATE size_t gs__per_chunk(gs_encoding e) {
 
 /* A ghost's queue for one peer slot: queue_size snapshots, and one more
    (index queue_size, never used as a queue slot) that keeps the newest
-   values received of each chunk, which a heartbeat says still stand. */
+   values received of each chunk, which a heartbeat says still stand; then
+   queue_size slots a blend takes snapshots into (gs__ghost_take), so
+   that taking them allocates nothing. */
 GS__PRIVATE gs__snap *gs__snaps_new(gs_world *w, const gs__ghost *g) {
-    size_t qs = (size_t)g->d.queue_size + 1, vars = g->n - 1, i;
+    size_t qs = 2 * (size_t)g->d.queue_size + 1, vars = g->n - 1, i;
     size_t bytes = qs * (sizeof(gs__snap) + vars * sizeof(double) + (size_t)g->nchunks);
     gs__snap *s = (gs__snap *)gs__alloc(w, bytes);
     char *p;
@@ -8734,11 +8794,12 @@ GS__PRIVATE gs_result gs__ghost_add_peer(gs__ghost *g, int slot) {
     gp->acked_known = gp->ack_known = gp->ack_due = gp->nack_due = 0;
     g->sent_any = 0; /* the new peer has none of our states */
     gp->q = gs__snaps_new(w, g);
+    gp->taken = gp->q ? gp->q + g->d.queue_size + 1 : NULL;
     if (gp->q && g->d.delta && !gp->ring) {
         gp->ring = gs__ring_new(w, g);
         if (!gp->ring) {
             gs__free(w, gp->q);
-            gp->q = NULL;
+            gp->q = gp->taken = NULL;
         }
     }
     return gp->q ? GS_OK : gs__fail(w, GS_ERR_NO_MEMORY, "ghost: out of memory for a peer queue");
@@ -8857,7 +8918,8 @@ GS__PRIVATE int gs__ghost_sizes(size_t n, const gs_ghost_desc *d, size_t *bytes,
         return 0;
     *bytes += vals;
     return gs__size(n - 1, sizeof(double), sizeof(gs__snap) + nchunks, &per) &&
-           gs__size(qs + 1, per, 0, queue); /* + the last values (gs__snaps_new) */
+           gs__size(2 * qs + 1, per, 0, queue); /* + the last values, the taken
+                                                   (gs__snaps_new) */
 }
 
 GS_API gs_result gs_ghost_attach(gs_agent *a, const gs_ghost_desc *desc) {
@@ -9090,15 +9152,34 @@ GS__PRIVATE double gs__snap_xcomp(const gs__ghost *g, const gs__snap *s, double 
     return g->d.raw_time ? s->time - t_i : s->time + s->age - t_i;
 }
 
+/* What a blend reads of the net and gives back to it. It runs with the
+   net's lock not held (weight rules are user code, and gs_udp's threads
+   wait on that lock): the peers' host ids are read before it and the
+   figures it measures are written after it, both under the lock. */
+typedef struct gs__blend_net {
+    uint32_t host[GS__MAX_PEERS]; /* each peer slot's host id */
+    double gap[GS__MAX_PEERS];    /* s; each peer's latest gap (st.gap), */
+    uint32_t gapped;              /* bit p: measured for peer slot p */
+    int fixed_time;               /* time is the clock's: no correction */
+    int skip_equal;               /* a blended state equal bit for bit to
+                                     the local one is not set (replay
+                                     mode): setting it would still reset
+                                     what the kind derives from it (a rigid
+                                     body's own acceleration), so that a
+                                     blend of weight 0 would change the
+                                     run, and a replay could never find it
+                                     changed nothing */
+} gs__blend_net;
+
 /* Notes, for each peer with a snapshot in this blend, that it was heard
    now and its freshest x_comp. */
 GS__PRIVATE void gs__ghost_hear(gs__ghost *g, double t_i) {
     int p, k;
     for (p = 0; p < GS__MAX_PEERS; ++p)
-        for (k = 0; g->gp[p].q && k < g->d.queue_size; ++k) {
+        for (k = 0; g->gp[p].taken && k < g->d.queue_size; ++k) {
             double x;
-            if (!g->gp[p].q[k].used) continue;
-            x = gs__snap_xcomp(g, &g->gp[p].q[k], t_i);
+            if (!g->gp[p].taken[k].used) continue;
+            x = gs__snap_xcomp(g, &g->gp[p].taken[k], t_i);
             if (g->gp[p].heard_at != t_i || x > g->gp[p].heard_x) g->gp[p].heard_x = x;
             g->gp[p].heard_at = t_i;
         }
@@ -9124,19 +9205,21 @@ GS__PRIVATE void gs__ghost_hear(gs__ghost *g, double t_i) {
    ahead sees the tie as well; the host behind still takes a peer more
    than a band ahead for the lead, and follows its time. */
 #define GS__LIVE_TIME 0.5 /* s of local simulation time */
-GS__PRIVATE double gs__ghost_lead(gs__ghost *g, double t_i, uint32_t *lead) {
+GS__PRIVATE double gs__ghost_lead(gs__ghost *g, const gs__blend_net *bn, double t_i,
+                                  uint32_t *lead) {
     const gs_world *wd = g->agent->world;
     double x_max = 0.0, x_live = 0.0, band = gs__time_band(g);
     int p, k;
     gs__ghost_hear(g, t_i);
     for (p = 0; p < GS__MAX_PEERS; ++p) {
-        for (k = 0; g->gp[p].q && k < g->d.queue_size; ++k)
-            if (g->gp[p].q[k].used) x_max = fmax(x_max, gs__snap_xcomp(g, &g->gp[p].q[k], t_i));
+        for (k = 0; g->gp[p].taken && k < g->d.queue_size; ++k)
+            if (g->gp[p].taken[k].used)
+                x_max = fmax(x_max, gs__snap_xcomp(g, &g->gp[p].taken[k], t_i));
         if (t_i - g->gp[p].heard_at <= GS__LIVE_TIME) x_live = fmax(x_live, g->gp[p].heard_x);
     }
     *lead = x_live <= band ? wd->host_id : 0;
     for (p = 0; p < GS__MAX_PEERS; ++p) {
-        uint32_t h = wd->net->peers[p].host;
+        uint32_t h = bn->host[p];
         if (t_i - g->gp[p].heard_at <= GS__LIVE_TIME && g->gp[p].heard_x >= x_live - 2.0 * band &&
             (*lead == 0 || h < *lead))
             *lead = h;
@@ -9144,24 +9227,26 @@ GS__PRIVATE double gs__ghost_lead(gs__ghost *g, double t_i, uint32_t *lead) {
     return x_max;
 }
 
-/* The weight of the local state and of every queued snapshot. Returns the
-   local weight; all weights are scaled so that the largest is 1. */
-GS__PRIVATE double gs__ghost_weigh(gs__ghost *g, double t_i, double *wq) {
+/* The weight of the local state and of every taken snapshot. Returns the
+   local weight; all weights are scaled so that the largest is 1. The
+   user's rules run here, with no lock held. */
+GS__PRIVATE double gs__ghost_weigh(gs__ghost *g, const gs__blend_net *bn, double t_i,
+                                   double *wq) {
     gs_world *wd = g->agent->world;
     gs_weight_in in0 = gs__weight_in(g, wd->host_id, 0.0, 0.0, 1);
     double x_max, w0, wmax;
     uint32_t lead;
     int p, k, m = 0;
-    x_max = gs__ghost_lead(g, t_i, &lead);
+    x_max = gs__ghost_lead(g, bn, t_i, &lead);
     in0.x_max = x_max;
     in0.lead = lead;
     wmax = w0 = gs__sane_weight(g, g->d.weight(&in0, g->d.weight_user));
     for (p = 0; p < GS__MAX_PEERS; ++p)
-        for (k = 0; g->gp[p].q && k < g->d.queue_size; ++k) {
-            const gs__snap *s = &g->gp[p].q[k];
+        for (k = 0; g->gp[p].taken && k < g->d.queue_size; ++k) {
+            const gs__snap *s = &g->gp[p].taken[k];
             gs_weight_in in;
             if (!s->used) continue;
-            in = gs__weight_in(g, wd->net->peers[p].host, s->time - t_i, s->age, 0);
+            in = gs__weight_in(g, bn->host[p], s->time - t_i, s->age, 0);
             in.x_max = x_max;
             in.lead = lead;
             wq[m] = gs__sane_weight(g, g->d.weight(&in, g->d.weight_user));
@@ -9173,16 +9258,34 @@ GS__PRIVATE double gs__ghost_weigh(gs__ghost *g, double t_i, double *wq) {
     return w0 / wmax;
 }
 
+/* Moves the snapshots queued for g whose time is at most t (all, for t =
+   HUGE_VAL), but for one left for its chunks still on the way when
+   keep_waiting says so, out of the net's queue into the slots the blend
+   reads. A swap of slots: nothing is copied or allocated. Under the net's
+   lock. Returns how many. */
+GS__PRIVATE int gs__ghost_take(gs__ghost *g, double t, int keep_waiting) {
+    int p, k, m = 0;
+    for (p = 0; p < GS__MAX_PEERS; ++p)
+        for (k = 0; g->gp[p].q && k < g->d.queue_size; ++k) {
+            gs__snap *s = &g->gp[p].q[k], *b = &g->gp[p].taken[k], tmp;
+            b->used = 0;
+            if (!s->used || s->time > t || (keep_waiting && s->waited == 1)) continue;
+            tmp = *b;
+            *b = *s;
+            *s = tmp; /* the queue's slot is free again */
+            s->used = s->chunks = s->waited = 0;
+            memset(s->got, 0, (size_t)g->nchunks);
+            m++;
+        }
+    return m;
+}
+
+/* After a blend: what it took is spent. */
 GS__PRIVATE void gs__ghost_clear(gs__ghost *g) {
     int p, k;
     for (p = 0; p < GS__MAX_PEERS; ++p)
-        for (k = 0; g->gp[p].q && k < g->d.queue_size; ++k) {
-            gs__snap *s = &g->gp[p].q[k];
-            if (!s->used) continue;
-            s->used = 0;
-            s->chunks = 0;
-            memset(s->got, 0, (size_t)g->nchunks);
-        }
+        for (k = 0; g->gp[p].taken && k < g->d.queue_size; ++k) g->gp[p].taken[k].used = 0;
+    g->ntaken = 0;
 }
 
 /* The peer's divergence: the largest over the world's objects of the
@@ -9216,7 +9319,7 @@ GS__PRIVATE int gs__snap_tells_time(const gs__ghost *g, int p, const gs__snap *s
     if (gs__time_literal(g)) return 1;
     if (s->time < g->gp[p].newest && s->time > g->gp[p].newest - 1.0) return 0;
     for (k = 0; k < g->d.queue_size; ++k)
-        if (g->gp[p].q[k].used && g->gp[p].q[k].time > s->time) return 0;
+        if (g->gp[p].taken[k].used && g->gp[p].taken[k].time > s->time) return 0;
     return s->age_known || s->time > t_i;
 }
 
@@ -9237,17 +9340,16 @@ GS__PRIVATE double gs__peer_lead(gs__ghost *g, int p, double x, double t_i) {
     return g->gp[p].lead;
 }
 
-/* Lists every queued snapshot with its weight in g->src, in queue order,
-   and sums the blended time; fills the per-peer gap. Returns the number of
+/* Lists every taken snapshot with its weight in g->src, in queue order,
+   and sums the blended time; notes the per-peer gap. Returns the number of
    snapshots. */
-GS__PRIVATE int gs__ghost_gather(gs__ghost *g, double t_i, double *num_t,
+GS__PRIVATE int gs__ghost_gather(gs__ghost *g, gs__blend_net *bn, double t_i, double *num_t,
                                  double *den_t) {
-    gs_net *net = g->agent->world->net;
     int p, k, m = 0;
     for (p = 0; p < GS__MAX_PEERS; ++p) {
         double newest = g->gp[p].newest;
-        for (k = 0; g->gp[p].q && k < g->d.queue_size; ++k) {
-            gs__snap *s = &g->gp[p].q[k];
+        for (k = 0; g->gp[p].taken && k < g->d.queue_size; ++k) {
+            gs__snap *s = &g->gp[p].taken[k];
             gs__src *src = &g->src[m];
             double tq;
             if (!s->used) continue;
@@ -9259,7 +9361,8 @@ GS__PRIVATE int gs__ghost_gather(gs__ghost *g, double t_i, double *num_t,
             src->counted = 0;
             src->peer = p;
             tq = g->d.raw_time ? s->time : s->time + s->age;
-            net->peers[p].st.gap = s->time - t_i;
+            bn->gap[p] = s->time - t_i;
+            bn->gapped |= (uint32_t)1 << p;
             if (gs__snap_tells_time(g, p, s, t_i)) {
                 *num_t += src->w * gs__peer_lead(g, p, tq - t_i, t_i);
                 *den_t += src->w;
@@ -9461,14 +9564,12 @@ GS__PRIVATE uint32_t gs__ghost_divergence(gs__ghost *g) {
    estimate (the clock offset's, and a snapshot's wait to be sent, which
    the age does not count): applied at every blend it would push the time on, and the agent
    would skip steps to stay on its world's clock. A host far behind (one
-   that joins late) is pulled to the others at once. */
-GS__PRIVATE int gs__sync_session(const gs_world *w);
-GS__PRIVATE int gs__sync_replay(const gs_world *w);
-
-GS__PRIVATE double gs__time_correction(const gs__ghost *g, double gap, double dt) {
-    /* on the session clock time is the clock's, not the blend's: a stepped
-       clock misreads the ages until the net measures the offset again */
-    if (gs__sync_session(g->agent->world) || gs__sync_replay(g->agent->world)) return 0.0;
+   that joins late) is pulled to the others at once. On the session clock
+   (bn->fixed_time) time is the clock's, not the blend's: a stepped clock
+   misreads the ages until the net measures the offset again. */
+GS__PRIVATE double gs__time_correction(const gs__ghost *g, const gs__blend_net *bn, double gap,
+                                       double dt) {
+    if (bn->fixed_time) return 0.0;
     return fabs(gap) > gs__time_band(g) ? dt : 0.0;
 }
 
@@ -9493,13 +9594,10 @@ GS__PRIVATE double gs__time_bound(gs__ghost *g, double t_i, double corr) {
 
 /* Applies a blended state (scratch) that the pass found finite: the kind
    may still refuse it (a zero quaternion), and then nothing moves. */
-GS__PRIVATE void gs__sync_log_blend(gs_agent *a, const double *in);
-
 GS__PRIVATE int gs__blend_apply(gs__ghost *g, double t_i) {
     double *t;
     int e;
     if (gs__agent_put_state(g->agent, g->scratch) != GS_OK) return 0;
-    gs__sync_log_blend(g->agent, g->scratch);
     g->moved += fabs(g->scratch[0] - t_i);
     /* the formula as written pulls back at every blend, and the clock
        stays: the time pulled back is simulated again (the latency trap) */
@@ -9512,23 +9610,24 @@ GS__PRIVATE int gs__blend_apply(gs__ghost *g, double t_i) {
     return 1;
 }
 
-/* The paper's ghost update, after a step: blend every queued snapshot once
-   with the local state, then empty the queues. One pass over the state
-   after the agent's get_state, then its set_state. Returns the peers whose
-   divergence it measured (bit p for peer slot p). */
-GS__PRIVATE uint32_t gs__ghost_blend(gs__ghost *g, gs_net *net) {
+/* The paper's ghost update: blend every taken snapshot once with the
+   local state (gs__ghost_take took them from the queues). One pass over
+   the state after the agent's get_state, then its set_state. No lock is
+   held: the weight rules are the user's. Returns the peers whose
+   divergence it measured (bit p for peer slot p); *applied says whether
+   the agent took the blended state (g->scratch). */
+GS__PRIVATE uint32_t gs__ghost_blend(gs__ghost *g, gs__blend_net *bn, int *applied) {
     size_t n = g->n;
     double t_i, num_t = 0.0, den_t = 0.0;
     gs__pass ps;
     uint32_t seen = 0;
     int used;
-    gs__lock(net);
-    net->inside++; /* the weight rules run under the lock */
+    *applied = 0;
     gs_agent_get_state(g->agent, g->local, n);
     t_i = g->local[0];
     memset(&ps, 0, sizeof ps);
-    ps.w0 = gs__ghost_weigh(g, t_i, g->wq);
-    used = ps.w0 < 0.0 ? 0 : gs__ghost_gather(g, t_i, &num_t, &den_t);
+    ps.w0 = gs__ghost_weigh(g, bn, t_i, g->wq);
+    used = ps.w0 < 0.0 ? 0 : gs__ghost_gather(g, bn, t_i, &num_t, &den_t);
     if (used > 0) {
         /* the band applies to the gap to the others (their weighted mean
            time), not to the correction, which is only part of it: otherwise
@@ -9536,25 +9635,26 @@ GS__PRIVATE uint32_t gs__ghost_blend(gs__ghost *g, gs_net *net) {
         g->scratch[0] = t_i;
         if (den_t > 0.0)
             g->scratch[0] = gs__time_bound(
-                g, t_i, gs__time_correction(g, num_t / den_t, num_t / (ps.w0 + den_t)));
+                g, t_i, gs__time_correction(g, bn, num_t / den_t, num_t / (ps.w0 + den_t)));
         ps.fade = gs__offset_fade(g, g->scratch[0]);
         ps.finite = g->scratch[0] - g->scratch[0] == 0.0;
         ps.finite = gs__blend_pass(g, &ps);
         seen = gs__ghost_divergence(g);
-        if (ps.finite && gs__blend_apply(g, t_i)) {
+        if (ps.finite && bn->skip_equal && memcmp(g->scratch, g->local, n * sizeof(double)) == 0) {
+            g->stats.blends++;
+            g->stats.snapshots_blended += (uint64_t)used;
+            g->stats.last_correction = 0.0;
+        } else if (ps.finite && gs__blend_apply(g, t_i)) {
             double c2 = (ps.corr2[0] + ps.corr2[1]) + (ps.corr2[2] + ps.corr2[3]);
             g->stats.blends++;
             g->stats.snapshots_blended += (uint64_t)used;
             g->stats.last_correction = n > 1 ? sqrt(c2 / (double)(n - 1)) : 0.0;
+            *applied = 1;
         }
     }
     gs__ghost_clear(g);
-    net->inside--;
-    gs__unlock(net);
     return seen;
 }
-
-GS__PRIVATE void gs__world_blend(gs_world *w);
 
 /* Any snapshot waiting? Read under the lock by the caller. */
 GS__PRIVATE int gs__ghost_pending(const gs__ghost *g) {
@@ -9563,67 +9663,6 @@ GS__PRIVATE int gs__ghost_pending(const gs__ghost *g) {
         for (k = 0; g->gp[p].q && k < g->d.queue_size; ++k)
             if (g->gp[p].q[k].used) return 1;
     return 0;
-}
-
-/* After a step: publish, and if a snapshot waits for this ghost, every
-   ghost of the world blends what waits for it, at once (gs__world_blend).
-   Blended one agent at a time, as each one steps, the snapshots of one
-   remote moment would land at different moments here: a sphere copied
-   onto a cloth not copied yet sinks a millimetre into it and is thrown
-   (at metres a second), and the cloth it dents throws the next copy too. */
-GS__PRIVATE void gs__ghost_after_step(gs_agent *a) {
-    gs__ghost *g = gs__ghost_of(a);
-    gs_net *net = a->world->net;
-    int pending;
-    /* on the session clock, ghosts publish at the end of the advance (all
-       at the target time: the send time then tells the session's time) */
-    if (!gs__sync_session(a->world)) gs__ghost_publish(g, net);
-    if (!net) return;
-    gs__lock(net);
-    g->t_local = gs__agent_time(a);
-    pending = gs__ghost_pending(g);
-    gs__unlock(net);
-    if (pending) gs__world_blend(a->world);
-}
-
-/* A peer's divergence is the largest over the world's objects: taken once
-   per peer after every ghost has blended (per snapshot, a world blend
-   would be O(agents^2)). */
-GS__PRIVATE void gs__world_blend(gs_world *w) {
-    uint32_t seen = 0;
-    int i, pending;
-    int back = 0;
-    double pull = HUGE_VAL;
-    if (!w->net) return;
-    for (i = 0; i < w->agent_count; ++i) {
-        gs__ghost *g = gs__ghost_of(w->agents[i]);
-        if (!g || w->agents[i]->failed) continue;
-        gs__lock(w->net);
-        pending = gs__ghost_pending(g);
-        gs__unlock(w->net);
-        if (!pending) continue;
-        g->pulled = 0.0;
-        seen |= gs__ghost_blend(g, w->net);
-        if (g->pulled > 0.0) {
-            back++;
-            pull = fmin(pull, g->pulled);
-        }
-    }
-    /* The world's clock follows its agents back too: when the blends took
-       most of them back (a host in step that copies its lead, ahead of it
-       by more than the time band), the clock goes back with them, the
-       least of their moves. Otherwise they would step on to the clock
-       again from the states they took, and the next blend take them back
-       again (or not, as each object's snapshot says), all the time:
-       objects a few tens of ms apart in time push each other (a sphere
-       resting on the cloth is kicked off it). */
-    if (2 * back > w->agent_count && pull < HUGE_VAL)
-        w->target = w->target - pull > 0.0 ? w->target - pull : 0.0;
-    if (!seen) return;
-    gs__lock(w->net);
-    for (i = 0; i < GS__MAX_PEERS; ++i)
-        if (seen & ((uint32_t)1 << i)) w->net->peers[i].st.divergence = gs__peer_divergence(w, i);
-    gs__unlock(w->net);
 }
 
 /* ========================================================================
@@ -9718,8 +9757,17 @@ typedef struct gs__sync {
     double at_split;     /* s; the blend time being blended at, NAN else */
     uint64_t frame_steps; /* agent steps of the last advance */
     uint64_t replay_seq; /* the frame being re-run */
+    /* A replay first probes (see gs__sync_take): */
+    int probing;         /* no blend of this re-run changed a state yet */
+    int changed;         /* the last world blend changed an agent's state */
+    int stopped;         /* the re-run stopped at a blend that changed none */
+    double stopped_at;   /* s; that blend's time */
 } gs__sync;
 
+GS__PRIVATE gs_result gs__sync_advance(gs_world *w, double seconds, gs_advance_report *rep);
+GS__PRIVATE void gs__sync_stepped(gs_agent *a);
+
+/* With the world: the layer and the world's two hooks into it. */
 GS__PRIVATE gs_result gs__sync_create(gs_world *w, const gs_sync_desc *d) {
     gs__sync *sy = (gs__sync *)gs__alloc(w, sizeof *sy);
     if (!sy) return GS_ERR_NO_MEMORY;
@@ -9728,6 +9776,8 @@ GS__PRIVATE gs_result gs__sync_create(gs_world *w, const gs_sync_desc *d) {
     sy->st.timekeeper = w->host_id;
     sy->at_split = NAN;
     w->sync = sy;
+    w->hooks.advance = gs__sync_advance;
+    w->hooks.stepped = gs__sync_stepped;
     return GS_OK;
 }
 
@@ -10015,6 +10065,102 @@ GS__PRIVATE int gs__sync_have(const gs__sync *sy, uint64_t seq) {
     return f->seq == seq && f->log_at >= sy->log_tail;
 }
 
+/* ---- the blend: every ghost of the world at once. Blended one agent at
+   a time, as each one steps, the snapshots of one remote moment would land
+   at different moments here: a sphere copied onto a cloth not copied yet
+   sinks a millimetre into it and is thrown (at metres a second), and the
+   cloth it dents throws the next copy too. ---- */
+
+/* Under the net's lock: each live agent's ghost takes what waits for it
+   (gs__ghost_take), and bn the peers' host ids. Returns 1 if any took. */
+GS__PRIVATE int gs__sync_take_all(gs_world *w, double t, int keep_waiting, gs__blend_net *bn) {
+    int i, p, any = 0;
+    gs__lock(w->net);
+    for (p = 0; p < GS__MAX_PEERS; ++p) bn->host[p] = w->net->peers[p].host;
+    for (i = 0; i < w->agent_count; ++i) {
+        gs__ghost *g = gs__ghost_of(w->agents[i]);
+        if (!g) continue;
+        g->ntaken = w->agents[i]->failed ? 0 : gs__ghost_take(g, t, keep_waiting);
+        any |= g->ntaken > 0;
+    }
+    gs__unlock(w->net);
+    return any;
+}
+
+/* Under the lock again: what the blends measured, for gs_net_peer_stats.
+   A peer's divergence is the largest over the world's objects, taken once
+   per peer after every ghost has blended (per snapshot, a world blend
+   would be O(agents^2)). */
+GS__PRIVATE void gs__sync_give_back(gs_world *w, const gs__blend_net *bn, uint32_t seen) {
+    int p;
+    gs__lock(w->net);
+    for (p = 0; p < GS__MAX_PEERS; ++p) {
+        if (bn->gapped & ((uint32_t)1 << p)) w->net->peers[p].st.gap = bn->gap[p];
+        if (seen & ((uint32_t)1 << p)) w->net->peers[p].st.divergence = gs__peer_divergence(w, p);
+    }
+    gs__unlock(w->net);
+}
+
+/* Every ghost blends the snapshots waiting for it whose time is at most t
+   (see gs__ghost_take): taken under the net's lock, blended with it
+   released, so that the weight rules run with no lock held; each blend
+   applied is an input of the history.
+   The world's clock follows its agents back too: when the blends took
+   most of them back (a host in step that copies its lead, ahead of it by
+   more than the time band), the clock goes back with them, the least of
+   their moves. Otherwise they would step on to the clock again from the
+   states they took, and the next blend take them back again (or not, as
+   each object's snapshot says), all the time: objects a few tens of ms
+   apart in time push each other (a sphere resting on the cloth is kicked
+   off it). */
+GS__PRIVATE void gs__sync_blend(gs_world *w, double t, int keep_waiting) {
+    gs__sync *sy = w->sync;
+    gs__blend_net bn;
+    uint32_t seen = 0;
+    int i, back = 0, applied;
+    double pull = HUGE_VAL;
+    if (!w->net) return;
+    memset(&bn, 0, sizeof bn);
+    bn.fixed_time = gs__sync_session(w) || gs__sync_replay(w);
+    bn.skip_equal = gs__sync_replay(w);
+    if (!gs__sync_take_all(w, t, keep_waiting, &bn)) return;
+    for (i = 0; i < w->agent_count; ++i) {
+        gs__ghost *g = gs__ghost_of(w->agents[i]);
+        if (!g || g->ntaken == 0) continue;
+        g->pulled = 0.0;
+        seen |= gs__ghost_blend(g, &bn, &applied);
+        if (applied) { /* in replay mode only a state that differs is set */
+            sy->changed = 1;
+            gs__sync_log_blend(g->agent, g->scratch);
+        }
+        if (g->pulled > 0.0) {
+            back++;
+            pull = fmin(pull, g->pulled);
+        }
+    }
+    if (2 * back > w->agent_count && pull < HUGE_VAL)
+        w->target = w->target - pull > 0.0 ? w->target - pull : 0.0;
+    gs__sync_give_back(w, &bn, seen);
+}
+
+/* Present mode, after a ghost's agent stepped (a sleeper's: at each run
+   of the dispatches): it publishes, and if a snapshot waits for it, every
+   ghost of the world blends what waits for it. */
+GS__PRIVATE void gs__sync_ghost_stepped(gs_agent *a) {
+    gs__ghost *g = gs__ghost_of(a);
+    gs_net *net = a->world->net;
+    int pending;
+    /* on the session clock, ghosts publish at the end of the advance (all
+       at the target time: the send time then tells the session's time) */
+    if (!gs__sync_session(a->world)) gs__ghost_publish(g, net);
+    if (!net) return;
+    gs__lock(net);
+    g->t_local = gs__agent_time(a);
+    pending = gs__ghost_pending(g);
+    gs__unlock(net);
+    if (pending) gs__sync_blend(a->world, HUGE_VAL, 0);
+}
+
 /* ---- the hooks the world calls ---- */
 
 GS__PRIVATE void gs__sync_take(gs_world *w);
@@ -10156,29 +10302,40 @@ GS__PRIVATE void gs__sync_carry(gs_agent *a) {
     r->target = gs__madd(r->x, r->v, a->dt);
 }
 
-/* After a step: in a re-run the logged inputs of this dispatch; else the
-   agent's ghost publishes and blends. */
-GS__PRIVATE void gs__sync_after_step(gs_agent *a) {
+/* The world's hook after a step (a dispatch, gs_agent_step): in a re-run
+   the logged inputs of this dispatch; else the agent's ghost publishes and
+   (present mode) blends. */
+GS__PRIVATE void gs__sync_stepped(gs_agent *a) {
     gs_world *w = a->world;
     gs__sync *sy = w->sync;
     if (sy->replaying) gs__sync_apply_log(w, sy->replay_seq, w->dispatches, 0.0);
     if (sy->d.mode == GS_SYNC_REPLAY) gs__sync_carry(a);
     if (sy->replaying == GS__RERUN_TEST) return;
     if (sy->d.mode != GS_SYNC_REPLAY) {
-        if (a->ghost) gs__ghost_after_step(a);
+        if (a->ghost) gs__sync_ghost_stepped(a);
         return;
     }
     if (a->ghost && !sy->replaying && !gs__sync_session(w)) gs__ghost_publish(gs__ghost_of(a), w->net);
 }
 
-/* A sleeper's ghost at each run of the dispatches (it takes no steps to
-   publish and blend after): as after a step, but no logged inputs are
-   its (they are applied by dispatch), and in replay mode the session
-   clock's publish at the end of the advance covers it. */
-GS__PRIVATE void gs__sync_sleeper(gs_agent *a) {
-    gs__sync *sy = a->world->sync;
+/* The sleepers' ghosts at each run of the dispatches (they take no steps
+   to publish and blend after): as after a step, but no logged inputs are
+   theirs (they are applied by dispatch), and in replay mode the session
+   clock's publish at the end of the advance covers them. */
+GS__PRIVATE void gs__sync_sleepers(gs_world *w) {
+    gs__sync *sy = w->sync;
+    int i;
     if (sy->replaying || sy->d.mode == GS_SYNC_REPLAY) return;
-    gs__ghost_after_step(a);
+    for (i = 0; i < w->agent_count; ++i)
+        if (w->agents[i]->sleeping && w->agents[i]->ghost) gs__sync_ghost_stepped(w->agents[i]);
+}
+
+/* One run of the world's dispatches (gs__world_run), with the sleepers'
+   ghosts between its setup and its loop. */
+GS__PRIVATE gs_result gs__sync_run_part(gs_world *w, double budget, gs_advance_report *rep) {
+    double start = gs__world_run_setup(w, budget);
+    gs__sync_sleepers(w);
+    return gs__world_run_loop(w, budget, start, rep);
 }
 
 /* At the end of an advance: on the session clock every ghost due
@@ -10235,32 +10392,16 @@ GS__PRIVATE int gs__sync_is_fresh(const gs__sync *sy, double t) {
 }
 
 /* Every ghost blends the snapshots waiting whose time is at most t (the
-   later ones are held aside meanwhile): each snapshot at its own time.
+   later ones, and those still waiting for chunks, stay in the queues):
+   each snapshot at its own time.
    Blended together, a sphere from one frame would land on the cloth of
    the frame before and be thrown. */
 GS__PRIVATE void gs__sync_blend_to(gs_world *w, double t) {
-    int i, p, q, pass;
-    for (pass = 0; pass < 2; ++pass) {
-        gs__lock(w->net);
-        for (i = 0; i < w->agent_count; ++i) {
-            gs__ghost *g = gs__ghost_of(w->agents[i]);
-            for (p = 0; g && p < GS__MAX_PEERS; ++p)
-                for (q = 0; g->gp[p].q && q < g->d.queue_size; ++q) {
-                    gs__snap *sn = &g->gp[p].q[q];
-                    if (pass == 0 && sn->used && (sn->time > t || sn->waited == 1)) {
-                        sn->used = 0;
-                        sn->held = 1;
-                    }
-                    if (pass == 1 && sn->held) { sn->used = 1; sn->held = 0; }
-                }
-        }
-        gs__unlock(w->net);
-        if (pass == 0) {
-            w->sync->at_split = t;
-            gs__world_blend(w);
-            w->sync->at_split = NAN;
-        }
-    }
+    int i;
+    w->sync->changed = 0;
+    w->sync->at_split = t;
+    gs__sync_blend(w, t, 1);
+    w->sync->at_split = NAN;
     for (i = 0; i < w->agent_count; ++i) gs__sync_carry(w->agents[i]);
 }
 
@@ -10282,11 +10423,22 @@ GS__PRIVATE gs_result gs__sync_split_run(gs_world *w, gs__hframe *f, double budg
             if (left <= 0.0) continue;
         }
         w->target = f->split[i];
-        r = gs__world_run(w, left, rep);
+        r = gs__sync_run_part(w, left, rep);
         if (first == GS_OK) first = r;
         if (sy->replaying) gs__sync_apply_log(w, sy->replay_seq, GS__SYNC_SPLIT, f->split[i]);
-        if (sy->replaying != GS__RERUN_TEST && gs__sync_is_fresh(sy, f->split[i]))
+        if (sy->replaying != GS__RERUN_TEST && gs__sync_is_fresh(sy, f->split[i])) {
             gs__sync_blend_to(w, f->split[i]);
+            if (sy->probing && !sy->changed) { /* see gs__sync_replay_from */
+                sy->stopped = 1;
+                sy->stopped_at = f->split[i];
+                kept--; /* the frame runs as it did: no stop there */
+                for (++i; i < f->nsplit; ++i) f->split[kept++] = f->split[i];
+                f->nsplit = kept;
+                w->target = end;
+                return first;
+            }
+            sy->probing = 0;
+        }
     }
     if (f) f->nsplit = kept;
     w->target = end;
@@ -10294,11 +10446,12 @@ GS__PRIVATE gs_result gs__sync_split_run(gs_world *w, gs__hframe *f, double budg
         left = budget - (w->clock(w->clock_user) - start);
         if (left <= 0.0) left = 1e-12; /* spent: the run stops at once */
     }
-    r = gs__world_run(w, left, rep);
+    r = gs__sync_run_part(w, left, rep);
     return first == GS_OK ? r : first;
 }
 
-/* The hook gs_world_advance runs its dispatches through. */
+/* An advance's dispatches (gs__sync_advance), to the blend times its frame
+   holds first. */
 GS__PRIVATE gs_result gs__sync_run(gs_world *w, double budget, gs_advance_report *rep) {
     gs__sync *sy = w->sync;
     gs__hframe *f = NULL;
@@ -10350,18 +10503,12 @@ GS__PRIVATE uint64_t gs__sync_rerun(gs_world *w, uint64_t from, int how) {
         gs__sync_split_run(w, f, 0.0, &rep);
         w->busy = busy;
         steps += rep.steps;
+        if (sy->stopped) break;
     }
     sy->replaying = 0;
     return steps;
 }
 
-/* Replay mode, at the start of an advance: the snapshots waiting get no
-   wire age (they blend at their own time), and the oldest one's time is
-   when every ghost blends. If it lies in the history, the frames from the
-   last one that starts before it are run again with that blend in them,
-   and the world is at its present again, corrected; the inputs of this
-   frame (probe targets now, states set by hand since) are applied again.
-   Weight rules run in the re-run, outside the net's lock. */
 /* Adds t to the ascending list sy->fresh (times within `half` are one).
    Returns 0 when the list is full: blended at another time, a set would
    put its objects where they were at another moment. */
@@ -10454,9 +10601,41 @@ GS__PRIVATE int gs__sync_frame_of(const gs__sync *sy, double t, double half, uin
     return 0;
 }
 
+/* The re-run of a replay, probing first: from the frame before the oldest
+   snapshot time, to that time, where every ghost blends. If the blend
+   changed no state (every weight of the snapshots 0, as for a leader's own
+   objects, or the snapshots equal to the states here), the frames after
+   it would run again as they ran: it stops there, the time goes from the
+   frame's blend times (so that it re-runs as it ran), and the next
+   snapshot time is probed from its own frame. The first blend that
+   changes a state runs on to the present. Stopped (sy->stopped) at the
+   last, the present stands as it was. */
+GS__PRIVATE void gs__sync_replay_from(gs_world *w, double half, double target) {
+    gs__sync *sy = w->sync;
+    uint64_t j, from = 0;
+    int k;
+    gs__sync_frame_of(sy, sy->fresh[0], half, &from);
+    for (k = 0; k < sy->nfresh && sy->fresh[k] < target; ++k) {
+        if (!gs__sync_frame_of(sy, sy->fresh[k], half, &j) || j < from) j = from;
+        sy->probing = 1;
+        sy->stopped = 0;
+        sy->st.replay_steps += gs__sync_rerun(w, j, GS__RERUN_BLEND);
+        if (!sy->stopped) break;
+        while (k + 1 < sy->nfresh && sy->fresh[k + 1] <= sy->stopped_at) k++;
+    }
+    sy->probing = 0;
+}
+
+/* Replay mode, at the start of an advance: the snapshots waiting get no
+   wire age (they blend at their own time), and the oldest one's time is
+   when every ghost blends. If it lies in the history, the frames from the
+   last one that starts before it are run again with that blend in them
+   (gs__sync_replay_from), and the world is at its present again,
+   corrected; the inputs of this frame (probe targets now, states set by
+   hand since) are applied again. */
 GS__PRIVATE void gs__sync_take(gs_world *w) {
     gs__sync *sy = w->sync;
-    double *present, half = HUGE_VAL;
+    double *present, half = HUGE_VAL, target = w->target;
     uint64_t from = 0, dispatches = w->dispatches, j;
     int i, k;
     for (i = 0; i < w->agent_count; ++i) half = fmin(half, 0.5 * w->agents[i]->dt);
@@ -10467,7 +10646,7 @@ GS__PRIVATE void gs__sync_take(gs_world *w) {
         sy->st.fallbacks++; /* older than the history, or past the budget */
         sy->nfresh = 0;
         sy->at_start = 1;
-        gs__world_blend(w);
+        gs__sync_blend(w, HUGE_VAL, 0);
         sy->at_start = 0;
         return;
     }
@@ -10482,11 +10661,52 @@ GS__PRIVATE void gs__sync_take(gs_world *w) {
     }
     present = sy->ring + (size_t)sy->cap * sy->stride;
     gs__sync_save(w, present);
-    sy->st.replay_steps += gs__sync_rerun(w, from, GS__RERUN_BLEND);
-    sy->st.replays++;
+    gs__sync_replay_from(w, half, target);
+    if (sy->stopped) { /* no blend changed a state: the present stands */
+        sy->stopped = 0;
+        gs__sync_load(w, present);
+        w->target = target;
+        sy->st.replays_skipped++;
+    } else {
+        sy->st.replays++;
+    }
     gs__sync_load_targets(w, present);
     gs__sync_apply_log(w, sy->seq, GS__SYNC_NONE, 0.0);
     w->dispatches = dispatches;
+}
+
+/* The seconds an advance is given count toward the net's check for a
+   missing gs_net_update (see unsent_world). */
+GS__PRIVATE void gs__net_advanced(gs_world *w, double seconds) {
+    gs_net *net = w->net;
+    if (!net) return;
+    gs__lock(net);
+    net->unsent_world += seconds;
+    gs__unlock(net);
+}
+
+/* The world's hook for one advance, the walk of a snapshot from the net's
+   queues to the next host: gs__sync_begin takes what was received (replay
+   mode), rewinds the world to the frame of the history before it, runs
+   the frames again to the present with each blend at its snapshot's time
+   (gs__sync_rerun), and records the present as a new frame; the world's
+   clock then follows its agents and moves on by `seconds` (the session's
+   time on the session clock, gs__sync_target); the dispatches step every
+   agent to the target (gs__sync_run: present mode blends after the steps,
+   gs__sync_stepped), and gs__sync_end publishes (session clock). */
+GS__PRIVATE gs_result gs__sync_advance(gs_world *w, double seconds, gs_advance_report *rep) {
+    gs_result r;
+    double before;
+    gs__sync_begin(w, seconds);
+    /* the follow after the replay, which moves agents */
+    gs__world_follow(w, gs__world_follow_target(w));
+    before = w->target;
+    w->target += seconds;
+    gs__net_advanced(w, seconds);
+    gs__sync_target(w, seconds, before);
+    r = gs__sync_run(w, w->budget, rep);
+    gs__sync_end(w, seconds, rep);
+    return r;
 }
 
 GS_API gs_result gs_world_sync_stats(const gs_world *w, gs_sync_stats *out) {
@@ -10805,10 +11025,10 @@ GS__PRIVATE size_t gs__quant_put(unsigned char *p, size_t room, const gs_wire_ch
 
 GS__PRIVATE int gs__quant_quats_ok(const gs_wire_segment *s);
 
-/* Reads the segments of a quantized payload of len bytes into c, checking
-   every length and bound: the values it gives are finite, under 2^51 *
-   step in size. 0 if anything is off. */
-GS__PRIVATE int gs__quant_parse(gs_wire_chunk *c, const unsigned char *p, size_t len) {
+/* Reads the segments of a quantized payload (within len bytes) into c,
+   checking every length and bound: the values it gives are finite, under
+   2^51 * step in size. Its length, or 0 if anything is off. */
+GS__PRIVATE size_t gs__quant_parse(gs_wire_chunk *c, const unsigned char *p, size_t len) {
     size_t off = 1, need;
     int k, sum = 0;
     if (len < 1) return 0;
@@ -10852,7 +11072,7 @@ GS__PRIVATE int gs__quant_parse(gs_wire_chunk *c, const unsigned char *p, size_t
         if (s->kind == GS_WIRE_QUATERNION && !gs__quant_quats_ok(s)) return 0;
         sum += s->count;
     }
-    return off == len && sum == c->elements;
+    return sum == c->elements ? off : 0;
 }
 
 /* The packed bytes of a parsed segment. */
@@ -10951,7 +11171,8 @@ GS__PRIVATE double gs__quant_value(const gs_wire_chunk *c, int i) {
 /* ---- GS_WIRE_CHUNK_DELTA and GS_WIRE_CHUNK_ACK ---- */
 
 /* An unsigned LEB128 varint at *p of at most max bytes before end; 0 if
-   it is cut short or longer. */
+   it is cut short, longer, or not in its fewest bytes (a last byte 0 after
+   others: one datagram, one meaning). */
 GS__PRIVATE int gs__varint_get(const unsigned char **p, const unsigned char *end, int max,
                                uint64_t *out) {
     uint64_t z = 0;
@@ -10959,7 +11180,10 @@ GS__PRIVATE int gs__varint_get(const unsigned char **p, const unsigned char *end
     for (i = 0; i < max && *p < end; ++i) {
         unsigned b = *(*p)++;
         z |= (uint64_t)(b & 0x7f) << (7 * i);
-        if (!(b & 0x80)) { *out = z; return 1; }
+        if (!(b & 0x80)) {
+            *out = z;
+            return b != 0 || i == 0;
+        }
     }
     return 0;
 }
@@ -10972,9 +11196,90 @@ GS__PRIVATE size_t gs__varint_put(unsigned char *p, uint64_t z) {
 /* zigzag of a u32 difference read as signed (wraps both ways) */
 GS__PRIVATE uint64_t gs__zigzag32(uint32_t d) { return gs__zigzag((int64_t)(int32_t)d); }
 
+/* GS_WIRE_CHUNK_DELTA's Rice coding (coding 2, see >>wire): each value z
+   as z >> k in unary (that many 0 bits, then a 1) and its k low bits, or
+   past GS__RICE_ESCAPE zeros z in 32 bits. */
+#define GS__RICE_ESCAPE 16
+#define GS__RICE_MAX_K 24
+
+/* The index of the lowest set bit of v (v != 0). */
+GS__PRIVATE int gs__ctz64(uint64_t v) {
+#if defined(__GNUC__) || defined(__clang__)
+    return __builtin_ctzll(v);
+#else
+    int n = 0;
+    while (!(v & 1u)) { v >>= 1; ++n; }
+    return n;
+#endif
+}
+
+/* A reader of a Rice run that never reads past end (0 bits there); bits
+   counts what it took, so that a parse can tell a run that overran. */
+typedef struct gs__rice {
+    const unsigned char *p, *end;
+    uint64_t acc;
+    int n;
+    size_t bits;
+} gs__rice;
+GS__PRIVATE_INLINE void gs__rice_fill(gs__rice *r) {
+    if (r->n > 56) return;
+    if (r->end - r->p >= 8) { /* whole words: the bytes above n go in again, the same */
+        r->acc |= gs__get64(r->p) << r->n;
+        r->p += (63 - r->n) >> 3;
+        r->n |= 56;
+        return;
+    }
+    while (r->n <= 56) {
+        r->acc |= (uint64_t)(r->p < r->end ? *r->p++ : 0u) << r->n;
+        r->n += 8;
+    }
+}
+/* The next value z; *esc set when it came escaped. */
+GS__PRIVATE_INLINE uint64_t gs__rice_get(gs__rice *r, int k, int *esc) {
+    uint64_t z;
+    int tz;
+    gs__rice_fill(r);
+    tz = gs__ctz64(r->acc | (uint64_t)1 << GS__RICE_ESCAPE);
+    if (tz < GS__RICE_ESCAPE) {
+        r->acc >>= tz + 1;
+        z = (uint64_t)tz << k | (r->acc & (((uint64_t)1 << k) - 1));
+        r->acc >>= k;
+        r->n -= tz + 1 + k;
+        r->bits += (size_t)(tz + 1 + k);
+        *esc = 0;
+        return z;
+    }
+    r->acc >>= GS__RICE_ESCAPE;
+    z = r->acc & 0xffffffffu;
+    r->acc >>= 32;
+    r->n -= GS__RICE_ESCAPE + 32;
+    r->bits += GS__RICE_ESCAPE + 32;
+    *esc = 1;
+    return z;
+}
+GS__PRIVATE void gs__rice_init(gs__rice *r, const unsigned char *p, const unsigned char *end) {
+    r->p = p; r->end = end; r->acc = 0; r->n = 0; r->bits = 0;
+}
+
+/* The bits a Rice run of parameter k takes, estimated from the values'
+   bit lengths (hist[L]: values of L bits; a value of L > k bits has z >>
+   k between 2^(L-k-1) and 2^(L-k) - 1, taken as 3/4 of 2^(L-k)). */
+GS__PRIVATE double gs__rice_cost(const int *hist, int k) {
+    double bits = 0.0;
+    int L;
+    for (L = 0; L <= 32; ++L) {
+        double q;
+        if (!hist[L]) continue;
+        q = L <= k ? 0.0 : 0.75 * (double)((uint64_t)1 << (L - k));
+        bits += hist[L] * (q >= GS__RICE_ESCAPE ? GS__RICE_ESCAPE + 32.0 : q + 1.0 + k);
+    }
+    return bits;
+}
+
 /* Reads a delta chunk's differences in order. */
 typedef struct gs__dread {
     gs__bitr map, val;
+    gs__rice rice;
     int coding, width;
 } gs__dread;
 GS__PRIVATE void gs__dread_init(const gs_wire_chunk *c, gs__dread *d) {
@@ -10988,16 +11293,19 @@ GS__PRIVATE void gs__dread_init(const gs_wire_chunk *c, gs__dread *d) {
     d->map.p = q; d->map.end = q + bm; d->map.acc = 0; d->map.n = 0;
     if (d->coding == 0) bm = 0;
     d->val.p = q + bm; d->val.end = end; d->val.acc = 0; d->val.n = 0;
+    gs__rice_init(&d->rice, q, end);
 }
 GS__PRIVATE int64_t gs__dread_next(gs__dread *d) {
+    int esc;
+    if (d->coding == 2) return gs__unzigzag(gs__rice_get(&d->rice, d->width, &esc));
     if (d->coding == 0) return gs__unzigzag(gs__bitr_get(&d->val, d->width));
     if (!gs__bitr_get(&d->map, 1)) return 0;
     return gs__unzigzag((uint64_t)gs__bitr_get(&d->val, d->width) + 1u);
 }
 
-/* Checks a delta payload of len bytes and fills c's baseline, coding and
-   width. */
-GS__PRIVATE int gs__delta_parse(gs_wire_chunk *c, const unsigned char *p, size_t len) {
+/* Checks a delta payload (within len bytes) and fills c's baseline,
+   coding and width: its length, or 0. */
+GS__PRIVATE size_t gs__delta_parse(gs_wire_chunk *c, const unsigned char *p, size_t len) {
     const unsigned char *q = p, *end = p + len;
     uint64_t dist = 0;
     size_t need, bm, i;
@@ -11008,11 +11316,24 @@ GS__PRIVATE int gs__delta_parse(gs_wire_chunk *c, const unsigned char *p, size_t
     if (!gs__varint_get(&q, end, 5, &dist) || dist < 1 || dist > 0x80000000u || q >= end)
         return 0;
     c->delta_width = *q & 0x3f;
-    c->delta_coding = *q >> 7;
-    if ((*q & 0x40) || c->delta_width > 32) return 0;
+    c->delta_coding = *q >> 6;
+    if (c->delta_coding == 3 || c->delta_width > (c->delta_coding == 2 ? GS__RICE_MAX_K : 32))
+        return 0;
     ++q;
     c->baseline = c->sequence - (uint32_t)dist;
-    if (c->delta_coding == 0) {
+    if (c->delta_coding == 2) { /* walked: its length is where it ends */
+        gs__rice r;
+        int esc;
+        gs__rice_init(&r, q, end);
+        for (i = 0; i < c->elements; ++i) {
+            uint64_t z = gs__rice_get(&r, c->delta_width, &esc);
+            /* one meaning: an escape only for what unary cannot say */
+            if (r.bits > 8 * (size_t)(end - q) || (esc && z >> c->delta_width < GS__RICE_ESCAPE))
+                return 0;
+        }
+        need = (r.bits + 7) / 8;
+        if (r.bits % 8 && q[need - 1] >> (r.bits % 8)) return 0; /* padding 0 */
+    } else if (c->delta_coding == 0) {
         need = ((size_t)c->elements * (size_t)c->delta_width + 7) / 8;
     } else {
         bm = ((size_t)c->elements + 7) / 8;
@@ -11025,12 +11346,14 @@ GS__PRIVATE int gs__delta_parse(gs_wire_chunk *c, const unsigned char *p, size_t
         if (c->elements % 8 && q[bm - 1] >> (c->elements % 8)) return 0;
         need = bm + ((size_t)nz * (size_t)c->delta_width + 7) / 8;
     }
-    return need == (size_t)(end - q);
+    if (need > (size_t)(end - q)) return 0;
+    c->payload_bytes = (uint16_t)((size_t)(q - p) + need);
+    return c->payload_bytes;
 }
 
-/* Checks an acknowledgement payload: element count entries of two
-   varints each, within their ranges, filling exactly len bytes. */
-GS__PRIVATE int gs__ack_parse(const gs_wire_chunk *c, const unsigned char *p, size_t len) {
+/* Checks an acknowledgement payload (within len bytes): element count
+   entries of two varints each, within their ranges. Its length, or 0. */
+GS__PRIVATE size_t gs__ack_parse(const gs_wire_chunk *c, const unsigned char *p, size_t len) {
     const unsigned char *q = p, *end = p + len;
     int i;
     if (c->encoding != GS_ENCODING_QUANT || c->elements < 1 || c->elements > GS_WIRE_MAX_ACKS ||
@@ -11041,7 +11364,7 @@ GS__PRIVATE int gs__ack_parse(const gs_wire_chunk *c, const unsigned char *p, si
         if (!gs__varint_get(&q, end, 5, &a) || !gs__varint_get(&q, end, 5, &b)) return 0;
         if (a >> 33 || b >> 32) return 0;
     }
-    return q == end;
+    return (size_t)(q - p);
 }
 
 GS_API int gs_wire_acks(const gs_wire_chunk *c, gs_wire_ack *out, int max) {
@@ -11094,6 +11417,13 @@ GS_API void gs_wire_deltas(const gs_wire_chunk *c, int64_t *out) {
     q++;
     w = c->delta_width;
     mask = ((uint64_t)1 << w) - 1;
+    if (c->delta_coding == 2) {
+        gs__rice r;
+        int esc;
+        gs__rice_init(&r, q, end);
+        for (i = 0; i < c->elements; ++i) out[i] = gs__unzigzag(gs__rice_get(&r, w, &esc));
+        return;
+    }
     if (c->delta_coding) {
         map = q;
         q += ((size_t)c->elements + 7) / 8;
@@ -11105,6 +11435,42 @@ GS_API void gs_wire_deltas(const gs_wire_chunk *c, int64_t *out) {
     }
 }
 
+/* The index of the highest set bit of v (v != 0), from the top. */
+GS__PRIVATE int gs__clz64(uint64_t v) {
+#if defined(__GNUC__) || defined(__clang__)
+    return __builtin_clzll(v);
+#else
+    int n = 0;
+    while (!(v >> 63)) { v <<= 1; ++n; }
+    return n;
+#endif
+}
+
+/* A delta payload in the Rice coding of parameter k at p (room bytes,
+   the head of hn bytes first): its size, or 0 if it does not fit. */
+GS__PRIVATE size_t gs__delta_put_rice(unsigned char *p, size_t room, const gs_wire_chunk *c,
+                                      const int64_t *d, const unsigned char *head, size_t hn,
+                                      int k) {
+    gs__bitw w;
+    int i;
+    if (hn + 1 > room) return 0;
+    memcpy(p, head, hn);
+    p[hn] = (unsigned char)(k | 2 << 6);
+    w.p = p + hn + 1; w.end = p + room; w.acc = 0; w.n = 0; w.over = 0;
+    for (i = 0; i < c->elements; ++i) {
+        uint64_t z = gs__zigzag(d[i]), q = z >> k;
+        if (q < GS__RICE_ESCAPE) {
+            gs__bitw_put(&w, (uint64_t)1 << q, (int)q + 1);
+            if (k) gs__bitw_put(&w, z & (((uint64_t)1 << k) - 1), k);
+        } else {
+            gs__bitw_put(&w, 0, GS__RICE_ESCAPE);
+            gs__bitw_put(&w, z, 32);
+        }
+    }
+    gs__bitw_flush(&w);
+    return w.over ? 0 : (size_t)(w.p - p);
+}
+
 /* Writes a delta payload at p (room bytes): its size, or 0 if it does not
    fit. The differences are within +-2^31 (checked by the caller). */
 GS__PRIVATE size_t gs__delta_put(unsigned char *p, size_t room, const gs_wire_chunk *c,
@@ -11113,22 +11479,34 @@ GS__PRIVATE size_t gs__delta_put(unsigned char *p, size_t room, const gs_wire_ch
     size_t hn = gs__varint_put(head, (uint64_t)(uint32_t)(c->sequence - c->baseline));
     size_t need0, need1, need;
     uint64_t m0 = 0, m1 = 0;
-    int i, nz = 0, w0 = 0, w1 = 0, coding, wd;
+    int i, nz = 0, w0 = 0, w1 = 0, coding, wd, hist[33], k, k0 = 0, rk = 0, below = 0;
+    double rbits = HUGE_VAL;
+    memset(hist, 0, sizeof hist);
     for (i = 0; i < c->elements; ++i) {
         uint64_t z = gs__zigzag(d[i]);
         m0 |= z;
-        if (z) { nz++; m1 |= z - 1; }
+        if (z) { nz++; m1 |= z - 1; hist[64 - gs__clz64(z)]++; } else hist[0]++;
     }
+    /* Rice's best k is near the median's bit length (the mean would follow
+       the few large values, which escape anyway): the four about it are
+       tried, a cost each of 33 bit lengths, not one per value */
+    for (k0 = 0; k0 < 32 && 2 * (below + hist[k0]) < c->elements; ++k0) below += hist[k0];
     while (w0 < 32 && m0 >> w0) ++w0;
     while (w1 < 32 && m1 >> w1) ++w1;
     need0 = ((size_t)c->elements * (size_t)w0 + 7) / 8;
     need1 = ((size_t)c->elements + 7) / 8 + ((size_t)nz * (size_t)w1 + 7) / 8;
     coding = need1 < need0;
     wd = coding ? w1 : w0;
+    for (k = k0 > 2 ? k0 - 2 : 0; k <= k0 + 1 && k <= GS__RICE_MAX_K; ++k) {
+        double b = gs__rice_cost(hist, k);
+        if (b < rbits) { rbits = b; rk = k; }
+    }
+    if (rbits / 8.0 + 1.0 < (double)(coding ? need1 : need0))
+        return gs__delta_put_rice(p, room, c, d, head, hn, rk);
     need = hn + 1 + (coding ? need1 : need0);
     if (need > room) return 0;
     memcpy(p, head, hn);
-    p[hn] = (unsigned char)(wd | coding << 7);
+    p[hn] = (unsigned char)(wd | coding << 6);
     /* the writer in locals (as gs__quant_put_scalar); need counts every
        bit, so the 32-bit stores stay inside it */
     {
@@ -11232,83 +11610,160 @@ GS__PRIVATE gs_result gs__wire_put_quant(unsigned char *p, size_t room, const gs
     return *len ? GS_OK : GS_ERR_CAPACITY;
 }
 
-/* The room left for a chunk's payload after *size bytes (the chunk header
-   and the checksum kept free), or an error: a *size that gs_wire_begin and
-   gs_wire_add cannot have left (a wild one would wrap the room check), a
-   datagram with GS_WIRE_MAX_CHUNKS chunks already or no room. */
+/* The chunk kinds (bits 0-1 of a chunk's first byte) and its flag bits. */
+#define GS__KIND_VALUES 0u
+#define GS__KIND_DELTA 1u
+#define GS__KIND_REST 2u
+#define GS__KIND_ACK 3u
+#define GS__KIND_TIME 0x04u  /* a time follows; else the previous chunk's */
+#define GS__KIND_SPLIT 0x20u /* index, count and first follow; else 0, 1, 0 */
+#define GS__KIND_BITS 0x3fu  /* bits 6-7: 0 */
+
+/* The chunk flags of c as its kind (GS_WIRE_CHUNK_*: at most one). */
+GS__PRIVATE unsigned gs__chunk_kind(const gs_wire_chunk *c) {
+    return c->flags & GS_WIRE_CHUNK_DELTA ? GS__KIND_DELTA
+           : c->flags & GS_WIRE_CHUNK_REST ? GS__KIND_REST
+           : c->flags & GS_WIRE_CHUNK_ACK  ? GS__KIND_ACK
+                                           : GS__KIND_VALUES;
+}
+
+/* The header of c at p (at most GS_WIRE_CHUNK_HEADER bytes), coded
+   against x; its length. */
+GS__PRIVATE size_t gs__chunk_head(unsigned char *p, const gs__wire_ctx *x,
+                                  const gs_wire_chunk *c) {
+    unsigned kind = gs__chunk_kind(c), b = kind | (unsigned)c->encoding << 3;
+    size_t n = 1;
+    if (kind == GS__KIND_ACK) { /* the host it is for, and its entries */
+        n += gs__varint_put(p + n, c->object_id);
+        n += gs__varint_put(p + n, c->elements);
+        p[0] = (unsigned char)b;
+        return n;
+    }
+    n += gs__varint_put(p + n, gs__zigzag32(c->object_id - x->id));
+    n += gs__varint_put(p + n, gs__zigzag32(c->sequence - x->seq));
+    if (!x->any || memcmp(&c->time, &x->time, sizeof c->time) != 0) {
+        b |= GS__KIND_TIME;
+        gs__putf64(p + n, c->time);
+        n += 8;
+    }
+    if (c->index || c->count != 1 || c->first) {
+        b |= GS__KIND_SPLIT;
+        n += gs__varint_put(p + n, c->index);
+        n += gs__varint_put(p + n, c->count);
+        n += gs__varint_put(p + n, c->first);
+    }
+    if (kind != GS__KIND_REST) n += gs__varint_put(p + n, c->elements);
+    p[0] = (unsigned char)b;
+    return n;
+}
+
+/* The room left for a chunk's payload after *size bytes and its header of
+   hn bytes (the checksum kept free), or an error: a *size that
+   gs_wire_begin and gs_wire_add cannot have left (a wild one would wrap
+   the room check), a datagram with GS_WIRE_MAX_CHUNKS chunks already or
+   no room. */
 GS__PRIVATE gs_result gs__wire_room(const unsigned char *buf, size_t cap, const size_t *size,
-                                    size_t *room) {
+                                    size_t hn, size_t *room) {
     if (*size < GS_WIRE_HEADER || *size > cap || *size > GS_WIRE_MAX_DATAGRAM)
         return GS_ERR_INVALID_ARG;
     if (gs__hdr_chunks(buf) >= GS_WIRE_MAX_CHUNKS) return GS_ERR_CAPACITY;
     *room = cap < GS_WIRE_MAX_DATAGRAM ? cap : GS_WIRE_MAX_DATAGRAM;
-    if (GS_WIRE_CHUNK_HEADER + 4 > *room - *size) return GS_ERR_CAPACITY;
-    *room -= *size + GS_WIRE_CHUNK_HEADER + 4;
+    if (hn + 4 > *room - *size) return GS_ERR_CAPACITY;
+    *room -= *size + hn + 4;
     return GS_OK;
 }
 
-/* The chunk header of c (payload vs bytes, already written after it) at
-   *size, and the chunk counted. */
-GS__PRIVATE void gs__wire_put_head(unsigned char *buf, size_t *size, const gs_wire_chunk *c,
+/* The chunk's header (head, hn bytes; its payload of vs bytes already
+   written after it) at *size, the chunk counted and x moved on to it. */
+GS__PRIVATE void gs__wire_put_head(unsigned char *buf, size_t *size, gs__wire_ctx *x,
+                                   const gs_wire_chunk *c, const unsigned char *head, size_t hn,
                                    size_t vs) {
-    unsigned char *p = buf + *size;
-    gs__put32(p, c->object_id);
-    gs__put32(p + 4, c->sequence);
-    gs__putf64(p + 8, c->time);
-    gs__put16(p + 16, c->index);
-    gs__put16(p + 18, c->count);
-    gs__put32(p + 20, c->first);
-    gs__put16(p + 24, c->elements);
-    p[26] = (unsigned char)c->encoding;
-    p[27] = (unsigned char)c->flags;
-    gs__put16(p + 28, (uint16_t)vs);
-    gs__put16(p + 30, 0);
-    *size += GS_WIRE_CHUNK_HEADER + vs;
+    memcpy(buf + *size, head, hn);
+    *size += hn + vs;
     gs__hdr_set_chunks(buf, gs__hdr_chunks(buf) + 1);
+    if (c->flags & GS_WIRE_CHUNK_ACK) return; /* it says no id, sequence or time */
+    x->id = c->object_id;
+    x->seq = c->sequence;
+    x->time = c->time;
+    x->any = 1;
 }
 
-GS_API gs_result gs_wire_add(unsigned char *buf, size_t cap, size_t *size,
-                             const gs_wire_chunk *c, const double *values) {
-    size_t vs, room;
+GS__PRIVATE int gs__wire_chunk(const unsigned char *buf, size_t end, size_t *off,
+                               gs__wire_ctx *x, gs_wire_chunk *c, gs_reject *why);
+
+/* The context of the chunk after the size bytes of the datagram in buf,
+   read from its chunks (the public calls take no context: tests build
+   datagrams a chunk at a time; the net keeps its own). 0 if those bytes
+   are not a datagram gs_wire_begin and gs_wire_add can have left. */
+GS__PRIVATE int gs__wire_scan(const unsigned char *buf, size_t cap, size_t size,
+                              gs__wire_ctx *x) {
+    gs_wire_chunk c;
+    gs_reject why;
+    size_t off = GS_WIRE_HEADER;
+    int i, n;
+    memset(x, 0, sizeof *x);
+    if (size < GS_WIRE_HEADER || size > cap || size > GS_WIRE_MAX_DATAGRAM) return 0;
+    n = gs__hdr_chunks(buf);
+    for (i = 0; i < n; ++i)
+        if (!gs__wire_chunk(buf, size, &off, x, &c, &why)) return 0;
+    return off == size;
+}
+
+/* gs_wire_add with the context known. */
+GS__PRIVATE gs_result gs__wire_add_in(unsigned char *buf, size_t cap, size_t *size,
+                                      gs__wire_ctx *x, const gs_wire_chunk *c,
+                                      const double *values) {
+    unsigned char head[GS_WIRE_CHUNK_HEADER];
+    size_t vs, room, hn;
     gs_result r;
     int rest;
-    if (!buf || !size || !c || (c->elements && !values)) return GS_ERR_INVALID_ARG;
     if (c->encoding != GS_ENCODING_F64 && c->encoding != GS_ENCODING_F32 &&
         c->encoding != GS_ENCODING_QUANT)
         return GS_ERR_INVALID_ARG;
     rest = (c->flags & GS_WIRE_CHUNK_REST) != 0;
-    if ((c->flags & ~(unsigned)GS_WIRE_CHUNK_REST) || (rest && (c->elements || c->index)))
+    if ((c->flags & ~(unsigned)GS_WIRE_CHUNK_REST) || (rest && (c->elements || c->index)) ||
+        c->count == 0 || c->index >= c->count)
         return GS_ERR_INVALID_ARG;
-    r = gs__wire_room(buf, cap, size, &room);
+    if (!gs__finite(c->time)) return GS_ERR_NOT_FINITE;
+    if (c->time < 0.0 || c->time > GS_WIRE_MAX_TIME) return GS_ERR_INVALID_ARG;
+    hn = gs__chunk_head(head, x, c);
+    r = gs__wire_room(buf, cap, size, hn, &room);
     if (r != GS_OK) return r;
     if (c->encoding != GS_ENCODING_QUANT && !rest &&
         gs__value_size(c->encoding) * c->elements > room)
         return GS_ERR_CAPACITY;
-    if (!gs__finite(c->time)) return GS_ERR_NOT_FINITE;
-    if (c->time < 0.0 || c->time > GS_WIRE_MAX_TIME) return GS_ERR_INVALID_ARG;
     /* the values first, checked as they are written: the bytes past *size
        are the caller's scratch until the chunk is counted below */
     if (c->encoding == GS_ENCODING_QUANT) {
-        r = gs__wire_put_quant(buf + *size + GS_WIRE_CHUNK_HEADER, room, c, values, &vs);
+        r = gs__wire_put_quant(buf + *size + hn, room, c, values, &vs);
         if (r != GS_OK) return r;
     } else {
         vs = rest ? 0 : gs__value_size(c->encoding) * c->elements;
-        if (!gs__wire_put_values(buf + *size + GS_WIRE_CHUNK_HEADER, c->encoding, values,
-                                 rest ? 0 : c->elements))
+        if (!gs__wire_put_values(buf + *size + hn, c->encoding, values, rest ? 0 : c->elements))
             return GS_ERR_NOT_FINITE;
     }
-    gs__wire_put_head(buf, size, c, vs);
+    gs__wire_put_head(buf, size, x, c, head, hn, vs);
     return GS_OK;
 }
 
-GS_API gs_result gs_wire_add_delta(unsigned char *buf, size_t cap, size_t *size,
-                                   const gs_wire_chunk *c, const int64_t *diff) {
-    size_t vs, room;
+GS_API gs_result gs_wire_add(unsigned char *buf, size_t cap, size_t *size,
+                             const gs_wire_chunk *c, const double *values) {
+    gs__wire_ctx x;
+    if (!buf || !size || !c || (c->elements && !values)) return GS_ERR_INVALID_ARG;
+    if (!gs__wire_scan(buf, cap, *size, &x)) return GS_ERR_INVALID_ARG;
+    return gs__wire_add_in(buf, cap, size, &x, c, values);
+}
+
+/* gs_wire_add_delta with the context known. */
+GS__PRIVATE gs_result gs__wire_add_delta_in(unsigned char *buf, size_t cap, size_t *size,
+                                            gs__wire_ctx *x, const gs_wire_chunk *c,
+                                            const int64_t *diff) {
+    unsigned char head[GS_WIRE_CHUNK_HEADER];
+    size_t vs, room, hn;
     uint32_t dist;
     gs_result r;
     int i;
-    if (!buf || !size || !c || !diff || c->elements == 0 || c->elements > GS_WIRE_QUANT_CHUNK)
-        return GS_ERR_INVALID_ARG;
+    if (c->elements == 0 || c->elements > GS_WIRE_QUANT_CHUNK) return GS_ERR_INVALID_ARG;
     dist = c->sequence - c->baseline;
     if (c->encoding != GS_ENCODING_QUANT || c->flags != GS_WIRE_CHUNK_DELTA || dist == 0 ||
         dist > 0x80000000u || c->count == 0 || c->index >= c->count)
@@ -11317,23 +11772,34 @@ GS_API gs_result gs_wire_add_delta(unsigned char *buf, size_t cap, size_t *size,
         if (diff[i] < -2147483648LL || diff[i] > 2147483647LL) return GS_ERR_INVALID_ARG;
     if (!gs__finite(c->time)) return GS_ERR_NOT_FINITE;
     if (c->time < 0.0 || c->time > GS_WIRE_MAX_TIME) return GS_ERR_INVALID_ARG;
-    r = gs__wire_room(buf, cap, size, &room);
+    hn = gs__chunk_head(head, x, c);
+    r = gs__wire_room(buf, cap, size, hn, &room);
     if (r != GS_OK) return r;
-    vs = gs__delta_put(buf + *size + GS_WIRE_CHUNK_HEADER, room, c, diff);
+    vs = gs__delta_put(buf + *size + hn, room, c, diff);
     if (!vs) return GS_ERR_CAPACITY;
-    gs__wire_put_head(buf, size, c, vs);
+    gs__wire_put_head(buf, size, x, c, head, hn, vs);
     return GS_OK;
 }
 
-GS_API gs_result gs_wire_add_ack(unsigned char *buf, size_t cap, size_t *size, uint32_t to,
-                                 const gs_wire_ack *acks, int n) {
-    unsigned char tmp[GS_WIRE_MAX_ACKS * 10];
+GS_API gs_result gs_wire_add_delta(unsigned char *buf, size_t cap, size_t *size,
+                                   const gs_wire_chunk *c, const int64_t *diff) {
+    gs__wire_ctx x;
+    if (!buf || !size || !c || !diff) return GS_ERR_INVALID_ARG;
+    if (!gs__wire_scan(buf, cap, *size, &x)) return GS_ERR_INVALID_ARG;
+    return gs__wire_add_delta_in(buf, cap, size, &x, c, diff);
+}
+
+/* gs_wire_add_ack with the context known. */
+GS__PRIVATE gs_result gs__wire_add_ack_in(unsigned char *buf, size_t cap, size_t *size,
+                                          gs__wire_ctx *x, uint32_t to, const gs_wire_ack *acks,
+                                          int n) {
+    unsigned char tmp[GS_WIRE_MAX_ACKS * 10], head[GS_WIRE_CHUNK_HEADER];
     uint32_t obj = 0, seq = 0;
-    size_t len = 0, room;
+    size_t len = 0, room, hn;
     gs_wire_chunk c;
     gs_result r;
     int i;
-    if (!buf || !size || !acks || n < 1 || n > GS_WIRE_MAX_ACKS) return GS_ERR_INVALID_ARG;
+    if (n < 1 || n > GS_WIRE_MAX_ACKS) return GS_ERR_INVALID_ARG;
     for (i = 0; i < n; ++i) {
         len += gs__varint_put(tmp + len, gs__zigzag32(acks[i].object_id - obj) << 1 |
                                              (uint64_t)(acks[i].refused != 0));
@@ -11341,18 +11807,27 @@ GS_API gs_result gs_wire_add_ack(unsigned char *buf, size_t cap, size_t *size, u
         obj = acks[i].object_id;
         seq = acks[i].sequence;
     }
-    r = gs__wire_room(buf, cap, size, &room);
-    if (r != GS_OK) return r;
-    if (len > room) return GS_ERR_CAPACITY;
     memset(&c, 0, sizeof c);
     c.object_id = to;
     c.count = 1;
     c.elements = (uint16_t)n;
     c.encoding = GS_ENCODING_QUANT;
     c.flags = GS_WIRE_CHUNK_ACK;
-    memcpy(buf + *size + GS_WIRE_CHUNK_HEADER, tmp, len);
-    gs__wire_put_head(buf, size, &c, len);
+    hn = gs__chunk_head(head, x, &c);
+    r = gs__wire_room(buf, cap, size, hn, &room);
+    if (r != GS_OK) return r;
+    if (len > room) return GS_ERR_CAPACITY;
+    memcpy(buf + *size + hn, tmp, len);
+    gs__wire_put_head(buf, size, x, &c, head, hn, len);
     return GS_OK;
+}
+
+GS_API gs_result gs_wire_add_ack(unsigned char *buf, size_t cap, size_t *size, uint32_t to,
+                                 const gs_wire_ack *acks, int n) {
+    gs__wire_ctx x;
+    if (!buf || !size || !acks || n < 1 || n > GS_WIRE_MAX_ACKS) return GS_ERR_INVALID_ARG;
+    if (!gs__wire_scan(buf, cap, *size, &x)) return GS_ERR_INVALID_ARG;
+    return gs__wire_add_ack_in(buf, cap, size, &x, to, acks, n);
 }
 
 GS_API size_t gs_wire_end(unsigned char *buf, size_t size) {
@@ -11432,50 +11907,107 @@ GS__PRIVATE void gs__wire_get_values(const gs_wire_chunk *c, double *out) {
 /* A time the wire carries (s): in [0, GS_WIRE_MAX_TIME], NaN excluded. */
 GS__PRIVATE int gs__wire_time_ok(double t) { return t >= 0.0 && t <= GS_WIRE_MAX_TIME; }
 
-/* One chunk at *off: its header, its length, its values all finite. */
-GS__PRIVATE int gs__wire_chunk(const unsigned char *buf, size_t end, size_t *off,
-                               gs_wire_chunk *c, gs_reject *why) {
+/* An unsigned LEB128 varint at *off of at most max bytes before end, at
+   most top: 0 if cut short (*off then end), longer, or over. */
+GS__PRIVATE int gs__head_varint(const unsigned char *buf, size_t end, size_t *off, int max,
+                                uint64_t top, uint64_t *out) {
     const unsigned char *p = buf + *off;
-    size_t len;
-    if (*off + GS_WIRE_CHUNK_HEADER > end) { *why = GS_REJECT_SHORT; return 0; }
-    c->object_id = gs__get32(p);
-    c->sequence = gs__get32(p + 4);
-    c->time = gs__getf64(p + 8);
-    c->index = gs__get16(p + 16);
-    c->count = gs__get16(p + 18);
-    c->first = gs__get32(p + 20);
-    c->elements = gs__get16(p + 24);
-    c->encoding = (gs_encoding)p[26];
-    c->flags = p[27];
+    int ok = gs__varint_get(&p, buf + end, max, out);
+    if (!ok && p == buf + end) *off = end;
+    if (!ok || *out > top) return 0;
+    *off = (size_t)(p - buf);
+    return 1;
+}
+
+/* The header fields of the chunk at *off (see >>wire), against x. */
+GS__PRIVATE int gs__chunk_head_get(const unsigned char *buf, size_t end, size_t *off,
+                                   const gs__wire_ctx *x, gs_wire_chunk *c, unsigned *kind) {
+    uint64_t id = 0, seq = 0, idx = 0, cnt = 1, first = 0, el = 0;
+    unsigned b = buf[(*off)++], k = b & 3u;
+    *kind = k;
+    c->encoding = (gs_encoding)(b >> 3 & 3u);
+    c->flags = k == GS__KIND_DELTA ? GS_WIRE_CHUNK_DELTA : k == GS__KIND_REST ? GS_WIRE_CHUNK_REST
+               : k == GS__KIND_ACK ? GS_WIRE_CHUNK_ACK : 0u;
+    if ((b & ~GS__KIND_BITS) || c->encoding == 0) return 0;
+    if (k == GS__KIND_ACK) {
+        if (b & (GS__KIND_TIME | GS__KIND_SPLIT) || c->encoding != GS_ENCODING_QUANT ||
+            !gs__head_varint(buf, end, off, 5, 0xffffffffu, &id) ||
+            !gs__head_varint(buf, end, off, 2, GS_WIRE_MAX_ACKS, &el) || el < 1)
+            return 0;
+        c->object_id = (uint32_t)id;
+        c->sequence = 0;
+        c->time = 0.0;
+    } else {
+        if (!gs__head_varint(buf, end, off, 5, 0x1ffffffffull, &id) ||
+            !gs__head_varint(buf, end, off, 5, 0x1ffffffffull, &seq))
+            return 0;
+        c->object_id = x->id + (uint32_t)gs__unzigzag(id);
+        c->sequence = x->seq + (uint32_t)gs__unzigzag(seq);
+        if (b & GS__KIND_TIME) {
+            if (*off + 8 > end) { *off = end; return 0; }
+            c->time = gs__getf64(buf + *off);
+            *off += 8;
+            /* one meaning: a time is said only where it changes */
+            if (x->any && memcmp(&c->time, &x->time, sizeof c->time) == 0) return 0;
+        } else {
+            if (!x->any) return 0; /* the first chunk says its time */
+            c->time = x->time;
+        }
+        if ((b & GS__KIND_SPLIT) &&
+            (!gs__head_varint(buf, end, off, 3, 0xffff, &idx) ||
+             !gs__head_varint(buf, end, off, 3, 0xffff, &cnt) ||
+             !gs__head_varint(buf, end, off, 5, 0xffffffffu, &first) || idx >= cnt ||
+             (idx == 0 && cnt == 1 && first == 0))) /* one meaning: not split */
+            return 0;
+        if (k != GS__KIND_REST && !gs__head_varint(buf, end, off, 2, 0xffff, &el)) return 0;
+    }
+    c->index = (uint16_t)idx;
+    c->count = (uint16_t)cnt;
+    c->first = (uint32_t)first;
+    c->elements = (uint16_t)el;
+    return 1;
+}
+
+/* One chunk at *off, coded against x (moved on to it): its header, its
+   payload (whose length its contents imply), its values all finite. */
+GS__PRIVATE int gs__wire_chunk(const unsigned char *buf, size_t end, size_t *off,
+                               gs__wire_ctx *x, gs_wire_chunk *c, gs_reject *why) {
+    size_t len, avail;
+    unsigned kind;
     c->segment_count = 0;
     c->baseline = 0;
     c->delta_coding = c->delta_width = 0;
-    c->payload_bytes = gs__get16(p + 28);
-    if ((c->encoding != GS_ENCODING_F64 && c->encoding != GS_ENCODING_F32 &&
-         c->encoding != GS_ENCODING_QUANT) ||
-        c->count == 0 || c->index >= c->count ||
-        (c->flags & ~(unsigned)(GS_WIRE_CHUNK_REST | GS_WIRE_CHUNK_DELTA | GS_WIRE_CHUNK_ACK)) ||
-        (c->flags & (c->flags - 1)) || /* at most one */
-        ((c->flags & (GS_WIRE_CHUNK_DELTA | GS_WIRE_CHUNK_ACK)) &&
-         c->encoding != GS_ENCODING_QUANT) ||
-        gs__get16(p + 30) != 0) { *why = GS_REJECT_LAYOUT; return 0; }
-    len = c->encoding == GS_ENCODING_QUANT ? gs__get16(p + 28)
-                                           : gs__value_size(c->encoding) * c->elements;
-    if (c->flags & GS_WIRE_CHUNK_REST) len = 0;
-    if (*off + GS_WIRE_CHUNK_HEADER + len > end) { *why = GS_REJECT_SHORT; return 0; }
-    if (gs__get16(p + 28) != len ||
-        ((c->flags & GS_WIRE_CHUNK_REST) && (c->elements || c->index))) {
-        *why = GS_REJECT_LAYOUT;
+    if (*off >= end) { *why = GS_REJECT_SHORT; return 0; }
+    if (!gs__chunk_head_get(buf, end, off, x, c, &kind)) {
+        /* cut short where the bytes ran out, else inconsistent */
+        *why = *off >= end ? GS_REJECT_SHORT : GS_REJECT_LAYOUT;
         return 0;
     }
+    if ((kind == GS__KIND_DELTA && c->encoding != GS_ENCODING_QUANT) ||
+        (kind == GS__KIND_REST && c->index)) { *why = GS_REJECT_LAYOUT; return 0; }
     if (!gs__wire_time_ok(c->time)) { *why = GS_REJECT_TIME; return 0; }
-    c->payload = p + GS_WIRE_CHUNK_HEADER;
-    if (c->flags & GS_WIRE_CHUNK_DELTA ? !gs__delta_parse(c, c->payload, len)
-        : c->flags & GS_WIRE_CHUNK_ACK ? !gs__ack_parse(c, c->payload, len)
-        : c->encoding == GS_ENCODING_QUANT && !(c->flags & GS_WIRE_CHUNK_REST) &&
-              !gs__quant_parse(c, c->payload, len)) { *why = GS_REJECT_LAYOUT; return 0; }
+    c->payload = buf + *off;
+    avail = end - *off;
+    if (kind == GS__KIND_REST) {
+        len = 0;
+    } else if (kind == GS__KIND_VALUES && c->encoding != GS_ENCODING_QUANT) {
+        len = gs__value_size(c->encoding) * c->elements;
+        if (len > avail) { *why = GS_REJECT_SHORT; return 0; }
+    } else {
+        len = kind == GS__KIND_DELTA ? gs__delta_parse(c, c->payload, avail)
+              : kind == GS__KIND_ACK ? gs__ack_parse(c, c->payload, avail)
+                                     : gs__quant_parse(c, c->payload, avail);
+        if (!len) { *why = GS_REJECT_LAYOUT; return 0; }
+    }
+    c->payload_bytes = (uint16_t)len;
     if (!gs__wire_values_finite(c)) { *why = GS_REJECT_NOT_FINITE; return 0; }
-    *off += GS_WIRE_CHUNK_HEADER + len;
+    *off += len;
+    if (kind != GS__KIND_ACK) {
+        x->id = c->object_id;
+        x->seq = c->sequence;
+        x->time = c->time;
+        x->any = 1;
+    }
     return 1;
 }
 
@@ -11485,7 +12017,10 @@ GS__PRIVATE int gs__wire_front(const unsigned char *buf, size_t size, gs_reject 
     if (!buf || size < GS_WIRE_HEADER + 4) { *why = GS_REJECT_SHORT; return 0; }
     if (size > GS_WIRE_MAX_DATAGRAM) { *why = GS_REJECT_LAYOUT; return 0; }
     if (memcmp(buf, "GSIM", 4) != 0) { *why = GS_REJECT_MAGIC; return 0; }
-    if (gs__hdr_version(buf) == 1) { *why = GS_REJECT_OLD_VERSION; return 0; }
+    if (gs__hdr_version(buf) == 1 || gs__hdr_version(buf) == 2) {
+        *why = GS_REJECT_OLD_VERSION;
+        return 0;
+    }
     if (gs__hdr_version(buf) != GS_WIRE_VERSION) { *why = GS_REJECT_VERSION; return 0; }
     return 1;
 }
@@ -11495,6 +12030,7 @@ GS__PRIVATE int gs__wire_front(const unsigned char *buf, size_t size, gs_reject 
 GS__PRIVATE int gs__wire_parse(const unsigned char *buf, size_t end, gs_wire_view *out,
                                gs_reject *why) {
     size_t off = GS_WIRE_HEADER;
+    gs__wire_ctx x;
     int i, n = gs__hdr_chunks(buf);
     if (n < 1 || n > GS_WIRE_MAX_CHUNKS) { *why = GS_REJECT_LAYOUT; return 0; }
     out->header.session = gs__get32(buf + 8);
@@ -11512,8 +12048,9 @@ GS__PRIVATE int gs__wire_parse(const unsigned char *buf, size_t end, gs_wire_vie
         *why = GS_REJECT_TIME;
         return 0;
     }
+    memset(&x, 0, sizeof x);
     for (i = 0; i < n; ++i)
-        if (!gs__wire_chunk(buf, end, &off, &out->chunks[i], why)) return 0;
+        if (!gs__wire_chunk(buf, end, &off, &x, &out->chunks[i], why)) return 0;
     if (off != end) { *why = GS_REJECT_LAYOUT; return 0; }
     out->chunk_count = n;
     return 1;
@@ -11729,14 +12266,6 @@ GS__PRIVATE void gs__diag_roll(gs__peer_diag *d, double now) {
 /* An advance of the world by `seconds` (its hook, as the sync layer's):
    the net counts them until its next update. Under the net lock: gs_udp's
    scatter thread updates. */
-GS__PRIVATE void gs__net_advanced(gs_world *w, double seconds) {
-    gs_net *net = w->net;
-    if (!net) return;
-    gs__lock(net);
-    net->unsent_world += seconds;
-    gs__unlock(net);
-}
-
 GS__PRIVATE void gs__diag_taken(gs__peer_diag *d, double now) {
     gs__diag_roll(d, now);
     d->win[0].taken++;
@@ -12035,7 +12564,7 @@ GS__PRIVATE void gs__net_free(gs_world *w, gs_net *net) {
         gs__ghost *g = gs__ghost_of(w->agents[i]);
         for (p = 0; g && p < GS__MAX_PEERS; ++p) {
             gs__free(w, g->gp[p].q);
-            g->gp[p].q = NULL;
+            g->gp[p].q = g->gp[p].taken = NULL;
         }
     }
     w->net = NULL;
@@ -12058,8 +12587,7 @@ GS_API void gs_net_set_lock(gs_net *net, gs_net_lock lock) {
 
 /* The guard of the calls that change the net: the world's (these belong
    to its thread), then, under the net's lock, the net's own (a send
-   callback or weight rule that calls back). Returns GS_OK with the lock
-   NOT held. */
+   callback that calls back). Returns GS_OK with the lock NOT held. */
 GS__PRIVATE gs_result gs__net_unlocked(gs_net *net, const char *who) {
     int inside;
     gs_result r;
@@ -12070,7 +12598,7 @@ GS__PRIVATE gs_result gs__net_unlocked(gs_net *net, const char *who) {
     inside = net->inside;
     gs__unlock(net);
     return inside ? gs__fail(net->world, GS_ERR_BUSY, "%s: called from a callback the "
-                             "net runs (a send or a weight rule)", who)
+                             "net runs (a send)", who)
                   : GS_OK;
 }
 
@@ -12088,7 +12616,7 @@ GS__PRIVATE void gs__net_drop_queues(gs_world *w, int p) {
         gs__ghost *g = gs__ghost_of(w->agents[i]);
         if (!g) continue;
         gs__free(w, g->gp[p].q);
-        g->gp[p].q = NULL;
+        g->gp[p].q = g->gp[p].taken = NULL;
         gs__free(w, g->gp[p].ring);
         g->gp[p].ring = NULL;
     }
@@ -12276,6 +12804,7 @@ GS__PRIVATE void gs__datagram_begin(gs_net *net, double now, size_t *size) {
     h.run = net->run;
     h.send_time = now;
     gs_wire_begin(net->buf, sizeof net->buf, &h, size);
+    memset(&net->wctx, 0, sizeof net->wctx);
 }
 
 /* Room for chunks in net->buf: a sealed datagram's trailer must fit. */
@@ -12590,8 +13119,8 @@ GS__PRIVATE gs_result gs__put_chunk(gs_net *net, double now, size_t *size,
     gs_result r = GS_ERR_CAPACITY;
     for (k = 0; k < 2 && r == GS_ERR_CAPACITY; ++k) {
         if (k) gs__datagram_flush(net, now, size);
-        r = d ? gs_wire_add_delta(net->buf, gs__net_cap(net), size, ch, d)
-              : gs_wire_add(net->buf, gs__net_cap(net), size, ch, v);
+        r = d ? gs__wire_add_delta_in(net->buf, gs__net_cap(net), size, &net->wctx, ch, d)
+              : gs__wire_add_in(net->buf, gs__net_cap(net), size, &net->wctx, ch, v);
     }
     return r;
 }
@@ -12668,11 +13197,11 @@ GS__PRIVATE void gs__send_ghost(gs_net *net, gs__ghost *g, double now, size_t *s
             bytes += *size >= at ? *size - at : *size - GS_WIRE_HEADER;
             continue;
         }
-        if (gs_wire_add(net->buf, gs__net_cap(net), size, &ch, g->B + 1 + first) ==
-            GS_ERR_CAPACITY) {
+        if (gs__wire_add_in(net->buf, gs__net_cap(net), size, &net->wctx, &ch,
+                            g->B + 1 + first) == GS_ERR_CAPACITY) {
             gs__datagram_flush(net, now, size);
             before = *size;
-            gs_wire_add(net->buf, gs__net_cap(net), size, &ch, g->B + 1 + first);
+            gs__wire_add_in(net->buf, gs__net_cap(net), size, &net->wctx, &ch, g->B + 1 + first);
         }
         bytes += *size - before;
     }
@@ -12739,8 +13268,8 @@ GS__PRIVATE void gs__send_acks(gs_net *net, double now, size_t *size) {
                 gs_result r = GS_ERR_CAPACITY;
                 for (k = 0; k < 2 && r == GS_ERR_CAPACITY; ++k) {
                     if (k) gs__datagram_flush(net, now, size);
-                    r = gs_wire_add_ack(net->buf, gs__net_cap(net), size, net->peers[p].host,
-                                        acks, n);
+                    r = gs__wire_add_ack_in(net->buf, gs__net_cap(net), size, &net->wctx,
+                                            net->peers[p].host, acks, n);
                 }
                 n = 0;
             }
@@ -12810,12 +13339,14 @@ GS_API gs_result gs_net_update(gs_net *net, double now) {
     int p, i, peers = 0, n = 0, tight;
     double need = 0.0, budget, spent = 0.0;
     size_t size;
+    gs_result err;
+    uint32_t err_host;
     if (!net) return GS_ERR_INVALID_ARG;
     if (!gs__finite(now)) return GS_ERR_NOT_FINITE;
     if (!gs__wire_time_ok(now)) return GS_ERR_INVALID_ARG; /* a clock */
     w = net->world;
     gs__lock(net);
-    if (net->inside) { /* from its own send callback or a weight rule */
+    if (net->inside) { /* from its own send callback */
         gs__unlock(net);
         return GS_ERR_BUSY;
     }
@@ -12853,15 +13384,19 @@ GS_API gs_result gs_net_update(gs_net *net, double now) {
         gs__send_acks(net, now, &size);
         gs__datagram_flush(net, now, &size);
     }
+    /* read under the lock: another thread's update (gs_udp's scatter)
+       may write them as soon as it is released */
+    err = net->send_error;
+    err_host = net->send_error_host;
     net->inside--;
     gs__unlock(net);
-    if (net->send_error != GS_OK) {
+    if (err != GS_OK) {
         gs_peer_stats ps;
-        gs_net_peer_stats(net, net->send_error_host, &ps);
-        return gs__fail(w, net->send_error,
+        gs_net_peer_stats(net, err_host, &ps);
+        return gs__fail(w, err,
                         "gs_net_update: the send callback failed for host %lu (%s); %llu "
                         "datagrams to it have failed, the rest went out",
-                        (unsigned long)net->send_error_host, gs_result_str(net->send_error),
+                        (unsigned long)err_host, gs_result_str(err),
                         (unsigned long long)ps.send_failures);
     }
     return GS_OK;
@@ -12875,8 +13410,8 @@ GS_API gs_result gs_net_poll(gs_net *net, double now) {
     if (!gs__finite(now)) return GS_ERR_NOT_FINITE;
     if (!gs__wire_time_ok(now)) return GS_ERR_INVALID_ARG; /* as gs_net_update */
     if (net->d.transport.poll) {
-        /* the poll delivers into queues that a weight rule may be
-           blending: it belongs to the world's thread, outside callbacks */
+        /* the poll belongs to the world's thread, outside its callbacks
+           (a transport's poll is not required to be reentrant) */
         r = gs__net_unlocked(net, "gs_net_poll");
         if (r != GS_OK) return r;
         r = net->d.transport.poll(net->d.transport.user, net, now);
@@ -13381,8 +13916,8 @@ GS_API gs_result gs_net_deliver(gs_net *net, const void *data, size_t size,
     if (!gs__wire_time_ok(now)) /* a clock; NaN included */
         return gs__finite(now) ? GS_ERR_INVALID_ARG : GS_ERR_NOT_FINITE;
     gs__lock(net);
-    /* from a weight rule (the queues are being blended) or the send
-       callback: refused, not counted */
+    /* from the send callback (its datagram is the net's buffer): refused,
+       not counted */
     r = net->inside ? GS_ERR_BUSY : gs__deliver_locked(net, data, size, now, why);
     gs__unlock(net);
     return r;
@@ -14275,8 +14810,8 @@ GS_API gs_result gs_udp_create(gs_world *w, const gs_udp_desc *desc, gs_udp **ou
     u->world = w;
     u->fd = -1;
     u->threads = desc->threads;
-    {   /* recursive: a weight rule runs under it, and its calls into the
-           net (stats; the refused ones see net->inside) take it again */
+    {   /* recursive: the send callback runs under it, and its calls into
+           the net (stats; the refused ones see net->inside) take it again */
         pthread_mutexattr_t ma;
         pthread_mutexattr_init(&ma);
         pthread_mutexattr_settype(&ma, PTHREAD_MUTEX_RECURSIVE);
@@ -14334,8 +14869,8 @@ GS__PRIVATE void gs__udp_detach(void *user, gs_net *net) {
     gs__udp_free(u);
 }
 
-/* From a callback of its world (a weight rule holds the lock that its
-   threads wait on): refused, as gs_world_destroy. */
+/* From a callback of its world: refused, as gs_world_destroy (the world
+   may be taking the net's snapshots or publishing under its lock). */
 GS_API void gs_udp_close(gs_udp *u) {
     gs_world *w;
     if (!u) return;

@@ -75,9 +75,12 @@ typedef struct result {
                                      1 s after the stop */
     double gap_p95, gap_max;      /* s, at equal wall time */
     double replay_share;          /* of the steps */
+    double replay_push_worst;     /* the largest over hosts of the share
+                                     during the push (a follower's) */
     double replay_cpu_frame;      /* share of the 1/60 s frame */
     double frame_cpu;             /* s of CPU per host frame */
     uint64_t replays, fallbacks;
+    uint64_t skipped;             /* replays whose blends changed no state */
 } result;
 
 static double dist3(gs_vec3 a, gs_vec3 b) {
@@ -144,6 +147,16 @@ static void drive(host *h, double t, double push) {
 
 static const char *const mode_names[3] = {"present", "pres+clk", "replay"};
 
+/* A host's steps so far, and the steps its replays re-ran. */
+static void count_steps(gs_world *w, uint64_t *steps, uint64_t *rsteps) {
+    gs_sync_stats st;
+    int a;
+    gs_world_sync_stats(w, &st);
+    *rsteps = st.replay_steps;
+    *steps = 0;
+    for (a = 0; a < gs_world_agent_count(w); ++a) *steps += agent_stats(gs_world_agent(w, a)).steps;
+}
+
 /* mode 0: the defaults (present, local clock); 1: present on the session
    clock; 2: replay on the session clock. */
 static int run(const profile *pr, int mode, int nhosts, double push, double after, result *r) {
@@ -153,7 +166,7 @@ static int run(const profile *pr, int mode, int nhosts, double push, double afte
     host h[MAX_HOSTS];
     int frames = (int)((push + after) / FRAME + 0.5), k, i, j, np = 0, ng = 0, ok = 0, n;
     double cpu = 0.0;
-    uint64_t steps = 0, rsteps = 0;
+    uint64_t steps = 0, rsteps = 0, push_steps[MAX_HOSTS], push_rsteps[MAX_HOSTS];
     memset(r, 0, sizeof *r);
     memset(h, 0, sizeof h);
     memset(&simd, 0, sizeof simd);
@@ -188,8 +201,17 @@ static int run(const profile *pr, int mode, int nhosts, double push, double afte
     for (k = 0; k < nhosts; ++k)
         for (j = 0; j < nhosts; ++j)
             if (j != k) gs_simnet_link(sim, (uint32_t)k + 1, (uint32_t)j + 1, &pr->link);
+    for (k = 0; k < nhosts; ++k) count_steps(h[k].w, &push_steps[k], &push_rsteps[k]);
     for (i = 0; i < frames; ++i) {
         double c0;
+        if (i == (int)(push / FRAME + 0.5))
+            for (k = 0; k < nhosts; ++k) {
+                uint64_t s, rs;
+                count_steps(h[k].w, &s, &rs);
+                if (s > push_steps[k])
+                    r->replay_push_worst = fmax(r->replay_push_worst, (double)(rs - push_rsteps[k]) /
+                                                                        (double)(s - push_steps[k]));
+            }
         drive(&h[0], gs_simnet_time(sim), push);
         c0 = bu_cpu_now();
         gs_simnet_run(sim, FRAME, FRAME);
@@ -226,6 +248,7 @@ static int run(const profile *pr, int mode, int nhosts, double push, double afte
         gs_world_sync_stats(h[k].w, &st);
         rsteps += st.replay_steps;
         r->replays += st.replays;
+        r->skipped += st.replays_skipped;
         r->fallbacks += st.fallbacks;
         for (a = 0; a < gs_world_agent_count(h[k].w); ++a)
             steps += agent_stats(gs_world_agent(h[k].w, a)).steps;
@@ -278,9 +301,10 @@ int main(int argc, char **argv) {
     nh = args.quick ? 1 : 2;
     push = args.quick ? 1.5 : 4.0;
     after = args.quick ? 1.5 : 4.0;
-    fprintf(stderr, "%-6s %-8s %5s | %9s %9s %9s | %9s %9s %7s | %8s %8s | %7s %7s %6s\n", "link",
+    fprintf(stderr, "%-6s %-8s %5s | %9s %9s %9s | %9s %9s %7s | %8s %8s | %7s %7s %6s %6s %6s | %7s %7s\n", "link",
             "mode", "hosts", "push med", "push p95", "push max", "stop+1s", "end", "bitwise",
-            "gap p95", "gap max", "replay", "cpu/fr", "fallb");
+            "gap p95", "gap max", "replay", "cpu/fr", "fallb", "replays", "skip", "push:rep",
+            "cpu/fr");
     if (only) np = 3;
     for (p = 0; p < np; ++p)
         for (hh = 0; hh < nh; ++hh)
@@ -292,12 +316,15 @@ int main(int argc, char **argv) {
                     return 1;
                 }
                 fprintf(stderr,
-                        "%-6s %-8s %5d | %7.3fmm %7.3fmm %7.3fmm | %8.2em %8.2em %7s | %6.2fms %6.2fms | %6.1f%% %6.1f%% %6lu\n",
+                        "%-6s %-8s %5d | %7.3fmm %7.3fmm %7.3fmm | %8.2em %8.2em %7s | %6.2fms %6.2fms | %6.1f%% %6.1f%% %6lu %6lu %6lu | %6.1f%% %6.1f%%\n",
                         r->profile, r->mode, r->hosts, 1e3 * r->push_med, 1e3 * r->push_p95,
                         1e3 * r->push_max, r->after_max, r->after_end,
                         r->bitwise_after_1s ? "yes" : "no",
                         1e3 * r->gap_p95, 1e3 * r->gap_max, 100.0 * r->replay_share,
-                        100.0 * r->replay_cpu_frame, (unsigned long)r->fallbacks);
+                        100.0 * r->replay_cpu_frame, (unsigned long)r->fallbacks,
+                        (unsigned long)r->replays, (unsigned long)r->skipped,
+                        100.0 * r->replay_push_worst,
+                        100.0 * r->replay_push_worst * r->frame_cpu / FRAME);
                 nr++;
             }
     j = bu_json_open(args.out);
@@ -325,8 +352,12 @@ int main(int argc, char **argv) {
         bu_json_num(j, "gap_p95_s", r->gap_p95);
         bu_json_num(j, "gap_max_s", r->gap_max);
         bu_json_num(j, "replay_step_share", r->replay_share);
+        bu_json_num(j, "replay_step_share_push_worst_host", r->replay_push_worst);
+        bu_json_num(j, "replay_cpu_frame_share_push_worst_host",
+                    r->replay_push_worst * r->frame_cpu / FRAME);
         bu_json_num(j, "replay_cpu_frame_share", r->replay_cpu_frame);
         bu_json_int(j, "replays", (long long)r->replays);
+        bu_json_int(j, "replays_skipped", (long long)r->skipped);
         bu_json_int(j, "fallbacks", (long long)r->fallbacks);
         bu_json_obj_end(j);
     }

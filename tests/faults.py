@@ -79,55 +79,212 @@ SHIFT = P.SHIFT
 
 # ---- the proxy ----
 
+def _varint(b, off, end, maxlen, top):
+    """An unsigned LEB128 varint at off (at most maxlen bytes before end, at
+    most top): (value, next offset), or None."""
+    z = 0
+    for i in range(maxlen):
+        if off >= end:
+            return None
+        c = b[off]
+        off += 1
+        z |= (c & 0x7F) << (7 * i)
+        if not c & 0x80:
+            return (z, off) if z <= top else None
+    return None
+
+
+def _unzig(u):
+    return (u >> 1) ^ -(u & 1)
+
+
+def _bits(b, off, nbits):
+    """The nbits bits from byte off on, least significant first, as an int."""
+    nbytes = (nbits + 7) // 8
+    return int.from_bytes(b[off:off + nbytes], "little") & ((1 << nbits) - 1)
+
+
+def _quant_len(b, off, end, elements):
+    """The length of a quantized payload at off (segments, see >>wire), or None."""
+    if off >= end:
+        return None
+    nseg, p, total = b[off], off + 1, 0
+    if not 1 <= nseg <= 4:
+        return None
+    for _ in range(nseg):
+        if p + 3 > end:
+            return None
+        kind, count = b[p], struct.unpack_from("<H", b, p + 1)[0]
+        p += 3
+        if kind == 1:                           # scalar: step f64, width u8, base varint
+            if p + 9 > end:
+                return None
+            step, width = struct.unpack_from("<dB", b, p)
+            p += 9
+            if not (1e-12 <= step <= 1e12) or width > 32:
+                return None
+            v = _varint(b, p, end, 9, (1 << 63) - 1)
+            if v is None:
+                return None
+            p = v[1]
+            need = (count * width + 7) // 8
+        elif kind == 2:                         # quaternion: bits u8, then 3 + 3 bits each
+            if p + 1 > end:
+                return None
+            bits = b[p]
+            p += 1
+            if not 8 <= bits <= 24 or count % 4:
+                return None
+            need = ((count // 4) * (3 + 3 * bits) + 7) // 8
+        else:
+            return None
+        if p + need > end:
+            return None
+        p += need
+        total += count
+    return p - off if total == elements else None
+
+
+def _delta_len(b, off, end, elements):
+    """The length of a delta payload at off (packed, bitmap or Rice), or None."""
+    v = _varint(b, off, end, 5, 0x80000000)
+    if v is None or v[0] < 1 or v[1] >= end or not 1 <= elements <= 240:
+        return None
+    p = v[1]
+    width, coding = b[p] & 0x3F, b[p] >> 6
+    p += 1
+    if coding == 0:
+        need = (elements * width + 7) // 8
+    elif coding == 1:
+        bm = (elements + 7) // 8
+        if p + bm > end:
+            return None
+        nz = sum(bin(x).count("1") for x in b[p:p + bm])
+        need = bm + (nz * width + 7) // 8
+    elif coding == 2:                           # Rice: unary z >> k, k bits; 16 zeros escape
+        if width > 24:
+            return None
+        stream = int.from_bytes(b[p:end], "little")
+        pos, avail = 0, 8 * (end - p)
+        for _ in range(elements):
+            q = 0
+            while q < 16 and not (stream >> (pos + q)) & 1:
+                q += 1
+            pos += q + (0 if q == 16 else 1) + (32 if q == 16 else width)
+            if pos > avail:
+                return None
+        need = (pos + 7) // 8
+    else:
+        return None
+    if width > 32 or p + need > end:
+        return None
+    return p + need - off
+
+
+def _ack_len(b, off, end, entries):
+    p = off
+    for _ in range(entries):
+        for top in ((1 << 33) - 1, (1 << 32) - 1):
+            v = _varint(b, p, end, 5, top)
+            if v is None:
+                return None
+            p = v[1]
+    return p - off
+
+
 def wire_check(b, src=None, dst=None):
     """Why gs_net_deliver at host dst would refuse datagram b before it knows
     the sender (gs_wire_decode, the header's >>wire section), or None: size,
     magic, version, CRC, layout, finite numbers, chunk times >= 0, the
     session (1) and the sender (src, not dst). The proxy runs it on what it forwards unchanged, so
     that a datagram a peer sends and its receiver must refuse is told apart
-    from one the proxy broke."""
+    from one the proxy broke. Wire format v3: chunk headers coded against the
+    chunk before them, payload lengths implied by their contents."""
     if len(b) < 52:
         return "short"
     if len(b) > 1200:
         return "layout"
     if b[:4] != b"GSIM":
         return "magic"
-    if b[4] != 2:                   # wire format v2 (v1 is refused as old)
+    if b[4] != 3:                   # wire format v3 (v1 and v2 are refused as old)
         return "version"
     end = len(b) - 4
     if zlib.crc32(b[:end]) != struct.unpack_from("<I", b, end)[0]:
         return "checksum"
     n = struct.unpack_from("<H", b, 6)[0]
-    if not 1 <= n <= 64:
+    if not 1 <= n <= 255:
         return "layout"
     if not all(math.isfinite(v) for v in struct.unpack_from("<3d", b, 24)):
         return "not finite"
     session, sender = struct.unpack_from("<II", b, 8)
-    off = 48
+    off, t, have_t = 48, 0.0, False
     for _ in range(n):
-        if off + 32 > end:
+        if off >= end:
             return "short"
-        t, index, count, _first, elements, enc, flags, plen, zero = \
-            struct.unpack_from("<dHHIHBBHH", b, off + 8)
-        # flags: 1 heartbeat, 2 delta, 4 acknowledgements (at most one;
-        # the last two quantized only)
-        if enc not in (1, 2, 3) or count == 0 or index >= count or flags & ~7 or zero \
-                or flags & (flags - 1) or (flags & 6 and enc != 3):
+        kind = b[off]
+        off += 1
+        typ, enc = kind & 3, kind >> 3 & 3   # 0 values, 1 delta, 2 heartbeat, 3 acks
+        if kind & 0xC0 or enc == 0 or (typ in (1, 3) and enc != 3):
             return "layout"
-        rest = flags & 1            # GS_WIRE_CHUNK_REST: a heartbeat, no values
-        size = 8 if enc == 1 else 4
-        length = 0 if rest else (plen if enc == 3 else size * elements)
-        if off + 32 + length > end:
-            return "short"
-        if plen != length or (rest and (elements or index)):
+        if typ == 3:                         # acks: the host they are for, entries
+            if kind & 0x24:
+                return "layout"
+            v = _varint(b, off, end, 5, 0xFFFFFFFF)
+            e = v and _varint(b, v[1], end, 2, 100)
+            if not e or e[0] < 1:
+                return "layout"
+            off = e[1]
+            length = _ack_len(b, off, end, e[0])
+            if length is None:
+                return "layout"
+            off += length
+            continue
+        for _field in range(2):              # object id, sequence: zigzag from the last chunk's
+            v = _varint(b, off, end, 5, (1 << 33) - 1)
+            if v is None:
+                return "layout"
+            off = v[1]
+        if kind & 4:                         # a time of its own
+            if off + 8 > end:
+                return "short"
+            t, have_t = struct.unpack_from("<d", b, off)[0], True
+            off += 8
+        elif not have_t:
+            return "layout"
+        index = 0
+        if kind & 0x20:                      # split: index, count, first
+            iv = _varint(b, off, end, 3, 0xFFFF)
+            cv = iv and _varint(b, iv[1], end, 3, 0xFFFF)
+            fv = cv and _varint(b, cv[1], end, 5, 0xFFFFFFFF)
+            if not fv or iv[0] >= cv[0] or (iv[0] == 0 and cv[0] == 1 and fv[0] == 0):
+                return "layout"
+            index, off = iv[0], fv[1]
+        elements = 0
+        if typ != 2:
+            v = _varint(b, off, end, 2, 0xFFFF)
+            if v is None:
+                return "layout"
+            elements, off = v
+        if typ == 2 and index:
             return "layout"
         if not math.isfinite(t) or t < 0.0:
             return "time %.3g" % t
-        if enc != 3 and not rest:   # quantized values are finite by construction
-            vals = struct.unpack_from("<%d%s" % (elements, "d" if enc == 1 else "f"), b, off + 32)
+        if typ == 2:
+            length = 0
+        elif typ == 1:
+            length = _delta_len(b, off, end, elements)
+        elif enc == 3:
+            length = _quant_len(b, off, end, elements)
+        else:
+            length = (8 if enc == 1 else 4) * elements
+            if off + length > end:
+                return "short"
+            vals = struct.unpack_from("<%d%s" % (elements, "d" if enc == 1 else "f"), b, off)
             if not all(math.isfinite(v) for v in vals):
                 return "not finite"
-        off += 32 + length
+        if length is None:
+            return "layout"
+        off += length
     if off != end:
         return "layout"
     if session != 1:

@@ -112,7 +112,9 @@ static void fuzz_reencode(const unsigned char *buf, size_t size, const gs_wire_v
     for (i = 0; i < v->chunk_count; ++i) {
         const gs_wire_chunk *c = &v->chunks[i];
         for (k = 0; k < c->elements; ++k) values[k] = gs_wire_value(c, k);
-        if (c->encoding == GS_ENCODING_QUANT && !(c->flags & GS_WIRE_CHUNK_REST)) {
+        if (c->flags & (GS_WIRE_CHUNK_DELTA | GS_WIRE_CHUNK_ACK)) {
+            quant = 1; /* their coding is the sender's pick: fuzz_wire2 checks them */
+        } else if (c->encoding == GS_ENCODING_QUANT && !(c->flags & GS_WIRE_CHUNK_REST)) {
             fuzz_requant(c, values);
             quant = 1;
         } else {
@@ -129,8 +131,8 @@ static void fuzz_reencode(const unsigned char *buf, size_t size, const gs_wire_v
 
 /* Decode on its own: refused with a reason, or accepted and sound. */
 static int fuzz_decode(const unsigned char *buf, size_t size, gs_reject *why) {
-    static gs_wire_view v; /* 2.5 KB: kept off the stack */
-    size_t used = GS_WIRE_HEADER + 4;
+    static gs_wire_view v; /* kept off the stack */
+    const unsigned char *at = buf + GS_WIRE_HEADER; /* where the next chunk starts */
     int ok, i, k;
     *why = GS_REJECT_COUNT;
     ok = gs_wire_decode(buf, size, &v, why) == GS_OK;
@@ -142,8 +144,8 @@ static int fuzz_decode(const unsigned char *buf, size_t size, gs_reject *why) {
     FUZZ_CHECK(v.chunk_count >= 1 && v.chunk_count <= GS_WIRE_MAX_CHUNKS);
     for (i = 0; i < v.chunk_count; ++i) {
         const gs_wire_chunk *c = &v.chunks[i];
-        /* the payload's length, from its chunk header */
-        size_t len = (size_t)(c->payload[-4] | c->payload[-3] << 8);
+        /* the payload's length, implied by its contents (>>wire) */
+        size_t len = c->payload_bytes;
         FUZZ_CHECK(c->encoding == GS_ENCODING_F64 || c->encoding == GS_ENCODING_F32 ||
                    c->encoding == GS_ENCODING_QUANT);
         if (c->flags & GS_WIRE_CHUNK_REST) FUZZ_CHECK(len == 0 && c->elements == 0);
@@ -151,12 +153,13 @@ static int fuzz_decode(const unsigned char *buf, size_t size, gs_reject *why) {
             FUZZ_CHECK(len == (size_t)c->elements * (c->encoding == GS_ENCODING_F32 ? 4u : 8u));
         FUZZ_CHECK(c->index < c->count);
         FUZZ_CHECK(isfinite(c->time) && c->time >= 0.0);
-        FUZZ_CHECK(c->payload >= buf + GS_WIRE_HEADER + GS_WIRE_CHUNK_HEADER);
+        /* a header of 3..GS_WIRE_CHUNK_HEADER bytes after the chunk before */
+        FUZZ_CHECK(c->payload >= at + 3 && c->payload <= at + GS_WIRE_CHUNK_HEADER);
         FUZZ_CHECK(c->payload + len <= buf + size - 4);
         for (k = 0; k < c->elements; ++k) FUZZ_CHECK(isfinite(gs_wire_value(c, k)));
-        used += GS_WIRE_CHUNK_HEADER + len;
+        at = c->payload + len;
     }
-    FUZZ_CHECK(used == size);
+    FUZZ_CHECK(at == buf + size - 4);
     fuzz_reencode(buf, size, &v);
     return 1;
 }

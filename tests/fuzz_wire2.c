@@ -1,5 +1,5 @@
 /* fuzz_wire2.c - a fast libFuzzer harness over the quantized decoder of wire
-   v2: decode and deliver only, no world step per input.
+   v3: decode and deliver only, no world step per input.
 
    The world of tests/fuzz_world.h (host 1; peers 2 and 3; objects 10..15:
    a cloth, a chain, a sphere, a probe, a custom point, an empty custom)
@@ -8,7 +8,10 @@
    quant, are the templates, with a heartbeat of each object besides; then,
    acknowledged by hosts 1 and 3, its next snapshots, delta chunks against
    the first (which the receiver is given once, so that it holds them as
-   baselines), and an acknowledgement chunk for the receiver's objects.
+   baselines), and an acknowledgement chunk for the receiver's objects;
+   then one datagram of delta chunks in each of the three codings (packed,
+   bitmap, Rice) and several chunks of one time and sequence, whose headers
+   are the short ones (no time, ids by their difference).
    An input is either datagrams back to back (it starts with "GSIM": cut
    before each magic, as tests/fuzz_wire.c does), or an edit: byte 0 picks
    a template (bit 7 set: the checksum is left as the edits make it), and
@@ -170,6 +173,41 @@ static void deltas(harness *h, int keys) {
     }
 }
 
+/* Delta chunks of objects 12 (a sphere, 13 values) against the snapshot
+   the receiver holds (sequence 1 upwards: the first template's), in each
+   coding: differences all 3 (packed), one large (bitmap), small with one
+   large (Rice); the three share a time, so their headers are short. */
+static void codings(harness *h) {
+    gs_wire_header hd;
+    gs_wire_chunk c;
+    int64_t d[13];
+    size_t size;
+    int k, i;
+    static gs_wire_view v;
+    if (h->ntpl >= TEMPLATES) return;
+    memset(&hd, 0, sizeof hd);
+    hd.session = FUZZ_SESSION;
+    hd.sender = FUZZ_PEER_A;
+    memset(&c, 0, sizeof c);
+    c.object_id = 12;
+    c.count = 1;
+    c.elements = 13;
+    c.encoding = GS_ENCODING_QUANT;
+    c.flags = GS_WIRE_CHUNK_DELTA;
+    c.time = 0.05;
+    CHECK(gs_wire_begin(h->tpl[h->ntpl], GS_WIRE_MAX_DATAGRAM, &hd, &size) == GS_OK);
+    for (k = 0; k < 3; ++k) {
+        for (i = 0; i < 13; ++i) d[i] = k == 0 ? 3 : k == 1 ? (i == 5) * 100000 : (i % 3) - (i == 9) * 900;
+        c.baseline = 1;
+        c.sequence = 2 + (uint32_t)k;
+        CHECK(gs_wire_add_delta(h->tpl[h->ntpl], GS_WIRE_MAX_DATAGRAM, &size, &c, d) == GS_OK);
+    }
+    h->tpl_size[h->ntpl] = gs_wire_end(h->tpl[h->ntpl], size);
+    CHECK(gs_wire_decode(h->tpl[h->ntpl], h->tpl_size[h->ntpl], &v, NULL) == GS_OK);
+    for (k = 0; k < 3; ++k) CHECK(v.chunks[k].delta_coding == k);
+    h->ntpl++;
+}
+
 static harness *harness_get(void) {
     static harness *h; /* the harness's one world, built on the first input */
     if (h) return h;
@@ -185,6 +223,7 @@ static harness *harness_get(void) {
         int keys = h->ntpl;
         heartbeats(h);
         deltas(h, keys);
+        codings(h);
     }
     fuzz_world_destroy(&h->tx); /* the templates are all it was for */
     CHECK(h->ntpl > FUZZ_OBJECTS);
@@ -271,7 +310,7 @@ static void one_datagram(harness *h, const unsigned char *src, size_t size) {
     } else {
         for (i = 0; i < h->view.chunk_count; ++i) {
             const gs_wire_chunk *c = &h->view.chunks[i];
-            CHECK(c->payload >= buf + GS_WIRE_HEADER + GS_WIRE_CHUNK_HEADER);
+            CHECK(c->payload > buf + GS_WIRE_HEADER); /* after its header */
             CHECK(c->payload <= buf + size - 4);
             double v[GS_WIRE_MAX_DATAGRAM];
             gs_wire_values(c, v);

@@ -560,33 +560,38 @@ def test_restart(exe):
         joined, t_first if t_first is not None else float("nan"), nums)
 
 
+# A wire v3 chunk's first bytes (see >>wire): values (kind 0) in f64 (1 << 3) with a
+# time of their own (4), object id 1 (zigzag 2 from 0) and sequence 0; then come
+# the time, the element count (a one-byte varint) and the values.
+V3_F64_CHUNK = bytes([0x0C, 2, 0])
+
+
 def garbage(rng, kind):
     """One datagram that no peer may accept."""
     if kind == 0:                                   # random bytes, any length
         return rng.randbytes(rng.randint(0, 1400))
-    if kind == 1:                                   # the magic, a bad or old (1) version
-        return b"GSIM" + bytes([rng.choice([0, 1, 3, 255])]) + rng.randbytes(rng.randint(0, 300))
-    if kind == 2:                                   # version 2, a wrong CRC
-        body = b"GSIM\x02\x00" + rng.randbytes(rng.randint(42, 900))
+    if kind == 1:                                   # the magic, a bad or old (1, 2) version
+        return b"GSIM" + bytes([rng.choice([0, 1, 2, 4, 255])]) + rng.randbytes(rng.randint(0, 300))
+    if kind == 2:                                   # version 3, a wrong CRC
+        body = b"GSIM\x03\x00" + rng.randbytes(rng.randint(42, 900))
         return body + struct.pack("<I", (zlib.crc32(body) ^ 0x5A5A5A5A) & 0xFFFFFFFF)
     if kind == 3:                                   # good CRC, chunk lengths that lie
         n = rng.randint(1, 64)
-        hdr = b"GSIM\x02\x00" + struct.pack("<HIIII", n, 0, 2, rng.getrandbits(32), 0) \
+        hdr = b"GSIM\x03\x00" + struct.pack("<HIIII", n, 0, 2, rng.getrandbits(32), 0) \
             + struct.pack("<ddd", 1.0, 0.0, 0.0)
         body = hdr + rng.randbytes(rng.randint(0, 600))
         return body + struct.pack("<I", zlib.crc32(body))
     if kind == 4:                                   # good CRC, an unknown sender
-        hdr = b"GSIM\x02\x00" + struct.pack("<HIIII", 1, 0, 999, rng.getrandbits(32), 0) \
+        hdr = b"GSIM\x03\x00" + struct.pack("<HIIII", 1, 0, 999, rng.getrandbits(32), 0) \
             + struct.pack("<ddd", 1.0, 0.0, 0.0)
-        chunk = struct.pack("<IIdHHIHBBHH", 1, rng.getrandbits(32), 1.0, 0, 1, 0, 4, 1, 0, 32, 0) \
+        chunk = V3_F64_CHUNK + struct.pack("<d", 1.0) + bytes([4]) \
             + struct.pack("<4d", 0.0, 0.0, 0.0, 0.0)
         body = hdr + chunk
         return body + struct.pack("<I", zlib.crc32(body))
     # kind 5: good CRC, peer 2's id, a non-finite send time
-    hdr = b"GSIM\x02\x00" + struct.pack("<HIIII", 1, 0, 2, rng.getrandbits(32), 0) \
+    hdr = b"GSIM\x03\x00" + struct.pack("<HIIII", 1, 0, 2, rng.getrandbits(32), 0) \
         + struct.pack("<ddd", float("nan"), 0.0, 0.0)
-    chunk = struct.pack("<IIdHHIHBBHH", 1, rng.getrandbits(32), 1.0, 0, 1, 0, 1, 1, 0, 8, 0) \
-        + struct.pack("<d", float("inf"))
+    chunk = V3_F64_CHUNK + struct.pack("<d", 1.0) + bytes([1]) + struct.pack("<d", float("inf"))
     body = hdr + chunk
     return body + struct.pack("<I", zlib.crc32(body))
 

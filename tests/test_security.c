@@ -305,7 +305,9 @@ static void test_key(void **state) {
     n = host_one(h2, marker, buf);
     /* sealed: the flag, the trailer instead of the CRC, no value in clear */
     assert_int_equal(buf[5], GS_WIRE_FLAG_SEALED);
-    assert_int_equal(n, GS_WIRE_HEADER + GS_WIRE_CHUNK_HEADER + 3 * 8 + GS_WIRE_SEAL_TRAILER);
+    /* a first chunk's header (>>wire): kind, id and sequence varints of a
+       byte each, its time, its element count */
+    assert_int_equal(n, GS_WIRE_HEADER + 12 + 3 * 8 + GS_WIRE_SEAL_TRAILER);
     for (i = 0; i + 8 <= n; ++i) seen |= memcmp(buf + i, &marker, 8) == 0;
     assert_int_equal(seen, 0);
     /* the public decoder has no key: the trailer is no CRC */
@@ -449,7 +451,8 @@ static void test_forged_tampered_replayed(void **state) {
     /* everything but the cheap fields fails authentication (or, for a
        counter or epoch flipped into the past, the replay window) */
     assert_int_equal(counts[GS_REJECT_MAGIC], 32);
-    assert_int_equal(counts[GS_REJECT_VERSION], 8);
+    /* version 3's low two bits flipped read 2 and 1: old versions */
+    assert_int_equal(counts[GS_REJECT_VERSION] + counts[GS_REJECT_OLD_VERSION], 8);
     assert_int_equal(counts[GS_REJECT_LAYOUT] + counts[GS_REJECT_KEY], 8);
     assert_int_equal(counts[GS_REJECT_SESSION], 32);
     assert_int_equal(counts[GS_REJECT_SENDER], 32);
@@ -769,7 +772,7 @@ static int cmp_double(const void *a, const void *b) {
     return x < y ? -1 : x > y;
 }
 
-/* One full datagram (135 f64, 1200 B sealed, 1164 B in clear) through
+/* One full datagram (135 f64, about 1183 B sealed, 1147 B in clear) through
    gs_net_update on host 2 and gs_net_deliver on host 1, sealed and in
    clear in alternating blocks; the median block's time per datagram. */
 static void test_seal_cost(void **state) {
@@ -801,7 +804,10 @@ static void test_seal_cost(void **state) {
                                  GS_OK);
             }
             (mode ? t_seal : t_clear)[b] = (mono() - t0) / PER;
-            assert_int_equal(h2->out.size[0], mode ? 1200 : 1164);
+            /* one full chunk: its header's sequence varint grows with the
+               run (>>wire), so the size is known to a few bytes */
+            assert_true(h2->out.size[0] >= (mode ? 1180u : 1144u) &&
+                        h2->out.size[0] <= (mode ? 1186u : 1150u));
         }
     qsort(t_seal, BLOCKS, sizeof(double), cmp_double);
     qsort(t_clear, BLOCKS, sizeof(double), cmp_double);

@@ -728,7 +728,10 @@ static double converge_run(int replay, double *gap_out) {
     if (replay) {
         gs_sync_stats st;
         assert_int_equal(gs_world_sync_stats(w[1], &st), GS_OK);
-        assert_true(st.replays > 50);
+        printf("follower: %llu replays, %llu skipped (their blends changed no state)\n",
+               (unsigned long long)st.replays, (unsigned long long)st.replays_skipped);
+        assert_true(st.replays + st.replays_skipped > 50);
+        assert_true(st.replays > 0);
     }
     for (k = 0; k < 2; ++k) gs_world_destroy(w[k]);
     gs_simnet_destroy(sim);

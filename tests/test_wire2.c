@@ -226,6 +226,18 @@ static void test_quant_idempotent(void **state) {
     assert_true(na < GS_WIRE_HEADER + GS_WIRE_CHUNK_HEADER + 200 * 20 / 8 + 40);
 }
 
+/* Where the first chunk's payload starts in datagram buf (n bytes): its
+   header's length varies (>>wire). */
+static size_t payload_at(const unsigned char *buf, size_t n) {
+    gs_wire_view *v = (gs_wire_view *)malloc(sizeof *v);
+    size_t at;
+    assert_non_null(v);
+    assert_int_equal(gs_wire_decode(buf, n, v, NULL), GS_OK);
+    at = (size_t)(v->chunks[0].payload - buf);
+    free(v);
+    return at;
+}
+
 /* ---- validation ---- */
 
 static void expect_reject(const unsigned char *buf, size_t n, gs_reject want) {
@@ -245,15 +257,18 @@ static void test_quant_rejects(void **state) {
     unsigned char buf[GS_WIRE_MAX_DATAGRAM], m[GS_WIRE_MAX_DATAGRAM];
     double v[8] = {0.1, 0.2, 0.3, 0.4, 0.5, 0.6, 0.7, 0.8}, out[8];
     gs_wire_chunk d;
-    const size_t pay = GS_WIRE_HEADER + GS_WIRE_CHUNK_HEADER; /* the payload's start */
     size_t n = quant_roundtrip(v, 8, 1e-3, 0, 0, out, &d, buf);
+    const size_t pay = payload_at(buf, n); /* the payload's start */
     int k, rejected = 0;
     gs_wire_view *view = (gs_wire_view *)malloc(sizeof *view);
     (void)state;
     assert_non_null(view);
-    /* v1: its own reason */
+    /* v1 and v2: their own reason */
     memcpy(m, buf, n);
     m[4] = 1;
+    recrc(m, n);
+    expect_reject(m, n, GS_REJECT_OLD_VERSION);
+    m[4] = 2;
     recrc(m, n);
     expect_reject(m, n, GS_REJECT_OLD_VERSION);
     assert_non_null(strstr(gs_reject_str(GS_REJECT_OLD_VERSION), "v1"));
@@ -269,12 +284,14 @@ static void test_quant_rejects(void **state) {
     memcpy(m, buf, n); memset(m + pay + 4, 0xff, 8); recrc(m, n); expect_reject(m, n, GS_REJECT_LAYOUT);
     /* a width of 33 */
     memcpy(m, buf, n); m[pay + 12] = 33; recrc(m, n); expect_reject(m, n, GS_REJECT_LAYOUT);
-    /* the payload length field off by one either way */
-    memcpy(m, buf, n); m[GS_WIRE_HEADER + 28]++; recrc(m, n); expect_reject(m, n, GS_REJECT_SHORT);
-    memcpy(m, buf, n); m[GS_WIRE_HEADER + 28]--; recrc(m, n); expect_reject(m, n, GS_REJECT_LAYOUT);
-    /* reserved bytes and unknown chunk flags */
-    memcpy(m, buf, n); m[GS_WIRE_HEADER + 30] = 1; recrc(m, n); expect_reject(m, n, GS_REJECT_LAYOUT);
-    memcpy(m, buf, n); m[GS_WIRE_HEADER + 27] = 2; recrc(m, n); expect_reject(m, n, GS_REJECT_LAYOUT);
+    /* the length is implied: a byte more after the payload, or one less */
+    memcpy(m, buf, n - 4); m[n - 4] = 0; recrc(m, n + 1); expect_reject(m, n + 1, GS_REJECT_LAYOUT);
+    memcpy(m, buf, n); recrc(m, n - 1); expect_reject(m, n - 1, GS_REJECT_LAYOUT);
+    /* the kind byte's reserved bits, encoding 0, a delta in f64 */
+    memcpy(m, buf, n); m[GS_WIRE_HEADER] |= 0x40; recrc(m, n); expect_reject(m, n, GS_REJECT_LAYOUT);
+    memcpy(m, buf, n); m[GS_WIRE_HEADER] &= 0xe7; recrc(m, n); expect_reject(m, n, GS_REJECT_LAYOUT);
+    memcpy(m, buf, n); m[GS_WIRE_HEADER] = (unsigned char)((m[GS_WIRE_HEADER] & 0xe4) | 0x09);
+    recrc(m, n); expect_reject(m, n, GS_REJECT_LAYOUT);
     /* any byte of the payload changed: refused, or values that are all
        finite (the decoder's bounds make them so) */
     for (k = 0; k < 4000; ++k) {
@@ -340,9 +357,11 @@ static void test_quant_encode_args(void **state) {
     assert_int_equal(gs_wire_add(buf, sizeof buf, &size, &c, v), GS_ERR_INVALID_ARG);
     c.elements = 0;
     assert_int_equal(gs_wire_add(buf, sizeof buf, &size, &c, NULL), GS_OK);
-    /* segment count, kind, count, step, width, base, then 4 values of 10
-       bits (0 and 1000 steps of 1 mm) */
-    assert_int_equal(size, GS_WIRE_HEADER + 2 * GS_WIRE_CHUNK_HEADER + 1 + 1 + 2 + 8 + 1 + 1 + 5);
+    /* the first chunk's header (kind, id and sequence varints, its time, its
+       element count), segment count, kind, count, step, width, base, then 4
+       values of 10 bits (0 and 1000 steps of 1 mm); the heartbeat's header:
+       kind, id and sequence (its time is the chunk's before) */
+    assert_int_equal(size, GS_WIRE_HEADER + 12 + 1 + 1 + 2 + 8 + 1 + 1 + 5 + 3);
 }
 
 /* ---- between nets ---- */
