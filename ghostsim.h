@@ -2606,9 +2606,15 @@ struct gs_world {
     int sap_dirty;       /* near is not sorted yet: creation appends, the
                             next query or advance sorts */
     struct gs__rigid **near;   /* the same sorted by x - bound (searched) */
+    double *near_keys;   /* m; near's keys in its order (bodies_cap): the
+                            bubble and the searches compare these, not a
+                            field of each body (a cache miss each in a
+                            pile bigger than the cache) */
     struct gs__rigid **wide;   /* bodies with a sweep over wide_at */
     int nwide;
     struct gs__rigid **cand;   /* the answer to a query (bodies_cap) */
+    struct gs__rigid **cand_tmp; /* scratch for putting a long answer in
+                                    order (bodies_cap) */
     struct gs__rigid **touched; /* the bodies the stepping body's contacts
                                    push, whose push lands when its step
                                    ends (bodies_cap) */
@@ -7064,29 +7070,31 @@ GS_API double gs_rigid_stable_dt(const gs_agent *a) {
    search: one wall would otherwise stretch every query over the whole
    world.
    A body's query looks in a uniform grid of the bodies not wide (a range
-   on x, a mesh's, searches near). Either gathers candidates, adds the wide
-   ones, then puts them in the order of bodies. */
-GS__PRIVATE void gs__sap_swap(gs__rigid **list, int i, int j, int near) {
-    struct gs__rigid *t = list[i];
-    list[i] = list[j];
-    list[j] = t;
-    if (near) {
-        list[i]->near = i;
-        list[j]->near = j;
-    } else {
-        list[i]->sap = i;
-        list[j]->sap = j;
-    }
+   on x, a mesh's, searches near; the box of a probe's shape, for the
+   sleepers it wakes, takes whichever of the two looks at fewer bodies).
+   Each gathers candidates, adds the wide ones, then puts them in the
+   order of bodies. */
+/* Swaps near[i] and near[j], with their keys. */
+GS__PRIVATE void gs__sap_swap(gs_world *w, int i, int j) {
+    struct gs__rigid *t = w->near[i];
+    double k = w->near_keys[i];
+    w->near[i] = w->near[j];
+    w->near[j] = t;
+    w->near_keys[i] = w->near_keys[j];
+    w->near_keys[j] = k;
+    w->near[i]->near = i;
+    w->near[j]->near = j;
 }
 
 /* Moves r to its place in near (by near_key). A list not sorted yet waits
    for gs__sap_sort. */
-GS__PRIVATE void gs__sap_bubble(gs__rigid **list, int n, gs__rigid *r) {
-    int i = r->near;
+GS__PRIVATE void gs__sap_bubble(gs_world *w, gs__rigid *r) {
+    int i = r->near, n = w->nbodies;
     double k = r->near_key;
-    if (r->base.world->sap_dirty) return;
-    while (i > 0 && list[i - 1]->near_key > k) { gs__sap_swap(list, i - 1, i, 1); --i; }
-    while (i + 1 < n && list[i + 1]->near_key < k) { gs__sap_swap(list, i, i + 1, 1); ++i; }
+    const double *keys = w->near_keys;
+    if (w->sap_dirty) return;
+    while (i > 0 && keys[i - 1] > k) { gs__sap_swap(w, i - 1, i); --i; }
+    while (i + 1 < n && keys[i + 1] < k) { gs__sap_swap(w, i, i + 1); ++i; }
 }
 
 /* Puts r in the wide list or takes it out, as its sweep says. */
@@ -7118,7 +7126,9 @@ GS__PRIVATE int64_t gs__grid_coord(const gs_world *w, double x) {
 
 GS__PRIVATE size_t gs__grid_bucket(const gs_world *w, const int64_t c[3]) {
     uint64_t h = (uint64_t)c[0] * 73856093u ^ (uint64_t)c[1] * 19349663u ^ (uint64_t)c[2] * 83492791u;
-    return (size_t)(h % (2 * (uint64_t)w->bodies_cap));
+    /* bodies_cap is a power of two (16, doubled): a mask, not a division,
+       for each of the 27 cells of a query */
+    return (size_t)(h & (2 * (uint64_t)w->bodies_cap - 1));
 }
 
 GS__PRIVATE void gs__grid_unlink(gs_world *w, gs__rigid *r) {
@@ -7162,18 +7172,19 @@ GS__PRIVATE void gs__grid_rebuild(gs_world *w) {
 /* A body's speed for the broad phase: what its carried position moves by
    per second of lag (gs__rigid_vs_rigid: its velocity, and the change of
    velocity of its last step over up to one step). */
-GS__PRIVATE void gs__sap_sweep(const gs_world *w, gs__rigid *r) {
+GS__PRIVATE void gs__sap_sweep(gs_world *w, gs__rigid *r) {
     double v = gs__len(r->v) + gs__len(r->a_own) * r->base.dt;
     r->sweep = r->shape.bound + (w->wide_lag > 0.0 ? w->wide_lag : 0.1) * v;
     r->speed = r->probe ? 0.0 : v;
     r->near_key = r->x.x - r->shape.bound;
+    w->near_keys[r->near] = r->near_key;
 }
 
 GS__PRIVATE void gs__sap_update(gs__rigid *r) {
     gs_world *w = r->base.world;
     gs__sap_sweep(w, r);
     gs__sap_classify(w, r);
-    gs__sap_bubble(w->near, w->nbodies, r);
+    gs__sap_bubble(w, r);
     gs__grid_place(w, r);
 }
 
@@ -7202,8 +7213,10 @@ GS__PRIVATE void gs__sap_sort_list(gs__rigid **list, gs__rigid **tmp, int n) {
 /* Sorts near if bodies were appended since (cand is the scratch: nothing
    is being asked then). */
 GS__PRIVATE void gs__sap_sort(gs_world *w) {
+    int i;
     if (!w->sap_dirty) return;
     gs__sap_sort_list(w->near, w->cand, w->nbodies);
+    for (i = 0; i < w->nbodies; ++i) w->near_keys[i] = w->near[i]->near_key;
     w->sap_dirty = 0;
 }
 
@@ -7211,15 +7224,21 @@ GS__PRIVATE gs_result gs__sap_add(gs_world *w, gs__rigid *r) {
     int sorted;
     if (w->nbodies == w->bodies_cap) {
         int cap = w->bodies_cap ? 2 * w->bodies_cap : 16;
-        if (w->bodies_cap > INT_MAX / 2 || (size_t)cap > SIZE_MAX / (7 * sizeof(struct gs__rigid *)))
+        if (w->bodies_cap > INT_MAX / 2 ||
+            (size_t)cap > SIZE_MAX / (8 * sizeof(struct gs__rigid *) + sizeof(double)))
             return gs__fail(w, GS_ERR_CAPACITY, "broad phase: too many bodies");
-        struct gs__rigid **list = (struct gs__rigid **)gs__alloc(w, 7 * (size_t)cap * sizeof *list);
+        /* 8 lists of pointers, then near's keys (8 cap pointers keep
+           them aligned) */
+        struct gs__rigid **list = (struct gs__rigid **)gs__alloc(
+            w, 8 * (size_t)cap * sizeof *list + (size_t)cap * sizeof(double));
         if (!list) return gs__fail(w, GS_ERR_NO_MEMORY, "broad phase: out of memory");
         if (w->nbodies) {
             memcpy(list, w->bodies, (size_t)w->nbodies * sizeof *list);
             memcpy(list + cap, w->near, (size_t)w->nbodies * sizeof *list);
         }
         if (w->nwide) memcpy(list + 2 * cap, w->wide, (size_t)w->nwide * sizeof *list);
+        if (w->nbodies)
+            memcpy((void *)(list + 8 * cap), w->near_keys, (size_t)w->nbodies * sizeof(double));
         gs__free(w, w->bodies);
         w->bodies = list;
         w->near = list + cap;
@@ -7227,6 +7246,8 @@ GS__PRIVATE gs_result gs__sap_add(gs_world *w, gs__rigid *r) {
         w->cand = list + 3 * cap;
         w->grid = list + 4 * cap;
         w->touched = list + 6 * cap;
+        w->cand_tmp = list + 7 * cap;
+        w->near_keys = (double *)(void *)(list + 8 * cap);
         w->bodies_cap = cap;
         gs__grid_rebuild(w);
     }
@@ -7238,7 +7259,7 @@ GS__PRIVATE gs_result gs__sap_add(gs_world *w, gs__rigid *r) {
     sorted = !w->sap_dirty;
     w->sap_dirty = 1; /* appended, not bubbled in: gs__sap_sort will */
     gs__sap_update(r);
-    if (sorted && (r->near == 0 || w->near[r->near - 1]->near_key <= r->near_key))
+    if (sorted && (r->near == 0 || w->near_keys[r->near - 1] <= r->near_key))
         w->sap_dirty = 0; /* it belongs at the end */
     return GS_OK;
 }
@@ -7256,6 +7277,7 @@ GS__PRIVATE void gs__sap_remove(gs_world *w, gs__rigid *r) {
     }
     for (i = r->near + 1; i < w->nbodies; ++i) {
         w->near[i - 1] = w->near[i];
+        w->near_keys[i - 1] = w->near_keys[i];
         w->near[i - 1]->near = i - 1;
     }
     w->nbodies--;
@@ -7315,20 +7337,41 @@ GS__PRIVATE int gs__sap_first(const gs_world *w, double lo, double lag) {
     lo -= 1e-9 * (1.0 + fabs(lo));
     while (a < b) {
         int mid = (a + b) / 2;
-        if (w->near[mid]->near_key < lo) a = mid + 1;
+        if (w->near_keys[mid] < lo) a = mid + 1;
         else b = mid;
     }
     return a;
 }
 
-/* The candidates in the order of bodies (a query finds few). */
+/* The candidates in the order of bodies. A body's query finds a few, in
+   an order near that one: insertion. A range that crosses the world (a
+   wall, a cloth) finds up to every body, where insertion is O(n^2): a
+   merge sort through cand_tmp. The sap indices are distinct, so either
+   gives the one order. */
+#define GS__ORDER_INSERTION 32
 GS__PRIVATE void gs__sap_order(gs_world *w, int n) {
-    int i, j;
-    for (i = 1; i < n; ++i) {
-        gs__rigid *r = w->cand[i];
-        for (j = i; j > 0 && w->cand[j - 1]->sap > r->sap; --j) w->cand[j] = w->cand[j - 1];
-        w->cand[j] = r;
+    gs__rigid **src = w->cand, **dst = w->cand_tmp, **t;
+    int i, j, width;
+    for (i = 0; i < n; i += GS__ORDER_INSERTION) { /* sorted runs */
+        int end = n - i > GS__ORDER_INSERTION ? i + GS__ORDER_INSERTION : n;
+        for (j = i + 1; j < end; ++j) {
+            gs__rigid *r = src[j];
+            int k;
+            for (k = j; k > i && src[k - 1]->sap > r->sap; --k) src[k] = src[k - 1];
+            src[k] = r;
+        }
     }
+    for (width = GS__ORDER_INSERTION; width < n; width *= 2) {
+        for (i = 0; i < n; i += 2 * width) {
+            int a = i, m = n - i > width ? i + width : n, b = m, k = i;
+            int e = n - i > 2 * width ? i + 2 * width : n;
+            while (a < m && b < e) dst[k++] = src[b]->sap < src[a]->sap ? src[b++] : src[a++];
+            while (a < m) dst[k++] = src[a++];
+            while (b < e) dst[k++] = src[b++];
+        }
+        t = src; src = dst; dst = t;
+    }
+    if (src != w->cand) memcpy(w->cand, src, (size_t)n * sizeof *src);
 }
 
 /* Every body that may meet [lo, hi] on x when taken up to lag seconds from
@@ -7340,7 +7383,7 @@ GS__PRIVATE int gs__sap_query(gs_world *w, double lo, double hi, double lag) {
     top += 1e-9 * (1.0 + fabs(top));
     for (i = 0; i < w->nwide; ++i)
         if (gs__sap_meets(w->wide[i], lo, hi, lag)) w->cand[n++] = w->wide[i];
-    for (i = gs__sap_first(w, lo, lag); i < w->nbodies && w->near[i]->near_key <= top; ++i)
+    for (i = gs__sap_first(w, lo, lag); i < w->nbodies && w->near_keys[i] <= top; ++i)
         if (w->near[i]->wide < 0 && gs__sap_meets(w->near[i], lo, hi, lag)) w->cand[n++] = w->near[i];
     gs__sap_order(w, n);
     return n;
@@ -7383,15 +7426,89 @@ GS__PRIVATE int gs__sap_query_near(gs_world *w, const gs__rigid *r, double lag) 
        cheaper their sort */
     for (i = 0; i < w->nwide; ++i)
         if (gs__sap_meets3(w->wide[i], r, own, lo, hi, lag)) w->cand[n++] = w->wide[i];
-    for (c[0] = a[0]; c[0] <= b[0]; ++c[0])
-        for (c[1] = a[1]; c[1] <= b[1]; ++c[1])
-            for (c[2] = a[2]; c[2] <= b[2]; ++c[2]) {
-                gs__rigid *o;
-                for (o = w->grid[gs__grid_bucket(w, c)]; o; o = o->gnext)
-                    if (o->cell[0] == c[0] && o->cell[1] == c[1] && o->cell[2] == c[2] &&
-                        gs__sap_meets3(o, r, own, lo, hi, lag))
-                        w->cand[n++] = o;
-            }
+    {   /* gs__sap_meets3 with what is the same for every body found once
+           (the same operations: the same answer, bit for bit) */
+        double eps = 1e-12 * (fabs(lo) + fabs(hi)), hi_e = hi + eps, lo_e = lo - eps;
+        double own_e = own * (1.0 + 1e-9);
+        for (c[0] = a[0]; c[0] <= b[0]; ++c[0])
+            for (c[1] = a[1]; c[1] <= b[1]; ++c[1])
+                for (c[2] = a[2]; c[2] <= b[2]; ++c[2]) {
+                    gs__rigid *o;
+                    for (o = w->grid[gs__grid_bucket(w, c)]; o; o = o->gnext) {
+                        double reach, both;
+                        if (o->cell[0] != c[0] || o->cell[1] != c[1] || o->cell[2] != c[2]) continue;
+                        reach = gs__sap_reach(o, lag);
+                        both = reach + own_e;
+                        if (o->x.x - reach <= hi_e && o->x.x + reach >= lo_e &&
+                            fabs(r->x.y - o->x.y) <= both && fabs(r->x.z - o->x.z) <= both)
+                            w->cand[n++] = o;
+                    }
+                }
+    }
+    gs__sap_order(w, n);
+    return n;
+}
+
+/* Does o's reach meet [lo, hi] on all three axes? */
+GS__PRIVATE int gs__sap_meets_box(const gs__rigid *o, gs_vec3 lo, gs_vec3 hi, double lag) {
+    double reach = gs__sap_reach(o, lag);
+    double ex = 1e-12 * (fabs(lo.x) + fabs(hi.x)), ey = 1e-12 * (fabs(lo.y) + fabs(hi.y));
+    double ez = 1e-12 * (fabs(lo.z) + fabs(hi.z));
+    return o->x.x - reach <= hi.x + ex && o->x.x + reach >= lo.x - ex &&
+           o->x.y - reach <= hi.y + ey && o->x.y + reach >= lo.y - ey &&
+           o->x.z - reach <= hi.z + ez && o->x.z + reach >= lo.z - ez;
+}
+
+/* The first body of near from i on whose near_key is over top. */
+GS__PRIVATE int gs__sap_past(const gs_world *w, int a, double top) {
+    int b = w->nbodies;
+    while (a < b) {
+        int mid = a + (b - a) / 2;
+        if (w->near_keys[mid] <= top) a = mid + 1;
+        else b = mid;
+    }
+    return a;
+}
+
+/* Every body whose reach may meet the box [lo, hi] (the box of a probe's
+   shape: a wall's bounding sphere spans the world), into w->cand in the
+   order of bodies. The grid's cells over the box, or near's slab of it on
+   x, whichever looks at fewer: a wall across the pile on x has a slab of
+   every body and a face of O(n^(2/3)) cells. Returns how many. */
+GS__PRIVATE int gs__sap_query_box(gs_world *w, gs_vec3 lo, gs_vec3 hi, double lag) {
+    double pad = (w->bound_max + w->speed_max * lag) * (1.0 + 1e-9) + 1e-12;
+    double top = hi.x + w->speed_max * lag;
+    int n = 0, i, first, past;
+    int64_t a[3], b[3], c[3];
+    gs__sap_sort(w);
+    top += 1e-9 * (1.0 + fabs(top));
+    first = gs__sap_first(w, lo.x, lag);
+    past = gs__sap_past(w, first, top);
+    for (i = 0; i < w->nwide; ++i)
+        if (gs__sap_meets_box(w->wide[i], lo, hi, lag)) w->cand[n++] = w->wide[i];
+    if (w->cell > 0.0) {
+        double cells = 1.0;
+        a[0] = gs__grid_coord(w, lo.x - pad); b[0] = gs__grid_coord(w, hi.x + pad);
+        a[1] = gs__grid_coord(w, lo.y - pad); b[1] = gs__grid_coord(w, hi.y + pad);
+        a[2] = gs__grid_coord(w, lo.z - pad); b[2] = gs__grid_coord(w, hi.z + pad);
+        for (i = 0; i < 3; ++i) cells *= (double)(b[i] - a[i]) + 1.0;
+        if (cells < (double)(past - first)) {
+            for (c[0] = a[0]; c[0] <= b[0]; ++c[0])
+                for (c[1] = a[1]; c[1] <= b[1]; ++c[1])
+                    for (c[2] = a[2]; c[2] <= b[2]; ++c[2]) {
+                        gs__rigid *o;
+                        for (o = w->grid[gs__grid_bucket(w, c)]; o; o = o->gnext)
+                            if (o->cell[0] == c[0] && o->cell[1] == c[1] && o->cell[2] == c[2] &&
+                                gs__sap_meets_box(o, lo, hi, lag))
+                                w->cand[n++] = o;
+                    }
+            gs__sap_order(w, n);
+            return n;
+        }
+    }
+    for (i = first; i < past; ++i)
+        if (w->near[i]->wide < 0 && gs__sap_meets_box(w->near[i], lo, hi, lag))
+            w->cand[n++] = w->near[i];
     gs__sap_order(w, n);
     return n;
 }
@@ -7908,8 +8025,17 @@ GS__PRIVATE void gs__mesh_bounds(const gs_agent *a, gs_vec3 *lo, gs_vec3 *hi);
 GS__PRIVATE void gs__probe_wake(gs__rigid *p) {
     gs_world *w = p->base.world;
     double t = gs__agent_time(&p->base);
+    gs_vec3 ext = gs__v3(p->shape.bound, p->shape.bound, p->shape.bound);
     int n, i;
     if (w->sleep_time < 0.0 || !(p->base.rest < w->sleep_time)) return;
+    if (p->shape.type == GS_SHAPE_BOX) { /* the half extents of its box on each axis */
+        gs_vec3 h = p->shape.half, ax = gs__rotate(p->q, gs__v3(h.x, 0.0, 0.0));
+        gs_vec3 ay = gs__rotate(p->q, gs__v3(0.0, h.y, 0.0)), az = gs__rotate(p->q, gs__v3(0.0, 0.0, h.z));
+        ext = gs__v3(fabs(ax.x) + fabs(ay.x) + fabs(az.x), fabs(ax.y) + fabs(ay.y) + fabs(az.y),
+                     fabs(ax.z) + fabs(ay.z) + fabs(az.z));
+        ext = gs__scale(ext, 1.0 + 1e-9); /* rounding of the rotation */
+        ext = gs__v3(fmin(ext.x, p->shape.bound), fmin(ext.y, p->shape.bound), fmin(ext.z, p->shape.bound));
+    }
     if (w->meshes_dirty) gs__meshes_list(w);
     for (i = 0; i < w->nmeshes; ++i) { /* a mesh within its reach (boxes) */
         gs_agent *m = w->meshes[i];
@@ -7920,7 +8046,7 @@ GS__PRIVATE void gs__probe_wake(gs__rigid *p) {
             p->x.y - b <= hi.y && p->x.z + b >= lo.z && p->x.z - b <= hi.z)
             gs__agent_wake_at(m, t);
     }
-    n = gs__sap_query_near(w, p, gs__lag_bound(w, t, 0.1));
+    n = gs__sap_query_box(w, gs__sub(p->x, ext), gs__add(p->x, ext), gs__lag_bound(w, t, 0.1));
     for (i = 0; i < n; ++i) {
         gs__rigid *o = w->cand[i];
         double reach = p->shape.bound + o->shape.bound;
