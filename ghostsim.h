@@ -1345,6 +1345,18 @@ typedef struct gs_ghost_desc {
                               snapshot whole). Each ghost then keeps its last
                               GS_DELTA_RING snapshots sent, and per peer the
                               last GS_DELTA_RING received, as integers */
+    int rest_extrapolate;  /* send on change only: 1 compares the state with
+                              what a peer predicts of it, the last snapshot
+                              sent whole (as the peer decoded it) carried
+                              along its velocities to now by the kind's dead
+                              reckoning, so that an object drifting at a
+                              steady velocity sends only heartbeats; and a
+                              heartbeat received stands for that prediction
+                              at its time. Both hosts must set it alike (a
+                              receiver reads a heartbeat by its own desc).
+                              A kind without dead reckoning (custom agents)
+                              is compared as with 0. Default 0: the last
+                              snapshot sent, as it was */
 } gs_ghost_desc;
 
 /* The ghost desc with its defaults (what zero fields become); object_id
@@ -8632,7 +8644,9 @@ struct gs__ghost {
     double pulled;        /* s; how far back its last blend took the time */
     gs_ghost_stats stats;
     /* send on change */
-    double *sent;         /* the values of the last snapshot sent whole */
+    double *sent;         /* the values of the last snapshot sent whole
+                             (rest_extrapolate: as the peers decode them) */
+    double *pred;         /* rest_extrapolate: sent carried to B's time */
     int rest_repeats;     /* heartbeats of this rest that carry it again */
     int sent_any;         /* 0: send the state whole next (a first send, a
                              peer added or started again) */
@@ -8640,7 +8654,8 @@ struct gs__ghost {
     double sent_at;       /* s, wall time it was last sent (priority) */
     size_t wire_bytes;    /* bytes its last snapshot took on the wire */
     gs__base *ring;       /* delta: the last GS_DELTA_RING snapshots sent */
-    int64_t *kbuf;        /* delta: one chunk's integers or differences */
+    int64_t *kbuf;        /* delta (or quantized rest_extrapolate): one
+                             chunk's integers or differences */
     struct gs__ghost_peer gp[GS__MAX_PEERS];
 };
 typedef struct gs__ghost gs__ghost;
@@ -8946,6 +8961,7 @@ GS__PRIVATE gs_result gs__ghost_check(gs_world *w, const gs_ghost_desc *d) {
     gs__check_positive(&c, "heartbeat_rate", d->heartbeat_rate);
     gs__check_positive(&c, "importance", d->importance);
     gs__check_int(&c, "delta", d->delta, 0, 1);
+    gs__check_int(&c, "rest_extrapolate", d->rest_extrapolate, 0, 1);
     if (d->delta && d->encoding != GS_ENCODING_QUANT)
         gs__check_fail(&c, GS_ERR_INVALID_ARG, "delta is 1 but the encoding is not "
                        "GS_ENCODING_QUANT (deltas are of quantized integers)");
@@ -8981,7 +8997,7 @@ GS__PRIVATE int gs__ghost_sizes(size_t n, const gs_ghost_desc *d, size_t *bytes,
     size_t qs = (size_t)d->queue_size, slots = (size_t)GS__MAX_PEERS * qs, per, nchunks, vals;
     size_t room = gs__per_chunk(d->encoding);
     nchunks = (n - 1) / room + 1; /* at least one, as gs_ghost_attach counts */
-    if (!gs__size(n, 6, slots, &vals) || !gs__size(vals, sizeof(double), 0, &vals) ||
+    if (!gs__size(n, 7, slots, &vals) || !gs__size(vals, sizeof(double), 0, &vals) ||
         !gs__size(slots, sizeof(gs__src), sizeof(gs__ghost), bytes) || *bytes > SIZE_MAX - vals)
         return 0;
     *bytes += vals;
@@ -9027,6 +9043,7 @@ GS_API gs_result gs_ghost_attach(gs_agent *a, const gs_ghost_desc *desc) {
     g->offset_next = g->offset + n;
     g->wq = g->offset_next + n;
     g->sent = g->wq + (size_t)GS__MAX_PEERS * (size_t)d.queue_size;
+    g->pred = g->sent + n;
     gs_agent_get_state(a, g->B, n);
     memcpy(g->sent, g->B, n * sizeof(double));
     g->b_seq = 1;
@@ -9035,10 +9052,10 @@ GS_API gs_result gs_ghost_attach(gs_agent *a, const gs_ghost_desc *desc) {
         g->gp[i].newest = g->gp[i].lead_at = g->gp[i].heard_at = -HUGE_VAL;
     a->ghost = g;
     r = gs__ghost_queues(g);
-    if (r == GS_OK && d.delta) {
-        g->ring = gs__ring_new(w, g);
+    if (r == GS_OK && (d.delta || (d.rest_extrapolate && d.encoding == GS_ENCODING_QUANT))) {
+        g->ring = d.delta ? gs__ring_new(w, g) : NULL;
         g->kbuf = (int64_t *)gs__alloc(w, (size_t)g->per_chunk * sizeof(int64_t));
-        if (!g->ring || !g->kbuf)
+        if ((d.delta && !g->ring) || !g->kbuf)
             r = gs__fail(w, GS_ERR_NO_MEMORY, "gs_ghost_attach: out of memory for the "
                          "delta baselines");
     }
@@ -12976,9 +12993,15 @@ GS__PRIVATE void gs__ghost_segments(const gs__ghost *g, size_t first, size_t cnt
     }
 }
 
-/* Has the state moved past the rest threshold since the last snapshot
-   sent whole? A velocity counts by what it moves over one send period. */
-GS__PRIVATE int gs__ghost_moved(const gs__ghost *g) {
+GS__PRIVATE int gs__qk_make(gs_wire_segment *seg, int nseg, const double *v, int64_t *k,
+                            int key);
+GS__PRIVATE void gs__qk_values(const gs_wire_segment *seg, int nseg, const int64_t *k,
+                               double *out);
+
+/* Has the state moved past the rest threshold from ref (the last snapshot
+   sent whole, or what a peer predicts of it)? A velocity counts by what it
+   moves over one send period. */
+GS__PRIVATE int gs__ghost_moved(const gs__ghost *g, const double *ref) {
     size_t end[3], lo = 0, i;
     int cls[3], r, nr = gs__ghost_runs(g, end, cls);
     double thr = g->d.rest_threshold;
@@ -12986,9 +13009,62 @@ GS__PRIVATE int gs__ghost_moved(const gs__ghost *g) {
     for (r = 0; r < nr; lo = end[r++]) {
         double lim = cls[r] == 2 ? thr * g->d.send_rate : thr;
         for (i = lo; i < end[r]; ++i)
-            if (!(fabs(g->B[1 + i] - g->sent[1 + i]) <= lim)) return 1;
+            if (!(fabs(g->B[1 + i] - ref[1 + i]) <= lim)) return 1;
     }
     return 0;
+}
+
+/* rest_extrapolate: values v (a state after its time) carried dt seconds
+   of simulation time along their velocities by the kind's dead reckoning,
+   in place. Sender and receiver run it on the same values over the same
+   simulation times, so they agree on the prediction. 0 if the kind has
+   none, or dt or a value came out non-finite or beyond +-GS_MAX_COORD (a
+   prediction no state could be: the sender then sends the state). */
+GS__PRIVATE int gs__rest_carry(const gs__ghost *g, double *v, double dt) {
+    const gs__kind *k = g->agent->kind;
+    size_t i;
+    if (!k->extrapolate || !(fabs(dt) <= GS_MAX_COORD)) return 0;
+    if (dt != 0.0) k->extrapolate(g->agent, v, dt);
+    for (i = 0; i + 1 < g->n; ++i)
+        if (!(fabs(v[i]) <= GS_MAX_COORD)) return 0;
+    return 1;
+}
+
+/* rest_extrapolate: state S (time first) as the peers decode it, into out:
+   f32 rounded, quantized values as the integers the chunks carry give them
+   back (gs__qk_make's steps are gs_wire_add's). A delta chunk reuses its
+   baseline's step, which differs only where a chunk's span passed 2^32
+   steps (214 km at 0.05 mm); the prediction is then off by that step. */
+GS__PRIVATE void gs__ghost_decoded(gs__ghost *g, const double *S, double *out) {
+    size_t vars = g->n - 1, i;
+    int c;
+    out[0] = S[0];
+    if (g->d.encoding == GS_ENCODING_F64) {
+        memcpy(out + 1, S + 1, vars * sizeof(double));
+        return;
+    }
+    if (g->d.encoding == GS_ENCODING_F32) {
+        for (i = 0; i < vars; ++i) out[1 + i] = (double)(float)S[1 + i];
+        return;
+    }
+    for (c = 0; c < g->nchunks; ++c) {
+        gs_wire_chunk ch;
+        size_t first = (size_t)c * (size_t)g->per_chunk, cnt = (size_t)g->per_chunk;
+        if (first + cnt > vars) cnt = vars - first;
+        gs__ghost_segments(g, first, cnt, &ch);
+        if (gs__qk_make(ch.segments, ch.segment_count, S + 1 + first, g->kbuf, 1))
+            gs__qk_values(ch.segments, ch.segment_count, g->kbuf, out + 1 + first);
+        else /* not sendable quantized: the peer gets nothing of it */
+            memcpy(out + 1 + first, S + 1 + first, cnt * sizeof(double));
+    }
+}
+
+/* rest_extrapolate: g->pred = the last snapshot sent whole carried to B's
+   time; 0 if there is no prediction (the state is then sent). */
+GS__PRIVATE int gs__ghost_predict(gs__ghost *g) {
+    memcpy(g->pred, g->sent, g->n * sizeof(double));
+    g->pred[0] = g->B[0];
+    return g->sent_any && gs__rest_carry(g, g->pred + 1, g->B[0] - g->sent[0]);
 }
 
 /* ---- delta coding (gs_ghost_desc.delta): the quantized integers ---- */
@@ -13197,10 +13273,11 @@ GS__PRIVATE gs_result gs__put_chunk(gs_net *net, double now, size_t *size,
    the baseline's same chunk when the baseline holds it in the same layout
    and every difference fits, else whole. */
 GS__PRIVATE void gs__send_delta_chunk(gs_net *net, gs__ghost *g, double now, size_t *size,
-                                      gs_wire_chunk *ch, const gs__base *base, gs__base *to) {
+                                      gs_wire_chunk *ch, const gs__base *base, gs__base *to,
+                                      const double *S) {
     int c = ch->index, nseg = ch->segment_count, delta = 0, usable, j;
     size_t first = ch->first;
-    const double *v = g->B + 1 + first;
+    const double *v = S + 1 + first;
     int64_t *k = to->k + first, *d = g->kbuf;
     gs_wire_segment *ts = to->seg + (size_t)c * GS_WIRE_MAX_SEGMENTS;
     const gs_wire_segment *bs = base ? base->seg + (size_t)c * GS_WIRE_MAX_SEGMENTS : NULL;
@@ -13228,10 +13305,11 @@ GS__PRIVATE void gs__send_delta_chunk(gs_net *net, gs__ghost *g, double now, siz
     to->chunks += to->got[c];
 }
 
-/* Appends every chunk of a ghost's B to the datagrams for all peers, or a
-   heartbeat (rest). */
+/* Appends every chunk of state S (the ghost's B, or what its peers
+   predict of it) to the datagrams for all peers, as snapshot b_seq at S's
+   time, or a heartbeat (rest). */
 GS__PRIVATE void gs__send_ghost(gs_net *net, gs__ghost *g, double now, size_t *size,
-                                int rest) {
+                                int rest, const double *S) {
     size_t vars = g->n - 1, bytes = 0, before;
     gs__base *base = NULL, *to = NULL;
     int c, p;
@@ -13247,7 +13325,7 @@ GS__PRIVATE void gs__send_ghost(gs_net *net, gs__ghost *g, double now, size_t *s
         if (rest) cnt = 0;
         ch.object_id = g->d.object_id;
         ch.sequence = g->b_seq;
-        ch.time = g->B[0];
+        ch.time = S[0];
         ch.index = (uint16_t)c;
         ch.count = (uint16_t)g->nchunks;
         ch.first = (uint32_t)first;
@@ -13261,15 +13339,15 @@ GS__PRIVATE void gs__send_ghost(gs_net *net, gs__ghost *g, double now, size_t *s
         before = *size;
         if (to) {
             size_t at = *size;
-            gs__send_delta_chunk(net, g, now, size, &ch, base, to);
+            gs__send_delta_chunk(net, g, now, size, &ch, base, to, S);
             bytes += *size >= at ? *size - at : *size - GS_WIRE_HEADER;
             continue;
         }
         if (gs__wire_add_in(net->buf, gs__net_cap(net), size, &net->wctx, &ch,
-                            g->B + 1 + first) == GS_ERR_CAPACITY) {
+                            S + 1 + first) == GS_ERR_CAPACITY) {
             gs__datagram_flush(net, now, size);
             before = *size;
-            gs__wire_add_in(net->buf, gs__net_cap(net), size, &net->wctx, &ch, g->B + 1 + first);
+            gs__wire_add_in(net->buf, gs__net_cap(net), size, &net->wctx, &ch, S + 1 + first);
         }
         bytes += *size - before;
     }
@@ -13286,19 +13364,30 @@ GS__PRIVATE void gs__send_ghost(gs_net *net, gs__ghost *g, double now, size_t *s
    again. */
 GS__PRIVATE void gs__send_due(gs_net *net, gs__ghost *g, double now, size_t *size) {
     double hb = 1.0 / g->d.heartbeat_rate;
-    if (g->d.rest_threshold > 0.0 && !gs__ghost_moved(g)) {
+    int on_change = g->d.rest_threshold > 0.0, predict = on_change && g->d.rest_extrapolate;
+    int moved = !on_change ? 1
+              : predict ? !gs__ghost_predict(g) || gs__ghost_moved(g, g->pred)
+                        : gs__ghost_moved(g, g->sent);
+    if (!moved) {
         if (now < g->next_heartbeat && g->next_heartbeat - now <= hb) return;
         g->next_heartbeat = now + hb;
-        if (g->rest_repeats > 0) {
+        if (g->rest_repeats > 0 && predict) {
+            /* the prediction itself, at B's time: a peer that missed the
+               snapshot it comes from then predicts as we do from here */
             g->rest_repeats--;
-            gs__send_ghost(net, g, now, size, 0);
+            gs__send_ghost(net, g, now, size, 0, g->pred);
+            gs__ghost_decoded(g, g->pred, g->sent);
+        } else if (g->rest_repeats > 0) {
+            g->rest_repeats--;
+            gs__send_ghost(net, g, now, size, 0, g->B);
         } else {
-            gs__send_ghost(net, g, now, size, 1);
+            gs__send_ghost(net, g, now, size, 1, g->B);
         }
         return;
     }
-    gs__send_ghost(net, g, now, size, 0);
-    memcpy(g->sent, g->B, g->n * sizeof(double));
+    gs__send_ghost(net, g, now, size, 0, g->B);
+    if (predict) gs__ghost_decoded(g, g->B, g->sent);
+    else memcpy(g->sent, g->B, g->n * sizeof(double));
     g->sent_any = 1;
     g->rest_repeats = 2;
     g->next_heartbeat = now + hb;
@@ -13653,6 +13742,11 @@ GS__PRIVATE void gs__heartbeat(gs_net *net, gs__ghost *g, int p, const gs_wire_c
     s = gs__snap_slot(g, p, c, age);
     if (s->chunks == g->nchunks) return; /* a duplicated heartbeat */
     memcpy(s->data, last->data, (g->n - 1) * sizeof(double));
+    /* rest_extrapolate: it stands for the sender's prediction, the last
+       values carried to its time as the sender carries them (a prediction
+       out of range leaves them as they were: the sender sends its state) */
+    if (g->d.rest_extrapolate && !gs__rest_carry(g, s->data, c->time - last->time))
+        memcpy(s->data, last->data, (g->n - 1) * sizeof(double));
     memset(s->got, 1, (size_t)g->nchunks);
     s->chunks = g->nchunks;
 }
@@ -13727,6 +13821,7 @@ GS__PRIVATE void gs__queue_chunk(gs_net *net, gs__ghost *g, int p, const gs_wire
         size_t cnt = c->elements;
         last->used = 1;
         last->seq = c->sequence;
+        last->time = c->time; /* what a heartbeat's prediction starts from */
         memcpy(last->data + c->first, s->data + c->first, cnt * sizeof(double));
         if (!last->got[c->index]) last->chunks++;
         last->got[c->index] = 1;
