@@ -1526,7 +1526,10 @@ GS_API gs_result gs_world_sync_test(gs_world *w, int frames, int *bad_agent);
      Kind 2 (GS_WIRE_CHUNK_REST): a heartbeat: no values
        (element count 0, payload 0 bytes, chunk index 0); the object is at
        rest at the time it carries, its state within the sender's
-       rest_threshold of the last snapshot it sent of it.
+       rest_threshold of the last snapshot it sent of it (with
+       gs_ghost_desc.rest_extrapolate on both hosts: of that snapshot as
+       decoded, carried along its velocities to the heartbeat's time by the
+       kind's dead reckoning; the receiver queues that prediction).
      Kind 1 (GS_WIRE_CHUNK_DELTA, GS_ENCODING_QUANT only, element count
        1..GS_WIRE_QUANT_CHUNK): the chunk's values as differences from the same chunk of an earlier snapshot of
        the object (its baseline), in the integers of the quantized state:
