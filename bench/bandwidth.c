@@ -27,19 +27,20 @@
    Figures: kbit/s that host 1 sent to host 2 (its gs_peer_stats
    bytes_sent, datagram bytes, no UDP/IP headers) over the measured span;
    that per object; the divergence at equal simulation time, as
-   bench/sync_modes measures it (the project's rule: a wall-time or
-   snapshot-time comparison mixes the hosts' clock gap and the snapshot's
-   age into what the encoding costs): at the end of every frame of the
-   measured span each host keeps the time of its reference agent (the
-   cloth; the first sphere in spheres900) and every object's positions;
-   host 2's samples are interpolated linearly to host 1's time, and the
-   divergence of a frame is the largest over the objects of the RMS
-   distance over the cloth's particles or the distance of a sphere (the
-   probes left out: see struct samples); "div@t mean" and "div@t p95"
-   over the frames. Beside it, as before, "div-vs-snap": host 1's gs_peer_stats.divergence (RMS distance
-   between its positions and host 2's latest snapshot of each object, at
-   that snapshot's time, the largest over the objects), mean over the same
-   frames. CPU: one full snapshot of the paper scene encoded
+   bench/sync_modes measures it, with the same code (bench/equal_time.h;
+   the project's rule: a comparison at equal wall time or against the
+   latest snapshot mixes the hosts' clock gap or the snapshot's age into
+   what the encoding costs): at the end of every frame of the measured
+   span each host keeps the time of its reference agent (the cloth; the
+   first sphere in spheres900) and its objects' positions; host 2's
+   samples are interpolated linearly to host 1's time, and the divergence
+   of a frame is the largest over the objects of the RMS distance over the
+   cloth's particles or the distance of a sphere (the probes left out: see
+   samples_alloc); "div@t mean" and "div@t p95" over the frames. Beside
+   it, as before, "div-vs-snap": host 1's gs_peer_stats.divergence (RMS
+   distance between its positions and host 2's latest snapshot of each
+   object, at that snapshot's time, the largest over the objects), mean
+   over the same frames. CPU: one full snapshot of the paper scene encoded
    (gs_net_update after a publish) and decoded (gs_net_deliver of each
    datagram) between two nets of the program's own transport, median of
    repeats, monotonic clock; in quant+delta the receiver's
@@ -52,6 +53,7 @@
 #include "ghostsim.h"
 #include "tests/net_helpers.h"
 #include "bench_util.h"
+#include "equal_time.h"
 
 #define FRAME (1.0 / 60.0)
 #define STEP 5e-5 /* m: the default position resolution of GS_ENCODING_QUANT */
@@ -82,28 +84,13 @@ static gs_ghost_desc ghost_desc(int enc) {
     return gd;
 }
 
-/* The samples kept for the divergence at equal simulation time, as
-   bench/sync_modes keeps them: at the end of every frame of the measured
-   span, the time of the host's reference agent (the cloth; the first
-   sphere in spheres900) and every object's positions, the cloth's
-   particles first (cloth_n of them, 0 without a cloth), then one point
-   per sphere. The probes are left out, as bench/sync_modes leaves them
-   out: a probe's copy follows its owner's input a frame later in every
-   encoding (up to 8 cm while it pushes), which would hide what the
-   encodings cost the simulated objects. */
-typedef struct samples {
-    double *t;   /* frames */
-    gs_vec3 *p;  /* frames x points */
-    int points, cloth_n, frames, cap;
-} samples;
-
 typedef struct host {
     gs_world *w;
     gs_net *net;
     gs_scene sc;
     gs_agent *ball[NSPHERES];
     int objects;
-    samples s;
+    et_samples s; /* the divergence at equal simulation time (samples_keep) */
 } host;
 
 static int host_scene(host *h, uint32_t id, int scene, int enc) {
@@ -151,70 +138,32 @@ static void drive(host *h, uint32_t id, int scene, double t) {
     gs_probe_set_target(h->sc.probes[id - 1], p, q);
 }
 
+/* The samples kept for the divergence at equal simulation time
+   (bench/equal_time.h), at the end of every frame of the measured span:
+   the time of the host's reference agent (the cloth; the first sphere in
+   spheres900), the cloth's particles, then one point per sphere. The
+   probes are left out, as bench/sync_modes leaves them out: a probe's
+   copy follows its owner's input a frame later in every encoding (up to
+   8 cm while it pushes), which would hide what the encodings cost the
+   simulated objects. */
 static int samples_alloc(host *h, int scene, int cap) {
-    samples *s = &h->s;
-    s->cloth_n = scene == SC_SPHERES ? 0 : gs_mesh_particle_count(h->sc.cloth);
-    s->points = scene == SC_SPHERES ? NSPHERES : s->cloth_n + h->sc.sphere_count;
-    s->cap = cap;
-    s->frames = 0;
-    s->t = (double *)calloc((size_t)cap, sizeof *s->t);
-    s->p = (gs_vec3 *)calloc((size_t)cap * (size_t)s->points, sizeof *s->p);
-    return s->t && s->p ? 0 : -1;
+    int mesh_n = scene == SC_SPHERES ? 0 : gs_mesh_particle_count(h->sc.cloth);
+    return et_alloc(&h->s, cap, scene == SC_SPHERES ? NSPHERES : mesh_n + h->sc.sphere_count,
+                    mesh_n);
 }
 
 static void samples_keep(host *h, int scene) {
-    samples *s = &h->s;
     gs_vec3 *p;
     int i;
-    if (s->frames >= s->cap) return;
-    p = s->p + (size_t)s->frames * (size_t)s->points;
     if (scene == SC_SPHERES) {
-        s->t[s->frames] = gs_agent_time(h->ball[0]);
+        if (!(p = et_push(&h->s, gs_agent_time(h->ball[0])))) return;
         for (i = 0; i < NSPHERES; ++i) p[i] = gs_rigid_position(h->ball[i]);
     } else {
-        s->t[s->frames] = gs_agent_time(h->sc.cloth);
-        memcpy(p, gs_mesh_positions(h->sc.cloth), (size_t)s->cloth_n * sizeof *p);
-        p += s->cloth_n;
-        for (i = 0; i < h->sc.sphere_count; ++i) *p++ = gs_rigid_position(h->sc.spheres[i]);
+        if (!(p = et_push(&h->s, gs_agent_time(h->sc.cloth)))) return;
+        memcpy(p, gs_mesh_positions(h->sc.cloth), (size_t)h->s.mesh_n * sizeof *p);
+        for (i = 0; i < h->sc.sphere_count; ++i)
+            p[h->s.mesh_n + i] = gs_rigid_position(h->sc.spheres[i]);
     }
-    s->frames++;
-}
-
-static double dist3(gs_vec3 a, gs_vec3 b) {
-    double x = a.x - b.x, y = a.y - b.y, z = a.z - b.z;
-    return sqrt(x * x + y * y + z * z);
-}
-
-/* The divergence of a's frame ka from b at a's time: b's samples
-   interpolated linearly to it (exact when b sampled at that time), the
-   largest over the objects of the RMS distance over the cloth's particles
-   or the distance of a sphere. -1 when a's time is outside b's samples. */
-static double diverge_at(const samples *a, int ka, const samples *b) {
-    double t = a->t[ka], f, sum = 0.0, worst = 0.0;
-    const gs_vec3 *pa = a->p + (size_t)ka * (size_t)a->points, *lo_p, *hi_p;
-    int lo = 0, hi = b->frames - 1, i, m;
-    if (b->frames < 2 || t < b->t[0] || t > b->t[hi]) return -1.0;
-    while (hi - lo > 1) {
-        m = (lo + hi) / 2;
-        if (b->t[m] <= t) lo = m;
-        else hi = m;
-    }
-    if (b->t[lo] == t) hi = lo;
-    f = hi == lo ? 0.0 : (t - b->t[lo]) / (b->t[hi] - b->t[lo]);
-    lo_p = b->p + (size_t)lo * (size_t)b->points;
-    hi_p = b->p + (size_t)hi * (size_t)b->points;
-    for (i = 0; i < a->points; ++i) {
-        gs_vec3 q;
-        double d;
-        q.x = lo_p[i].x + (hi_p[i].x - lo_p[i].x) * f;
-        q.y = lo_p[i].y + (hi_p[i].y - lo_p[i].y) * f;
-        q.z = lo_p[i].z + (hi_p[i].z - lo_p[i].z) * f;
-        d = dist3(pa[i], q);
-        if (i < a->cloth_n) sum += d * d;
-        else if (d > worst) worst = d;
-    }
-    if (a->cloth_n > 0 && sqrt(sum / a->cloth_n) > worst) worst = sqrt(sum / a->cloth_n);
-    return worst;
 }
 
 /* Mean and p95 over host 1's frames of the divergence at equal time from
@@ -225,7 +174,7 @@ static void equal_time(const host *h, double *mean, double *p95) {
     *mean = *p95 = 0.0;
     if (!d) return;
     for (k = 0; k < h[0].s.frames; ++k) {
-        double x = diverge_at(&h[0].s, k, &h[1].s);
+        double x = et_diverge_at(&h[0].s, k, &h[1].s);
         if (x >= 0.0) { d[n++] = x; sum += x; }
     }
     if (n > 0) {
@@ -292,8 +241,7 @@ static result run_scene(int scene, int enc, int quick) {
     for (i = 0; i < 2; ++i) {
         gs_net_destroy(h[i].net);
         gs_world_destroy(h[i].w);
-        free(h[i].s.t);
-        free(h[i].s.p);
+        et_free(&h[i].s);
     }
     gs_simnet_destroy(sim);
     return res;
