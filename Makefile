@@ -352,7 +352,7 @@ BENCH_TIMEOUT_QUICK := 100
 
 $(BUILD)/bench:
 	mkdir -p $@
-$(BUILD)/bench/%: bench/%.c bench/bench_util.h ghostsim.h | $(BUILD)/bench
+$(BUILD)/bench/%: bench/%.c bench/bench_util.h bench/equal_time.h ghostsim.h | $(BUILD)/bench
 	$(CC) $(CSTD) $(WARN) $(BENCH_CFLAGS) $(CCD_CFLAGS) -I. $< -o $@ $(BENCH_LIBS_$*) $(LIBS)
 $(BUILD)/bench/%: bench/%.cc bench/bench_util.h ghostsim.h | $(BUILD)/bench
 	$(CXX) -std=c++11 $(WARN) $(BENCH_CFLAGS) $(CCD_CFLAGS) -I. $< -o $@ $(BENCH_LIBS_$*) $(LIBS)

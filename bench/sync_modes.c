@@ -10,9 +10,10 @@
    for PUSH s and parks, and the run goes on for AFTER s. Frames of 1/60 s.
 
    Method (also in the JSON "method"):
-   - divergence at equal simulation time: every frame, each host's cloth
-     time and its objects' positions are kept; host k's samples are
-     interpolated (linearly) to host 1's cloth time, and the divergence is
+   - divergence at equal simulation time (bench/equal_time.h, shared with
+     bench/bandwidth): every frame, each host's cloth time and its
+     objects' positions are kept; host k's samples are interpolated
+     (linearly) to host 1's cloth time, and the divergence is
      the largest over the objects of the RMS distance (cloth) or the
      distance (spheres), the largest over hosts 2..n. While pushing: the
      samples of the push; after: whether the copies are bitwise equal
@@ -29,6 +30,7 @@
 #define GHOSTSIM_IMPLEMENTATION
 #include "../ghostsim.h"
 #include "../tests/net_helpers.h"
+#include "equal_time.h"
 
 #include <string.h>
 
@@ -52,17 +54,11 @@ typedef struct profile {
     gs_link_desc link;
 } profile;
 
-typedef struct sample {
-    double t;                     /* s, the cloth's time */
-    gs_vec3 *cloth;               /* particle positions */
-    gs_vec3 sphere[3];
-} sample;
-
 typedef struct host {
     gs_world *w;
     gs_scene sc;
-    sample *s;                    /* MAX_FRAMES */
-    gs_vec3 *pool;
+    et_samples s;                 /* MAX_FRAMES: the cloth's time, its
+                                     particles, then the spheres */
 } host;
 
 typedef struct result {
@@ -83,59 +79,18 @@ typedef struct result {
     uint64_t skipped;             /* replays whose blends changed no state */
 } result;
 
-static double dist3(gs_vec3 a, gs_vec3 b) {
-    double x = a.x - b.x, y = a.y - b.y, z = a.z - b.z;
-    return sqrt(x * x + y * y + z * z);
-}
-
-static gs_vec3 lerp3(gs_vec3 a, gs_vec3 b, double f) {
-    gs_vec3 r;
-    r.x = a.x + (b.x - a.x) * f;
-    r.y = a.y + (b.y - a.y) * f;
-    r.z = a.z + (b.z - a.z) * f;
-    return r;
-}
-
 static int attach(host *h) {
     gs_ghost_desc gd = gs_ghost_desc_default();
     gd.weight = gs_weight_cs;
     return gs_scene_attach_ghosts(&h->sc, &gd) == GS_OK;
 }
 
-static void keep(host *h, int k) {
-    sample *s = &h->s[k];
+static void keep(host *h) {
     int n = gs_mesh_particle_count(h->sc.cloth), i;
-    s->t = gs_agent_time(h->sc.cloth);
-    memcpy(s->cloth, gs_mesh_positions(h->sc.cloth), (size_t)n * sizeof *s->cloth);
-    for (i = 0; i < h->sc.sphere_count && i < 3; ++i) s->sphere[i] = gs_rigid_position(h->sc.spheres[i]);
-}
-
-/* Host b's state at time t from its samples (-1 if t is outside them or
-   the bracketing samples are not consecutive in time). Exact when b
-   sampled at t. */
-static double diverge_at(const host *a, int ka, const host *b, int nb, int n) {
-    double t = a->s[ka].t, worst = 0.0, f, sum = 0.0;
-    int lo = 0, hi = nb - 1, i, m;
-    if (nb < 2 || t < b->s[0].t || t > b->s[nb - 1].t) return -1.0;
-    while (hi - lo > 1) {
-        m = (lo + hi) / 2;
-        if (b->s[m].t <= t) lo = m;
-        else hi = m;
-    }
-    if (b->s[lo].t == t) hi = lo;
-    f = hi == lo ? 0.0 : (t - b->s[lo].t) / (b->s[hi].t - b->s[lo].t);
-    for (i = 0; i < n; ++i) {
-        gs_vec3 p = hi == lo ? b->s[lo].cloth[i] : lerp3(b->s[lo].cloth[i], b->s[hi].cloth[i], f);
-        double d = dist3(a->s[ka].cloth[i], p);
-        sum += d * d;
-    }
-    worst = sqrt(sum / n);
-    for (i = 0; i < a->sc.sphere_count && i < 3; ++i) {
-        gs_vec3 p = hi == lo ? b->s[lo].sphere[i] : lerp3(b->s[lo].sphere[i], b->s[hi].sphere[i], f);
-        double d = dist3(a->s[ka].sphere[i], p);
-        if (d > worst) worst = d;
-    }
-    return worst;
+    gs_vec3 *p = et_push(&h->s, gs_agent_time(h->sc.cloth));
+    if (!p) return;
+    memcpy(p, gs_mesh_positions(h->sc.cloth), (size_t)n * sizeof *p);
+    for (i = 0; i < h->sc.sphere_count && i < 3; ++i) p[n + i] = gs_rigid_position(h->sc.spheres[i]);
 }
 
 static void drive(host *h, double t, double push) {
@@ -188,10 +143,9 @@ static int run(const profile *pr, int mode, int nhosts, double push, double afte
             !attach(&h[k]))
             goto done;
         n = gs_mesh_particle_count(h[k].sc.cloth);
-        h[k].s = (sample *)calloc(MAX_FRAMES, sizeof *h[k].s);
-        h[k].pool = (gs_vec3 *)calloc((size_t)MAX_FRAMES * (size_t)n, sizeof *h[k].pool);
-        if (!h[k].s || !h[k].pool) goto done;
-        for (i = 0; i < MAX_FRAMES; ++i) h[k].s[i].cloth = h[k].pool + (size_t)i * (size_t)n;
+        if (et_alloc(&h[k].s, MAX_FRAMES, n + (h[k].sc.sphere_count < 3 ? h[k].sc.sphere_count : 3),
+                     n) != 0)
+            goto done;
         gs_world_advance(h[k].w, SETTLE, NULL);
     }
     for (k = 0; k < nhosts; ++k) {
@@ -216,19 +170,18 @@ static int run(const profile *pr, int mode, int nhosts, double push, double afte
         c0 = bu_cpu_now();
         gs_simnet_run(sim, FRAME, FRAME);
         cpu += bu_cpu_now() - c0;
-        for (k = 0; k < nhosts; ++k) keep(&h[k], i);
+        for (k = 0; k < nhosts; ++k) keep(&h[k]);
         {
             double g = 0.0;
             for (k = 1; k < nhosts; ++k) g = fmax(g, fabs(gs_world_time(h[k].w) - gs_world_time(h[0].w)));
             gaps[ng++] = g;
         }
     }
-    n = gs_mesh_particle_count(h[0].sc.cloth);
     for (i = 0; i < frames; ++i) {
         double now = (i + 1) * FRAME, d = 0.0;
         int any = 0;
         for (k = 1; k < nhosts; ++k) {
-            double dk = diverge_at(&h[0], i, &h[k], frames, n);
+            double dk = et_diverge_at(&h[0].s, i, &h[k].s);
             if (dk >= 0.0) { any = 1; if (dk > d) d = dk; }
         }
         if (!any) continue;
@@ -260,8 +213,7 @@ static int run(const profile *pr, int mode, int nhosts, double push, double afte
 done:
     for (k = 0; k < nhosts; ++k) {
         gs_world_destroy(h[k].w);
-        free(h[k].s);
-        free(h[k].pool);
+        et_free(&h[k].s);
     }
     gs_simnet_destroy(sim);
     return ok;
