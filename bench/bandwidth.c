@@ -17,7 +17,10 @@
    Encodings: f64, f32, quant (0.05 mm, 1 mm/s, 16-bit smallest three),
    quant+rest (send on change: rest threshold 0.1 mm, heartbeats at 4 Hz),
    quant+delta (gs_ghost_desc.delta: each chunk as its differences from
-   the newest snapshot the peer acknowledged), delta+rest (both).
+   the newest snapshot the peer acknowledged), delta+rest (both),
+   delta+predict (delta+rest, with gs_ghost_desc.rest_extrapolate: "at
+   rest" measured against the last state sent carried along its
+   velocity, so a steady drift sends only heartbeats).
    --quick runs the paper scenes only, in f64, quant+rest and quant+delta,
    over 1 s, and times f64, quant and quant+delta only (the cloth64 and
    spheres900 rows take minutes: a 64x64 cloth settles 3 s at creation on
@@ -65,9 +68,10 @@ static gs_vec3 v3(double x, double y, double z) {
     return v;
 }
 
-enum { ENC_F64, ENC_F32, ENC_QUANT, ENC_QUANT_REST, ENC_DELTA, ENC_DELTA_REST, ENC_COUNT };
+enum { ENC_F64, ENC_F32, ENC_QUANT, ENC_QUANT_REST, ENC_DELTA, ENC_DELTA_REST, ENC_PREDICT,
+       ENC_COUNT };
 static const char *enc_name[ENC_COUNT] = {"f64", "f32", "quant", "quant+rest", "quant+delta",
-                                          "delta+rest"};
+                                          "delta+rest", "delta+predict"};
 
 enum { SC_PAPER_PUSH, SC_PAPER_REST, SC_CLOTH64, SC_SPHERES, SC_COUNT };
 static const char *sc_name[SC_COUNT] = {"paper-push", "paper-rest", "cloth64-push", "spheres900"};
@@ -78,8 +82,12 @@ static gs_ghost_desc ghost_desc(int enc) {
     gs_ghost_desc gd = gs_ghost_desc_default();
     gd.encoding = enc == ENC_F64 ? GS_ENCODING_F64 : enc == ENC_F32 ? GS_ENCODING_F32
                                                                      : GS_ENCODING_QUANT;
-    if (enc == ENC_QUANT_REST || enc == ENC_DELTA_REST) gd.rest_threshold = 1e-4;
-    gd.delta = enc == ENC_DELTA || enc == ENC_DELTA_REST;
+    if (enc == ENC_QUANT_REST || enc == ENC_DELTA_REST || enc == ENC_PREDICT)
+        gd.rest_threshold = 1e-4;
+    gd.delta = enc == ENC_DELTA || enc == ENC_DELTA_REST || enc == ENC_PREDICT;
+    /* delta+predict: send on change against the last state sent carried
+       along its velocity (both hosts predict alike) */
+    gd.rest_extrapolate = enc == ENC_PREDICT;
     gd.weight = gs_weight_cs;
     return gd;
 }
@@ -332,7 +340,7 @@ int main(int argc, char **argv) {
     for (s = 0; s < SC_COUNT; ++s)
         for (e = 0; e < ENC_COUNT; ++e) {
             if (args.quick && (s == SC_CLOTH64 || s == SC_SPHERES || e == ENC_F32 ||
-                               e == ENC_QUANT || e == ENC_DELTA_REST)) {
+                               e == ENC_QUANT || e == ENC_DELTA_REST || e == ENC_PREDICT)) {
                 memset(&r[s][e], 0, sizeof r[s][e]);
                 continue;
             }
@@ -345,7 +353,8 @@ int main(int argc, char **argv) {
     fprintf(stderr, "\npaper scene, one full snapshot (all 6 objects), median of 200:\n");
     fprintf(stderr, "%-11s %10s %10s %10s\n", "encoding", "bytes", "encode us", "decode us");
     for (e = 0; e < ENC_COUNT; ++e) {
-        if ((args.quick && e == ENC_F32) || e == ENC_QUANT_REST || e == ENC_DELTA_REST) {
+        if ((args.quick && e == ENC_F32) || e == ENC_QUANT_REST || e == ENC_DELTA_REST ||
+            e == ENC_PREDICT) {
             eu[e] = du[e] = by[e] = 0.0; /* send on change: the same encoders */
             continue;
         }
