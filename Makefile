@@ -184,7 +184,7 @@ SLOW_SUITES := test_net test_ghost
 PLAIN_ONLY := test_manual test_rest test_simd
 SUITES_BY_LENGTH := $(addprefix run-asan-,$(SLOW_SUITES)) run-plain-test_rest \
   $(addprefix run-asan-,$(filter-out $(SLOW_SUITES) $(PLAIN_ONLY),$(TESTS))) \
-  $(addprefix run-plain-,$(filter-out $(PLAIN_ONLY),$(TESTS)) $(TESTS_NOSODIUM))
+  $(addprefix run-plain-,$(filter-out test_manual test_rest,$(TESTS)) $(TESTS_NOSODIUM))
 run-plain-%: $(BUILD)/%
 	@sh tests/run.sh "plain" $(BUILD)/$*
 run-asan-%: $(BUILD)/asan/%
