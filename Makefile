@@ -94,10 +94,11 @@ $(BUILD)/asan/test_%: tests/test_%.c $(BUILD)/asan/gs_impl.o ghostsim.h
 	$(CC) $(CSTD) $(WARN) $(SANFLAGS) $(SODIUM_CFLAGS) -I. $< $(BUILD)/asan/gs_impl.o -o $@ -lcmocka $(LIBS) $(SODIUM_LIBS)
 # The tests' shared helpers (tests/helpers.h: what they share; net_helpers.h: nets
 # on the simnet, UDP and the test's own transport; alloc_helpers.h: the counting
-# allocator; world_helpers.h: vectors, worlds and custom agents).
+# allocator; world_helpers.h: vectors, worlds and custom agents; wire_helpers.h:
+# hand-built datagrams).
 $(addprefix $(BUILD)/,$(TESTS) $(TESTS_NOSODIUM)) $(addprefix $(BUILD)/asan/,$(TESTS) $(TESTS_NOSODIUM)) \
   $(BUILD)/tsan/test_net: tests/helpers.h tests/net_helpers.h tests/alloc_helpers.h \
-  tests/world_helpers.h
+  tests/world_helpers.h tests/wire_helpers.h
 # The regression test replays the fuzz harness's checks.
 $(BUILD)/test_fuzz_regress $(BUILD)/asan/test_fuzz_regress: tests/fuzz_wire.c tests/fuzz_sealed.c \
   tests/fuzz_clock.c tests/fuzz_world.h

@@ -17,6 +17,7 @@
 
 #include "ghostsim.h"
 #include "net_helpers.h"
+#include "wire_helpers.h"
 
 /* ---- an allocator that counts ---- */
 typedef struct counter {
@@ -81,30 +82,6 @@ static gs_agent *make_pend(gs_world *w, pend *p) {
     return a;
 }
 
-/* A datagram from `sender` with one snapshot of object `object` (two
-   values) at simulation time t. Returns its size. */
-static size_t snapshot_datagram(unsigned char *buf, uint32_t sender, uint32_t seq,
-                                uint32_t object, double t) {
-    gs_wire_header h;
-    gs_wire_chunk c;
-    double vals[2] = {0.5, -0.25};
-    size_t size;
-    memset(&h, 0, sizeof h);
-    h.session = 1;
-    h.sender = sender;
-    h.sequence = seq;
-    h.send_time = 1.0;
-    memset(&c, 0, sizeof c);
-    c.object_id = object;
-    c.sequence = seq;
-    c.time = t;
-    c.count = 1;
-    c.elements = 2;
-    c.encoding = GS_ENCODING_F64;
-    assert_int_equal(gs_wire_begin(buf, GS_WIRE_MAX_DATAGRAM, &h, &size), GS_OK);
-    assert_int_equal(gs_wire_add(buf, GS_WIRE_MAX_DATAGRAM, &size, &c, vals), GS_OK);
-    return gs_wire_end(buf, size);
-}
 
 static gs_result sink_send(void *user, uint32_t host, const void *data, size_t size) {
     (void)user;

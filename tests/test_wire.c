@@ -20,6 +20,7 @@
 #include <string.h>
 
 #include "ghostsim.h"
+#include "wire_helpers.h"
 
 /* Offsets of the documented layout (header 48 B; a chunk's header is
    coded against the chunk before it, see >>wire). */
@@ -36,18 +37,6 @@ enum {
 
 /* ---- little helpers: bytes, CRC ---- */
 
-/* CRC-32 (IEEE 802.3, reflected polynomial 0xEDB88320), bit by bit: an
-   implementation independent of the header's table. */
-static uint32_t crc32_ref(const unsigned char *p, size_t n) {
-    uint32_t c = 0xffffffffu;
-    size_t i;
-    int k;
-    for (i = 0; i < n; ++i) {
-        c ^= p[i];
-        for (k = 0; k < 8; ++k) c = (c >> 1) ^ (0xedb88320u & (0u - (c & 1u)));
-    }
-    return c ^ 0xffffffffu;
-}
 
 static void put16(unsigned char *p, uint16_t v) {
     p[0] = (unsigned char)v;
@@ -80,10 +69,6 @@ static double to_f32(double v) {
     return f;
 }
 
-/* Writes the CRC of the first size-4 bytes into the last 4. */
-static void recrc(unsigned char *buf, size_t size) {
-    put32(buf + size - 4, crc32_ref(buf, size - 4));
-}
 
 /* Decodes a private copy of exactly `size` bytes (so that ASan sees any
    read past the end); returns gs_wire_decode's answer. */

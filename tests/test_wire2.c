@@ -24,26 +24,10 @@
 #include <string.h>
 
 #include "ghostsim.h"
+#include "wire_helpers.h"
 
 /* ---- helpers ---- */
 
-static uint32_t crc32_ref(const unsigned char *p, size_t n) {
-    uint32_t c = 0xffffffffu;
-    size_t i;
-    int k;
-    for (i = 0; i < n; ++i) {
-        c ^= p[i];
-        for (k = 0; k < 8; ++k) c = (c >> 1) ^ (0xedb88320u & (0u - (c & 1u)));
-    }
-    return c ^ 0xffffffffu;
-}
-static void recrc(unsigned char *buf, size_t n) {
-    uint32_t c = crc32_ref(buf, n - 4);
-    buf[n - 4] = (unsigned char)c;
-    buf[n - 3] = (unsigned char)(c >> 8);
-    buf[n - 2] = (unsigned char)(c >> 16);
-    buf[n - 1] = (unsigned char)(c >> 24);
-}
 
 static uint64_t rng_state = 0x9e3779b97f4a7c15ull;
 static double rnd(void) { /* xorshift64*, in [0, 1) */

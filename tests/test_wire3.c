@@ -20,28 +20,10 @@
 
 #include "ghostsim.h"
 #include "net_helpers.h"
+#include "wire_helpers.h"
 
 #define FRAME (1.0 / 60.0)
 
-/* CRC-32 (IEEE), bit by bit: independent of the header's table. */
-static uint32_t crc32_bits(const unsigned char *p, size_t n) {
-    uint32_t c = 0xffffffffu;
-    size_t i;
-    int k;
-    for (i = 0; i < n; ++i) {
-        c ^= p[i];
-        for (k = 0; k < 8; ++k) c = (c >> 1) ^ (0xedb88320u & (0u - (c & 1u)));
-    }
-    return c ^ 0xffffffffu;
-}
-/* The checksum of an n-byte datagram made good again. */
-static void recrc(unsigned char *b, size_t n) {
-    uint32_t c = crc32_bits(b, n - 4);
-    b[n - 4] = (unsigned char)c;
-    b[n - 3] = (unsigned char)(c >> 8);
-    b[n - 2] = (unsigned char)(c >> 16);
-    b[n - 1] = (unsigned char)(c >> 24);
-}
 
 static gs_wire_header header(void) {
     gs_wire_header h;

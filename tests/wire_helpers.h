@@ -1,0 +1,59 @@
+/* wire_helpers.h - the tests' hand-built datagrams: a CRC-32 of their own,
+   to make a changed datagram's checksum good again, and a one-snapshot
+   datagram. Include after cmocka.h and ghostsim.h. */
+#ifndef GS_TEST_WIRE_HELPERS_H
+#define GS_TEST_WIRE_HELPERS_H
+
+#include <string.h>
+
+#include "helpers.h"
+
+/* CRC-32 (IEEE 802.3, reflected polynomial 0xEDB88320), bit by bit: an
+   implementation independent of the header's table. */
+static GS_TEST_UNUSED uint32_t crc32_ref(const unsigned char *p, size_t n) {
+    uint32_t c = 0xffffffffu;
+    size_t i;
+    int k;
+    for (i = 0; i < n; ++i) {
+        c ^= p[i];
+        for (k = 0; k < 8; ++k) c = (c >> 1) ^ (0xedb88320u & (0u - (c & 1u)));
+    }
+    return c ^ 0xffffffffu;
+}
+
+/* The checksum of an n-byte datagram made good again (little-endian, in
+   its last four bytes). */
+static GS_TEST_UNUSED void recrc(unsigned char *buf, size_t n) {
+    uint32_t c = crc32_ref(buf, n - 4);
+    buf[n - 4] = (unsigned char)c;
+    buf[n - 3] = (unsigned char)(c >> 8);
+    buf[n - 2] = (unsigned char)(c >> 16);
+    buf[n - 1] = (unsigned char)(c >> 24);
+}
+
+/* A datagram from `sender` (session 1) carrying one f64 snapshot of object
+   `object`: two values at simulation time t. Returns its size. */
+static GS_TEST_UNUSED size_t snapshot_datagram(unsigned char *buf, uint32_t sender, uint32_t seq,
+                                               uint32_t object, double t) {
+    gs_wire_header h;
+    gs_wire_chunk c;
+    double vals[2] = {0.5, -0.25};
+    size_t size;
+    memset(&h, 0, sizeof h);
+    h.session = 1;
+    h.sender = sender;
+    h.sequence = seq;
+    h.send_time = 1.0;
+    memset(&c, 0, sizeof c);
+    c.object_id = object;
+    c.sequence = seq;
+    c.time = t;
+    c.count = 1;
+    c.elements = 2;
+    c.encoding = GS_ENCODING_F64;
+    assert_int_equal(gs_wire_begin(buf, GS_WIRE_MAX_DATAGRAM, &h, &size), GS_OK);
+    assert_int_equal(gs_wire_add(buf, GS_WIRE_MAX_DATAGRAM, &size, &c, vals), GS_OK);
+    return gs_wire_end(buf, size);
+}
+
+#endif
