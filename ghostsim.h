@@ -353,6 +353,9 @@
                            gs_simnet_join, gs_udp_open, gs_udp_add_peer,
                            gs_udp_remove_peer, gs_udp_net, gs_udp_poll and
                            gs_net_desc.send/send_user are gone.
+                           A frame grid on the session clock
+                           (gs_sync_desc.frame, gs_world_next_frame): the
+                           hosts' frame loops lock in phase.
 
    LICENSE: MIT, at the end of this file.
 */
@@ -508,10 +511,18 @@ typedef struct gs_sync_desc {
                               (estimated from the last advance's steps per
                               frame); default 4096; past it the snapshots
                               blend at the present and are counted */
+    double frame;          /* s; session clock only: each advance's target
+                              is the session time rounded to the nearest
+                              multiple of `frame` counted from the
+                              session's time 0, so hosts that advance near
+                              the same boundary (gs_world_next_frame) run
+                              to the same time; default 0: off (the
+                              target is the session time itself); at most
+                              0.05 */
 } gs_sync_desc;
 
 /* Mode present, local clock, the world's clock, 16 frames of history, a
-   replay budget of 4096 steps. */
+   replay budget of 4096 steps, no frame grid. */
 GS_API gs_sync_desc gs_sync_desc_default(void);
 
 typedef struct gs_world_desc {
@@ -1452,6 +1463,32 @@ typedef struct gs_sync_stats {
 
 /* The sync layer's counters. Returns GS_ERR_INVALID_ARG for NULL. */
 GS_API gs_result gs_world_sync_stats(const gs_world *w, gs_sync_stats *out);
+
+/* When to advance next, for an application that advances in frames on the
+   session clock with a frame grid (gs_sync_desc.frame): *at is the instant,
+   on the clock the session clock reads (gs_sync_desc.now, else the world's
+   clock) and of which `now` is a reading, of the session's next frame
+   boundary after the one the last advance ran to; if that instant is
+   already past (the host fell behind), the first boundary at or after
+   `now`. Every host that sleeps until its *at and then advances runs to
+   the same time at the same wall instant, to within the session clock's
+   offset error and its own wake-up latency: the frame loops of the hosts
+   lock in phase. An application that computes a frame before it shows it
+   wakes up to half a frame before *at (the target still rounds to that
+   boundary), advances, and shows the state at *at; its ghosts' datagrams
+   then leave at *at too (gs_net_update holds a state until the instant it
+   stands for), so that the peers, which read the session's timeline from a
+   state's time less its send time, read it right. Before the first advance
+   *at is `now`. Returns GS_OK;
+   GS_ERR_INVALID_ARG for a NULL world or at, a world not on the session
+   clock or without a frame grid; GS_ERR_NOT_FINITE for a non-finite `now`.
+   Example:
+       for (;;) { double at, now = clock_now();
+                  gs_world_advance(w, now - last, NULL); last = now;
+                  draw(w);
+                  if (gs_world_next_frame(w, clock_now(), &at) == GS_OK)
+                      sleep_until(at); } */
+GS_API gs_result gs_world_next_frame(gs_world *w, double now, double *at);
 
 /* A determinism check in the spirit of GGPO's SyncTest: goes back `frames`
    advances in the history, re-runs them with the inputs recorded, and
@@ -2755,6 +2792,11 @@ GS__PRIVATE gs_world_desc gs__world_defaults(const gs_world_desc *in) {
     return d;
 }
 
+/* s; the largest sync.frame: half the band within which two timelines are
+   one (GS__SYNC_BAND), so a target rounded to the grid never reads as a
+   session ahead */
+#define GS__SYNC_FRAME_MAX 0.05
+
 GS__PRIVATE gs_result gs__world_check(const gs_world_desc *d) {
     gs__check c = gs__check_begin(NULL, "gs_world_create");
     gs__check_int(&c, "queue_count", d->queue_count, 1, GS_MAX_QUEUES);
@@ -2769,6 +2811,10 @@ GS__PRIVATE gs_result gs__world_check(const gs_world_desc *d) {
     gs__check_int(&c, "sync.replay_budget", d->sync.replay_budget, 1, 1L << 30);
     if (d->sync.history_frames != -1)
         gs__check_int(&c, "sync.history_frames", d->sync.history_frames, 1, 1024);
+    gs__check_finite(&c, "sync.frame", d->sync.frame);
+    if (!(d->sync.frame >= 0.0 && d->sync.frame <= GS__SYNC_FRAME_MAX))
+        gs__check_fail(&c, GS_ERR_INVALID_ARG, "sync.frame is %g s, must be in [0, %g]",
+                       d->sync.frame, GS__SYNC_FRAME_MAX);
     if (!d->allocator.alloc != !d->allocator.free)
         gs__check_fail(&c, GS_ERR_INVALID_ARG,
                        "allocator needs both alloc and free, or neither");
@@ -8631,6 +8677,9 @@ struct gs__ghost {
     uint32_t b_seq, sent_seq;
     double next_publish;  /* s, simulation time */
     double next_send;     /* s, wall time */
+    double stands_at;     /* s, wall time: the instant B stands for, when
+                             an advance on a frame grid ran ahead of it
+                             (the net holds B until then), else 0 */
     double *local, *scratch;
     double *offset, *offset_next; /* render offsets; a blend writes the next
                                      ones and swaps only if it is applied */
@@ -9821,6 +9870,8 @@ typedef struct gs__sync {
     int started;         /* the session clock has read its first time */
     double origin;       /* s; session time - local clock */
     double last_now;     /* s; the local clock at the last advance */
+    double boundary;     /* s; the frame boundary the last advance ran to
+                            (sync.frame), session time */
     gs__sync_peer mail[GS__MAX_PEERS]; /* written by the net, under its lock */
     gs__sync_peer peer[GS__MAX_PEERS]; /* taken from mail at each advance */
     gs_sync_stats st;
@@ -10337,7 +10388,11 @@ GS__PRIVATE void gs__sync_catch_up(gs_world *w) {
     for (i = 0; i < w->agent_count; ++i) {
         gs_agent *a = w->agents[i];
         double lag = w->target - gs__agent_time(a);
-        if (lag > GS__FOLLOW_STEPS * a->dt) a->t_offset += lag;
+        /* with a frame grid, by whole steps: the agent's times stay on the
+           grid of its dt from the session's time 0, where the other
+           hosts' agents of that dt step */
+        if (lag > GS__FOLLOW_STEPS * a->dt)
+            a->t_offset += w->sync->d.frame > 0.0 ? floor(lag / a->dt + 0.5) * a->dt : lag;
     }
 }
 
@@ -10365,6 +10420,13 @@ GS__PRIVATE void gs__sync_target(gs_world *w, double seconds, double before) {
             sy->last_now = now;
             gs__sync_follow(w, now, seconds);
             want = now + sy->origin;
+            if (sy->d.frame > 0.0) {
+                /* to the nearest boundary, not down: a host that wakes a
+                   little before one (its offset error, a timer early) runs
+                   to it as the host that wakes a little after it does */
+                want = floor(want / sy->d.frame + 0.5) * sy->d.frame;
+                sy->boundary = want;
+            }
             if (w->target > want + GS__SYNC_BAND) {
                 sy->origin = w->target - now;
                 sy->st.joins++;
@@ -10436,8 +10498,16 @@ GS__PRIVATE void gs__sync_end(gs_world *w, double seconds, const gs_advance_repo
     if (gs__sync_session(w))
         for (i = 0; i < w->agent_count; ++i) {
             gs__ghost *g = gs__ghost_of(w->agents[i]);
-            if (g && gs__agent_time(g->agent) + 0.5 * seconds >= g->next_publish)
+            if (g && gs__agent_time(g->agent) + 0.5 * seconds >= g->next_publish) {
+                /* on a frame grid the target is a boundary, perhaps still
+                   ahead (an application that computes a frame early): the
+                   datagram leaves at it, not before, as the peers read
+                   this timeline from its time less its send time */
+                gs__lock(w->net);
+                g->stands_at = sy->d.frame > 0.0 ? w->target - sy->origin : 0.0;
+                gs__unlock(w->net);
                 gs__ghost_publish_now(g, w->net);
+            }
         }
     sy->frame_steps = rep->steps;
     sy->st.session_time = w->target;
@@ -10843,6 +10913,28 @@ GS_API gs_result gs_world_sync_test(gs_world *w, int frames, int *bad_agent) {
     gs__sync_load(w, present);
     w->target = target;
     w->dispatches = dispatches;
+    return GS_OK;
+}
+
+GS_API gs_result gs_world_next_frame(gs_world *w, double now, double *at) {
+    gs__sync *sy;
+    double f, next;
+    if (!w || !at) return w ? gs__fail(w, GS_ERR_INVALID_ARG, "gs_world_next_frame: at is NULL")
+                            : GS_ERR_INVALID_ARG;
+    sy = w->sync;
+    f = sy->d.frame;
+    if (!gs__sync_session(w) || f <= 0.0)
+        return gs__fail(w, GS_ERR_INVALID_ARG, "gs_world_next_frame: the world has no frame "
+                        "grid (needs sync.clock = GS_SYNC_CLOCK_SESSION and sync.frame > 0)");
+    if (!gs__finite(now))
+        return gs__fail(w, GS_ERR_NOT_FINITE, "gs_world_next_frame: now is %g", now);
+    if (!sy->started) {
+        *at = now;
+        return GS_OK;
+    }
+    next = sy->boundary + f;
+    if (next - sy->origin < now) next = ceil((now + sy->origin) / f) * f;
+    *at = next - sy->origin;
     return GS_OK;
 }
 
@@ -13400,8 +13492,12 @@ GS__PRIVATE void gs__send_due(gs_net *net, gs__ghost *g, double now, size_t *siz
    ahead than one period means the clock went back since (or one `now`
    was wild, 1e300): due at once, or the ghost would be silent until the
    clock came back there. */
+/* A state that stands for a later instant waits for it (within a frame:
+   a net on another clock than the session's is never held), so that the
+   peers read its time against its send time as the session's. */
 GS__PRIVATE int gs__ghost_due(const gs__ghost *g, double now) {
     double period = 1.0 / g->d.send_rate;
+    if (g->stands_at - now > 0.0 && g->stands_at - now <= GS__SYNC_FRAME_MAX) return 0;
     return g->b_seq != g->sent_seq && (now >= g->next_send || g->next_send - now > period);
 }
 

@@ -7,6 +7,7 @@
                [--clock-step AT:SECONDS] [--probe-wild AT:SECONDS:SPEED]
                [--resolution M] [--rest-threshold M] [--heartbeat-rate HZ]
                [--sync present|replay] [--clock local|session]
+               [--frame-lock on|off]
 
    --encoding quant sends positions at --resolution metres (default 5e-5),
    velocities at 1 mm/s and orientations as smallest three (wire v2);
@@ -45,6 +46,21 @@
    keeps each host's target its own seconds advanced (--sync replay always
    runs on the session clock).
 
+   --frame-lock on (with --clock session or --sync replay; default off)
+   locks the host's 5 ms frame loop in phase with the session's: the world
+   rounds each target to the session's 5 ms grid (gs_sync_desc.frame) and
+   the loop sleeps until the next boundary (gs_world_next_frame), so the
+   hosts of a session step at the same wall instants to the same times;
+   off, each loop sleeps 5 ms from its own phase, which puts up to a frame
+   of simulation time between hosts at any one instant. Locked, a frame is
+   computed 2 ms before the boundary it stands for and held until it (the
+   lines, the trace and the datagrams come out at the boundary). Each JSON
+   line carries "frame_lock" (true/false), "t_done": the wall time (as
+   "wall") at which the advance that took the world to "t" ended, and
+   "t_since": the wall time from which the host shows "t" (t_done, or
+   locked the boundary), so that a host's simulation time at any wall
+   instant can be read from its lines (bench/process_gap.py).
+
    --key FILE seals every datagram under a pre-shared key (32 raw bytes, or
    64 hex digits and an optional newline) that every host of the session
    uses: datagrams not sealed under it are refused and counted. It needs a
@@ -81,6 +97,9 @@
 #define FRAME 0.005        /* s of wall time between world advances */
 #define TRACE_EVERY 0.010  /* s of wall time between trace rows */
 #define PARK_HEIGHT 0.4    /* m: a parked probe hangs clear of the cloth */
+#define LEAD 0.002         /* s; --frame-lock: a frame is computed this much
+                              before the boundary it stands for (under half
+                              a frame, so the target rounds to it) */
 
 typedef struct peer_arg {
     uint32_t id;
@@ -113,6 +132,7 @@ typedef struct options {
     unsigned char key[KEY_BYTES];
     int replay;            /* --sync replay */
     int session;           /* --clock session (--sync replay implies it) */
+    int frame_lock;        /* --frame-lock on */
 } options;
 
 static volatile sig_atomic_t g_stop = 0; /* the only static: signal handlers need one */
@@ -132,7 +152,8 @@ static void usage(const char *why) {
             "                 [--stats-every S] [--trace FILE] [--key FILE]\n"
             "                 [--clock-step AT:SECONDS] [--probe-wild AT:SECONDS:SPEED]\n"
             "                 [--resolution M] [--rest-threshold M] [--heartbeat-rate HZ]\n"
-            "                 [--sync present|replay] [--clock local|session]\n");
+            "                 [--sync present|replay] [--clock local|session]\n"
+            "                 [--frame-lock on|off]\n");
     exit(2);
 }
 
@@ -337,6 +358,11 @@ static void parse_args(int argc, char **argv, options *o) {
             else if (strcmp(v, "session") == 0) o->session = 1;
             else usage("--clock: local or session");
         }
+        else if (strcmp(f, "--frame-lock") == 0) {
+            if (strcmp(v, "on") == 0) o->frame_lock = 1;
+            else if (strcmp(v, "off") == 0) o->frame_lock = 0;
+            else usage("--frame-lock: on or off");
+        }
         else {
             char msg[160];
             snprintf(msg, sizeof msg, "unknown flag '%s'", f);
@@ -344,6 +370,8 @@ static void parse_args(int argc, char **argv, options *o) {
         }
     }
     if (o->id == 0) usage("--id is required");
+    if (o->frame_lock && !o->session && !o->replay)
+        usage("--frame-lock on needs the session clock (--clock session or --sync replay)");
     if (!o->listen) usage("--listen is required");
     for (k = 0; k < o->npeers; ++k)
         if (o->peers[k].id == o->id) usage("--peer: a peer has this host's own id");
@@ -357,6 +385,8 @@ typedef struct peer_host {
     gs_scene sc;
     gs_net *net;         /* on UDP; it owns its gs_udp */
     double wall0, mono0;   /* clocks at the start */
+    double t_since;        /* wall time since the host shows "t" */
+    double t_done;         /* wall time at the end of the advance to "t" */
     FILE *trace;
     uint64_t rx_seen[MAX_PEERS];
     int announced[MAX_PEERS];
@@ -399,6 +429,7 @@ static int build(peer_host *h) {
         wd.sync.mode = GS_SYNC_REPLAY;
         wd.sync.history_frames = 64; /* 5 ms frames: 320 ms, a 250 ms round trip and more */
     }
+    if (o->frame_lock) wd.sync.frame = FRAME;
     if (gs_world_create(&wd, &h->w) != GS_OK) return fail(h, "world");
     sd.cloth_n = o->cloth;
     sd.sphere_count = o->spheres ? o->spheres : GS_NONE;
@@ -540,6 +571,8 @@ static void print_line(peer_host *h, int final) {
                wall > 0.0 ? (double)st.replay_steps / wall : 0.0,
                (unsigned long long)st.fallbacks, st.lag, (unsigned)st.timekeeper);
     }
+    printf(", \"frame_lock\": %s, \"t_since\": %.6f, \"t_done\": %.6f",
+           h->o.frame_lock ? "true" : "false", h->t_since, h->t_done);
     if (final) {
         if (gs_net_unknown_stats(net, &unknown) == GS_OK) unknown_total = unknown.rejected_total;
         printf(", \"final\": true, \"totals\": {\"wall_seconds\": %.3f, \"snapshots_sent\": %llu, "
@@ -594,9 +627,20 @@ static void nap(double seconds) {
     nanosleep(&ts, NULL);
 }
 
+/* Until `at` on CLOCK_MONOTONIC (gs_udp_now): an absolute wake, so the time
+   the loop spent since it read the clock does not shift the phase. */
+static void nap_until(double at) {
+    struct timespec ts;
+    if (!(at > gs_udp_now())) return;
+    ts.tv_sec = (time_t)at;
+    ts.tv_nsec = (long)((at - (double)ts.tv_sec) * 1e9);
+    if (ts.tv_nsec >= 1000000000L) ts.tv_nsec = 999999999L;
+    clock_nanosleep(CLOCK_MONOTONIC, TIMER_ABSTIME, &ts, NULL);
+}
+
 /* At wall-clock pace until the duration or a signal. */
 static int run(peer_host *h) {
-    double last = gs_udp_now(), next_stats = last, next_trace = last, skew = 0.0;
+    double last = gs_udp_now(), next_stats = last, next_trace = last, skew = 0.0, at = 0.0;
     int stepped = h->o.step == 0.0;
     h->mono0 = last;
     while (!g_stop) {
@@ -612,10 +656,13 @@ static int run(peer_host *h) {
         pnow = now + skew; /* the clock the world is paced with */
         drive_probe(h, sim_time(h));
         r = gs_world_advance(h->w, pnow - last, NULL);
+        h->t_done = wall_now();
         if (r != GS_OK && r != GS_ERR_UNSTABLE)
             fprintf(stderr, "ghostpeer %u: %s\n", (unsigned)h->o.id, gs_world_error(h->w));
         last = pnow;
-        gs_net_poll(h->net, pnow); /* wakes the scatter thread */
+        if (h->o.frame_lock && at > 0.0) nap_until(at); /* shown at its boundary */
+        h->t_since = wall_now();
+        gs_net_poll(h->net, h->o.frame_lock ? gs_udp_now() + skew : pnow); /* wakes the scatter thread */
         if (now >= next_stats) {
             print_line(h, 0);
             watch_peers(h, elapsed);
@@ -627,7 +674,10 @@ static int run(peer_host *h) {
             next_trace += TRACE_EVERY;
             if (next_trace < now) next_trace = now + TRACE_EVERY;
         }
-        nap(FRAME - (gs_udp_now() - now));
+        if (h->o.frame_lock && gs_world_next_frame(h->w, gs_udp_now(), &at) == GS_OK)
+            nap_until(at - LEAD); /* computed ahead of the session's next boundary */
+        else
+            nap(FRAME - (gs_udp_now() - now));
     }
     print_line(h, 1);
     return 0;
