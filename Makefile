@@ -362,15 +362,19 @@ $(BUILD)/bench/%: bench/%.cc bench/bench_util.h ghostsim.h | $(BUILD)/bench
 
 bench-build: $(BENCH_BINS)
 
+# Benchmarks in Python (standard library only) that drive ghostpeer
+# processes; bench/run.sh runs them as it runs the programs.
+BENCH_PY := bench/process_gap.py
+
 # Runs every program (a failure does not stop the others, but fails the
 # target), then bench/report.py draws the report and the plots.
 bench: deps deps-bench
-	@$(MAKE) --no-print-directory bench-build
-	@sh bench/run.sh "" $(BENCH_TIMEOUT_FULL) $(BENCH_BINS)
+	@$(MAKE) --no-print-directory bench-build $(BUILD)/ghostpeer
+	@GHOSTPEER=$(BUILD)/ghostpeer sh bench/run.sh "" $(BENCH_TIMEOUT_FULL) $(BENCH_BINS) $(BENCH_PY)
 
 bench-quick: deps deps-bench
-	@$(MAKE) --no-print-directory bench-build
-	@sh bench/run.sh --quick $(BENCH_TIMEOUT_QUICK) $(BENCH_BINS)
+	@$(MAKE) --no-print-directory bench-build $(BUILD)/ghostpeer
+	@GHOSTPEER=$(BUILD)/ghostpeer sh bench/run.sh --quick $(BENCH_TIMEOUT_QUICK) $(BENCH_BINS) $(BENCH_PY)
 
 ghostsim.pc: ghostsim.pc.in Makefile
 	sed -e 's|@PREFIX@|$(PREFIX)|' -e 's|@VERSION@|0.1.0|' $< > $@

@@ -10339,6 +10339,21 @@ GS__PRIVATE double gs__sync_median(const gs__sync_peer *pe) {
     return n % 2 ? v[n / 2] : 0.5 * (v[n / 2 - 1] + v[n / 2]);
 }
 
+/* A peer's timeline: the median of its recent estimates; on a frame grid
+   the largest, the least delayed: there every state leaves at or after the
+   instant it stands for (gs__ghost_due holds it until then), so a delay on
+   the way (a sender's loop or its send thread late on a loaded machine)
+   only ever lowers an estimate, as a delay only ever lengthens a round
+   trip, and the least delayed is the truest (the clock offset's rule). */
+GS__PRIVATE double gs__sync_estimate(const gs__sync *sy, const gs__sync_peer *pe) {
+    double e;
+    int i;
+    if (!(sy->d.frame > 0.0)) return gs__sync_median(pe);
+    e = pe->est[0];
+    for (i = 1; i < pe->n; ++i) e = fmax(e, pe->est[i]);
+    return e;
+}
+
 /* Moves the origin toward the timekeeper's timeline, or to a session ahead
    that this host joined late. */
 GS__PRIVATE void gs__sync_follow(gs_world *w, double now, double seconds) {
@@ -10355,7 +10370,7 @@ GS__PRIVATE void gs__sync_follow(gs_world *w, double now, double seconds) {
         gs__sync_peer *pe = &sy->peer[p], *m = &sy->mail[p];
         double e;
         if (pe->n == 0 || !(now - pe->heard <= GS__SYNC_LIVE)) continue;
-        e = gs__sync_median(pe);
+        e = gs__sync_estimate(sy, pe);
         if (e > sy->origin + GS__SYNC_BAND) {
             if (!(m->ahead_since <= now)) m->ahead_since = now;
             if (now - m->ahead_since >= GS__SYNC_HOLD && e > ahead) ahead = e;

@@ -2,7 +2,8 @@
 # Runs every benchmark program, then the report.
 #   sh bench/run.sh MODE TIMEOUT PROGRAM...
 # MODE is "" (full) or --quick; TIMEOUT is seconds per program. Each program
-# writes bench/results/NAME.json; its table goes to the terminal. A program
+# (or bench/NAME.py, an executable script) writes bench/results/NAME.json;
+# its table goes to the terminal. A program
 # that fails or times out does not stop the others, but the run fails.
 mode="$1"; limit="$2"; shift 2
 out=bench/results
@@ -11,7 +12,7 @@ rm -f "$out"/*.json "$out"/*.png "$out"/*.dat "$out"/*.gp "$out"/REPORT.md
 failed=""
 start=$(date +%s)
 for prog in "$@"; do
-    name=$(basename "$prog")
+    name=$(basename "$prog" .py)
     echo "== bench: $name $mode" >&2
     t0=$(date +%s)
     if timeout "$limit" "$prog" $mode --out "$out/$name.json"; then
