@@ -6922,6 +6922,37 @@ GS__PRIVATE gs__rigid *gs__as_rigid(const gs_agent *a) {
     return (gs__rigid *)a;
 }
 
+/* What a ghost of a body carries beyond its state (gs_agent_get_state):
+   its own acceleration of its last step, which the contacts read to carry
+   it along its path to another body's time. A peer's copy that took the
+   state without it would step on differently from the same state, and the
+   hosts' runs would part in every stiff contact. A probe has none (it is
+   moved, not accelerated). */
+GS__PRIVATE size_t gs__carry_size(const gs_agent *a) {
+    const gs__rigid *r = gs__as_rigid(a);
+    return r && !r->probe ? 3 : 0;
+}
+
+GS__PRIVATE void gs__carry_get(const gs_agent *a, double *out) {
+    const gs__rigid *r = gs__as_rigid(a);
+    if (!r || r->probe) return;
+    out[0] = r->a_own.x; out[1] = r->a_own.y; out[2] = r->a_own.z;
+}
+
+/* After its set_state (which forgets the path): the carried acceleration
+   from `in`, finite (the wire checks); one that would move the body by
+   more than its speed bound in a step is no path and stays forgotten
+   (a peer's values are not trusted to bound the broad phase's sweep). */
+GS__PRIVATE void gs__carry_put(gs_agent *a, const double *in) {
+    gs__rigid *r = gs__as_rigid(a);
+    gs_vec3 acc;
+    if (!r || r->probe) return;
+    acc = gs__v3(in[0], in[1], in[2]);
+    if (!(gs__len(acc) * a->dt <= r->solver.max_speed)) return;
+    r->a_own = acc;
+    gs__sap_update(r);
+}
+
 
 /* The last step of creating a body: the broad phase takes it, or the world
    lets it go again. */
@@ -9009,6 +9040,24 @@ GS__PRIVATE int gs__ghost_sizes(size_t n, const gs_ghost_desc *d, size_t *bytes,
                                                    (gs__snaps_new) */
 }
 
+/* A ghost's values: the agent's state, then what its kind carries beyond
+   it for a peer's copy to step on as it would (gs__carry_size). */
+GS__PRIVATE void gs__ghost_get(const gs__ghost *g, double *out) {
+    size_t ns = gs_agent_state_size(g->agent);
+    gs_agent_get_state(g->agent, out, ns);
+    if (g->n > ns) gs__carry_get(g->agent, out + ns);
+}
+
+/* Sets n ghost values (checked: finite) on a: the state, then what is
+   carried if n holds it (an input logged before a world's ghost came has
+   the state alone). */
+GS__PRIVATE gs_result gs__ghost_put(gs_agent *a, const double *in, size_t n) {
+    size_t ns = gs_agent_state_size(a);
+    gs_result r = gs__agent_put_state(a, in);
+    if (r == GS_OK && n > ns) gs__carry_put(a, in + ns);
+    return r;
+}
+
 GS_API gs_result gs_ghost_attach(gs_agent *a, const gs_ghost_desc *desc) {
     gs_world *w = a ? a->world : NULL;
     gs_ghost_desc d;
@@ -9017,7 +9066,7 @@ GS_API gs_result gs_ghost_attach(gs_agent *a, const gs_ghost_desc *desc) {
     int i;
     gs_result r = gs__world_unlocked(w, "gs_ghost_attach");
     if (r != GS_OK) return r;
-    n = gs_agent_state_size(a);
+    n = gs_agent_state_size(a) + gs__carry_size(a);
     vars = n - 1;
     if (!desc) return gs__fail(w, GS_ERR_INVALID_ARG, "gs_ghost_attach: desc is NULL");
     if (a->ghost) return gs__fail(w, GS_ERR_INVALID_ARG, "gs_ghost_attach: the agent has a ghost");
@@ -9047,7 +9096,7 @@ GS_API gs_result gs_ghost_attach(gs_agent *a, const gs_ghost_desc *desc) {
     g->wq = g->offset_next + n;
     g->sent = g->wq + (size_t)GS__MAX_PEERS * (size_t)d.queue_size;
     g->pred = g->sent + n;
-    gs_agent_get_state(a, g->B, n);
+    gs__ghost_get(g, g->B);
     memcpy(g->sent, g->B, n * sizeof(double));
     g->b_seq = 1;
     g->t_local = g->B[0];
@@ -9172,7 +9221,7 @@ GS_API gs_result gs_scene_attach_ghosts(gs_scene *sc, const gs_ghost_desc *share
 GS__PRIVATE void gs__ghost_publish_now(gs__ghost *g, gs_net *net) {
     double t = gs__agent_time(g->agent);
     gs__lock(net);
-    gs_agent_get_state(g->agent, g->B, g->n);
+    gs__ghost_get(g, g->B);
     g->b_seq++;
     if (net) net->published = 1;
     gs__unlock(net);
@@ -9685,7 +9734,7 @@ GS__PRIVATE double gs__time_bound(gs__ghost *g, double t_i, double corr) {
 GS__PRIVATE int gs__blend_apply(gs__ghost *g, double t_i) {
     double *t;
     int e;
-    if (gs__agent_put_state(g->agent, g->scratch) != GS_OK) return 0;
+    if (gs__ghost_put(g->agent, g->scratch, g->n) != GS_OK) return 0;
     g->moved += fabs(g->scratch[0] - t_i);
     /* the formula as written pulls back at every blend, and the clock
        stays: the time pulled back is simulated again (the latency trap) */
@@ -9711,7 +9760,7 @@ GS__PRIVATE uint32_t gs__ghost_blend(gs__ghost *g, gs__blend_net *bn, int *appli
     uint32_t seen = 0;
     int used;
     *applied = 0;
-    gs_agent_get_state(g->agent, g->local, n);
+    gs__ghost_get(g, g->local);
     t_i = g->local[0];
     memset(&ps, 0, sizeof ps);
     ps.w0 = gs__ghost_weigh(g, bn, t_i, g->wq);
@@ -10104,7 +10153,7 @@ GS__PRIVATE void gs__sync_log(gs_agent *a, const double *in) {
 
 /* A blend, at the dispatch it followed: an input of the frame running
    (in a replay, of the frame re-run). */
-GS__PRIVATE void gs__sync_log_blend(gs_agent *a, const double *in) {
+GS__PRIVATE void gs__sync_log_blend(gs_agent *a, const double *in, size_t n) {
     gs__sync *sy = a->world->sync;
     uint64_t frame = sy->replaying ? sy->replay_seq : sy->at_start ? sy->seq : sy->seq - 1;
     if (!sy->cap || !a->world->busy || sy->replaying == GS__RERUN_TEST) return;
@@ -10112,8 +10161,7 @@ GS__PRIVATE void gs__sync_log_blend(gs_agent *a, const double *in) {
     gs__log_put(sy, frame,
                 sy->at_start ? GS__SYNC_NONE : sy->at_split == sy->at_split ? GS__SYNC_SPLIT
                                                                            : a->world->dispatches,
-                sy->at_split == sy->at_split ? sy->at_split : 0.0, a->index, in,
-                gs_agent_state_size(a));
+                sy->at_split == sy->at_split ? sy->at_split : 0.0, a->index, in, n);
 }
 
 /* A re-run: applies the entries of frame `frame` logged at `dispatch`,
@@ -10130,16 +10178,18 @@ GS__PRIVATE void gs__sync_apply_log(gs_world *w, uint64_t frame, uint64_t dispat
         if (f != frame || d != dispatch || ai < 0 || ai >= w->agent_count) continue;
         if (d == GS__SYNC_SPLIT && gs__log_get(sy, at + 4) != when) continue;
         a = w->agents[ai];
-        if (n != gs_agent_state_size(a)) continue;
+        /* a state by hand, or a blend's (with what a ghost carries) */
+        if (n != gs_agent_state_size(a) && n != gs_agent_state_size(a) + gs__carry_size(a))
+            continue;
         /* an entry that wraps around the ring is put together in the
            last slot of the ring (a re-run's end, free until then) */
         v = at + GS__LOG_HEAD;
         if (v % sy->log_cap + n <= sy->log_cap) {
-            gs__agent_put_state(a, sy->log + v % sy->log_cap);
+            gs__ghost_put(a, sy->log + v % sy->log_cap, n);
         } else {
             double *buf = sy->ring + ((size_t)sy->cap + 1) * sy->stride;
             for (i = 0; i < n; ++i) buf[i] = gs__log_get(sy, v + i);
-            gs__agent_put_state(a, buf);
+            gs__ghost_put(a, buf, n);
         }
     }
 }
@@ -10219,7 +10269,7 @@ GS__PRIVATE void gs__sync_blend(gs_world *w, double t, int keep_waiting) {
         seen |= gs__ghost_blend(g, &bn, &applied);
         if (applied) { /* in replay mode only a state that differs is set */
             sy->changed = 1;
-            gs__sync_log_blend(g->agent, g->scratch);
+            gs__sync_log_blend(g->agent, g->scratch, g->n);
         }
         if (g->pulled > 0.0) {
             back++;
@@ -12961,10 +13011,11 @@ GS__PRIVATE void gs__datagram_flush(gs_net *net, double now, size_t *size) {
 GS__PRIVATE int gs__ghost_runs(const gs__ghost *g, size_t end[3], int cls[3]) {
     const gs_agent *a = g->agent;
     size_t vars = g->n - 1;
-    if ((a->kind == &gs__rigid_kind || a->kind == &gs__probe_kind) && vars == 13) {
+    if ((a->kind == &gs__rigid_kind || a->kind == &gs__probe_kind) &&
+        vars == 13 + gs__carry_size(a)) { /* the carried acceleration as a velocity */
         end[0] = 3; cls[0] = 0;
         end[1] = 7; cls[1] = 1;
-        end[2] = 13; cls[2] = 2;
+        end[2] = vars; cls[2] = 2;
         return 3;
     }
     if (a->kind->positions && a->kind->positions(a) < vars) {
@@ -13008,10 +13059,13 @@ GS__PRIVATE int gs__ghost_moved(const gs__ghost *g, const double *ref) {
     size_t end[3], lo = 0, i;
     int cls[3], r, nr = gs__ghost_runs(g, end, cls);
     double thr = g->d.rest_threshold;
+    /* what is carried beyond the state follows it: a body at rest keeps
+       some acceleration of its own (gravity, held by pushes) */
+    size_t stop = g->n - 1 - gs__carry_size(g->agent);
     if (!g->sent_any) return 1;
     for (r = 0; r < nr; lo = end[r++]) {
         double lim = cls[r] == 2 ? thr * g->d.send_rate : thr;
-        for (i = lo; i < end[r]; ++i)
+        for (i = lo; i < end[r] && i < stop; ++i)
             if (!(fabs(g->B[1 + i] - ref[1 + i]) <= lim)) return 1;
     }
     return 0;
