@@ -1547,19 +1547,39 @@ GS_API gs_result gs_world_sync_test(gs_world *w, int frames, int *bad_agent);
          coding 1 (changed bitmap): element-count bits, bit i set when
            difference i is not 0 (padded with 0 bits to a whole byte),
            then for each set bit zigzag(difference) - 1 in w bits;
-         coding 2 (Rice, w = k in 0..24): per difference z = its zigzag,
+         coding 2 (Rice, w = k in 0..24 in bits 0-4; bit 5 set: predicted,
+           below): per difference z = its zigzag,
            q = z >> k: if q < 16, q 0 bits, a 1 bit and z's k low bits;
            else 16 0 bits and z in 32 bits (only then); packed as above,
            the run padded with 0 bits to a whole byte.
+       Predicted (GS_WIRE_CHUNK_PREDICT, Rice only): the differences are
+       from the baseline carried along its own velocities, so that a body
+       moving steadily costs what its velocity changed, not what it moved.
+       A position integer p (a mesh particle's coordinate, a rigid body's
+       or probe's centre: the state's first run, before any quaternion)
+       whose velocity is element e' of the state (a mesh: its index plus
+       the position count; a rigid body or probe: plus 7) is predicted as
+       p_base + round(v_base * f), f = (s_v * dt) / s_p, in IEEE doubles in
+       that order, each product and quotient rounded to double, the last
+       to the nearest integer (ties to even); v_base the baseline's integer
+       of e', s_v and s_p the steps of their segments in the baseline,
+       dt = the chunk's time - the baseline's. Every other integer
+       (velocities, quaternions) is predicted as the baseline's. The
+       receiver needs the baseline's chunk holding each e' as well, and
+       refuses as below a predicted chunk that carries no position with a
+       velocity, or whose v_base * f is past +-(2^31 - 1) or not finite.
        The sender picks whichever is smaller (Rice by an estimate from the
        differences' bit lengths): small differences with a few large ones
        take Rice about 2 bits fewer a value than packing at the largest's
-       width. A receiver that does not hold
+       width; predicted or not by the sum of their bit lengths. A receiver
+       that does not hold
        the baseline's chunk, or whose decoded integers leave the ranges
        above (a scalar past 2^51 - 2^32 steps, a quaternion component past
        2^bits - 1 or its three squares over 0.76), refuses that chunk
        (GS_REJECT_BASELINE, counted; the rest of the datagram stands) and
-       says so in its next acknowledgement.
+       says so in its next acknowledgement. (A predicted chunk is new in
+       this revision of v3: a ghostsim before it refuses its datagram as
+       GS_REJECT_LAYOUT.)
      Kind 3 (GS_WIRE_CHUNK_ACK): acknowledgements, no values: object id =
        the host they are for (every other host skips the chunk), decoded
        as sequence 0, time 0, chunk index 0, count 1, first element 0,
@@ -1755,12 +1775,14 @@ GS_API size_t gs_wire_end(unsigned char *buf, size_t size);
    with the key opens it. */
 GS_API gs_result gs_wire_decode(const unsigned char *buf, size_t size,
                                 gs_wire_view *out, gs_reject *why);
-/* Appends a delta chunk (c->flags GS_WIRE_CHUNK_DELTA, GS_ENCODING_QUANT,
+/* Appends a delta chunk (c->flags GS_WIRE_CHUNK_DELTA, or with
+   GS_WIRE_CHUNK_PREDICT for differences from the predicted baseline, see
+   >>wire; GS_ENCODING_QUANT,
    c->baseline the baseline's sequence, older than c->sequence by 1..2^31)
    of c->elements (1..GS_WIRE_QUANT_CHUNK, a quantized chunk's most)
    integer differences from the baseline (see >>wire; each within
    +-2^31); c->segments are not used. The coding is whichever is
-   smaller. Errors as gs_wire_add's; GS_ERR_INVALID_ARG for a difference
+   smaller (Rice when predicted). Errors as gs_wire_add's; GS_ERR_INVALID_ARG for a difference
    out of range. */
 GS_API gs_result gs_wire_add_delta(unsigned char *buf, size_t cap, size_t *size,
                                    const gs_wire_chunk *c, const int64_t *diff);
@@ -1768,7 +1790,8 @@ GS_API gs_result gs_wire_add_delta(unsigned char *buf, size_t cap, size_t *size,
    GS_WIRE_MAX_ACKS). Errors as gs_wire_add's. */
 GS_API gs_result gs_wire_add_ack(unsigned char *buf, size_t cap, size_t *size, uint32_t to,
                                  const gs_wire_ack *acks, int n);
-/* The differences of a decoded delta chunk (c->elements), in steps. */
+/* The differences of a decoded delta chunk (c->elements), in steps (from
+   the prediction if c->flags has GS_WIRE_CHUNK_PREDICT). */
 GS_API void gs_wire_deltas(const gs_wire_chunk *c, int64_t *out);
 /* The entries of a decoded acknowledgement chunk into out (room for max);
    returns how many were written. */
