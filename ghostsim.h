@@ -1584,19 +1584,39 @@ GS_API gs_result gs_world_sync_test(gs_world *w, int frames, int *bad_agent);
          coding 1 (changed bitmap): element-count bits, bit i set when
            difference i is not 0 (padded with 0 bits to a whole byte),
            then for each set bit zigzag(difference) - 1 in w bits;
-         coding 2 (Rice, w = k in 0..24): per difference z = its zigzag,
+         coding 2 (Rice, w = k in 0..24 in bits 0-4; bit 5 set: predicted,
+           below): per difference z = its zigzag,
            q = z >> k: if q < 16, q 0 bits, a 1 bit and z's k low bits;
            else 16 0 bits and z in 32 bits (only then); packed as above,
            the run padded with 0 bits to a whole byte.
+       Predicted (GS_WIRE_CHUNK_PREDICT, Rice only): the differences are
+       from the baseline carried along its own velocities, so that a body
+       moving steadily costs what its velocity changed, not what it moved.
+       A position integer p (a mesh particle's coordinate, a rigid body's
+       or probe's centre: the state's first run, before any quaternion)
+       whose velocity is element e' of the state (a mesh: its index plus
+       the position count; a rigid body or probe: plus 7) is predicted as
+       p_base + round(v_base * f), f = (s_v * dt) / s_p, in IEEE doubles in
+       that order, each product and quotient rounded to double, the last
+       to the nearest integer (ties to even); v_base the baseline's integer
+       of e', s_v and s_p the steps of their segments in the baseline,
+       dt = the chunk's time - the baseline's. Every other integer
+       (velocities, quaternions) is predicted as the baseline's. The
+       receiver needs the baseline's chunk holding each e' as well, and
+       refuses as below a predicted chunk that carries no position with a
+       velocity, or whose v_base * f is past +-(2^31 - 1) or not finite.
        The sender picks whichever is smaller (Rice by an estimate from the
        differences' bit lengths): small differences with a few large ones
        take Rice about 2 bits fewer a value than packing at the largest's
-       width. A receiver that does not hold
+       width; predicted or not by the sum of their bit lengths. A receiver
+       that does not hold
        the baseline's chunk, or whose decoded integers leave the ranges
        above (a scalar past 2^51 - 2^32 steps, a quaternion component past
        2^bits - 1 or its three squares over 0.76), refuses that chunk
        (GS_REJECT_BASELINE, counted; the rest of the datagram stands) and
-       says so in its next acknowledgement.
+       says so in its next acknowledgement. (A predicted chunk is new in
+       this revision of v3: a ghostsim before it refuses its datagram as
+       GS_REJECT_LAYOUT.)
      Kind 3 (GS_WIRE_CHUNK_ACK): acknowledgements, no values: object id =
        the host they are for (every other host skips the chunk), decoded
        as sequence 0, time 0, chunk index 0, count 1, first element 0,
@@ -1635,6 +1655,9 @@ GS_API gs_result gs_world_sync_test(gs_world *w, int frames, int *bad_agent);
 #define GS_WIRE_CHUNK_REST 0x01 /* chunk flag: a heartbeat */
 #define GS_WIRE_CHUNK_DELTA 0x02 /* chunk flag: differences from a baseline */
 #define GS_WIRE_CHUNK_ACK 0x04 /* chunk flag: acknowledgements */
+/* chunk flag, with GS_WIRE_CHUNK_DELTA: differences from the baseline
+   carried along its velocities (see >>wire) */
+#define GS_WIRE_CHUNK_PREDICT 0x08
 #define GS_WIRE_MAX_ACKS 100 /* entries in one acknowledgement chunk */
 #define GS_WIRE_MAX_DATAGRAM 1200
 #define GS_WIRE_HEADER 48
@@ -1789,12 +1812,14 @@ GS_API size_t gs_wire_end(unsigned char *buf, size_t size);
    with the key opens it. */
 GS_API gs_result gs_wire_decode(const unsigned char *buf, size_t size,
                                 gs_wire_view *out, gs_reject *why);
-/* Appends a delta chunk (c->flags GS_WIRE_CHUNK_DELTA, GS_ENCODING_QUANT,
+/* Appends a delta chunk (c->flags GS_WIRE_CHUNK_DELTA, or with
+   GS_WIRE_CHUNK_PREDICT for differences from the predicted baseline, see
+   >>wire; GS_ENCODING_QUANT,
    c->baseline the baseline's sequence, older than c->sequence by 1..2^31)
    of c->elements (1..GS_WIRE_QUANT_CHUNK, a quantized chunk's most)
    integer differences from the baseline (see >>wire; each within
    +-2^31); c->segments are not used. The coding is whichever is
-   smaller. Errors as gs_wire_add's; GS_ERR_INVALID_ARG for a difference
+   smaller (Rice when predicted). Errors as gs_wire_add's; GS_ERR_INVALID_ARG for a difference
    out of range. */
 GS_API gs_result gs_wire_add_delta(unsigned char *buf, size_t cap, size_t *size,
                                    const gs_wire_chunk *c, const int64_t *diff);
@@ -1802,7 +1827,8 @@ GS_API gs_result gs_wire_add_delta(unsigned char *buf, size_t cap, size_t *size,
    GS_WIRE_MAX_ACKS). Errors as gs_wire_add's. */
 GS_API gs_result gs_wire_add_ack(unsigned char *buf, size_t cap, size_t *size, uint32_t to,
                                  const gs_wire_ack *acks, int n);
-/* The differences of a decoded delta chunk (c->elements), in steps. */
+/* The differences of a decoded delta chunk (c->elements), in steps (from
+   the prediction if c->flags has GS_WIRE_CHUNK_PREDICT). */
 GS_API void gs_wire_deltas(const gs_wire_chunk *c, int64_t *out);
 /* The entries of a decoded acknowledgement chunk into out (room for max);
    returns how many were written. */
@@ -8683,6 +8709,7 @@ typedef struct gs__snap {
 typedef struct gs__base {
     int used;
     uint32_t seq;           /* the snapshot's sequence */
+    double time;            /* s: its simulation time (a prediction's start) */
     int chunks;             /* chunks held */
     unsigned char *got;     /* per chunk */
     unsigned char *nseg;    /* per chunk: its segment count */
@@ -8758,7 +8785,8 @@ struct gs__ghost {
     size_t wire_bytes;    /* bytes its last snapshot took on the wire */
     gs__base *ring;       /* delta: the last GS_DELTA_RING snapshots sent */
     int64_t *kbuf;        /* delta (or quantized rest_extrapolate): one
-                             chunk's integers or differences */
+                             chunk's integers or differences, then (delta)
+                             one chunk's prediction (gs__delta_pred) */
     struct gs__ghost_peer gp[GS__MAX_PEERS];
 };
 typedef struct gs__ghost gs__ghost;
@@ -9176,7 +9204,7 @@ GS_API gs_result gs_ghost_attach(gs_agent *a, const gs_ghost_desc *desc) {
     r = gs__ghost_queues(g);
     if (r == GS_OK && (d.delta || (d.rest_extrapolate && d.encoding == GS_ENCODING_QUANT))) {
         g->ring = d.delta ? gs__ring_new(w, g) : NULL;
-        g->kbuf = (int64_t *)gs__alloc(w, (size_t)g->per_chunk * sizeof(int64_t));
+        g->kbuf = (int64_t *)gs__alloc(w, 2 * (size_t)g->per_chunk * sizeof(int64_t));
         if ((d.delta && !g->ring) || !g->kbuf)
             r = gs__fail(w, GS_ERR_NO_MEMORY, "gs_ghost_attach: out of memory for the "
                          "delta baselines");
@@ -11642,8 +11670,10 @@ GS__PRIVATE size_t gs__delta_parse(gs_wire_chunk *c, const unsigned char *p, siz
         return 0;
     if (!gs__varint_get(&q, end, 5, &dist) || dist < 1 || dist > 0x80000000u || q >= end)
         return 0;
-    c->delta_width = *q & 0x3f;
     c->delta_coding = *q >> 6;
+    /* Rice's k is at most 24: its bit 5 says predicted */
+    c->delta_width = *q & (c->delta_coding == 2 ? 0x1f : 0x3f);
+    if (c->delta_coding == 2 && (*q & 0x20)) c->flags |= GS_WIRE_CHUNK_PREDICT;
     if (c->delta_coding == 3 || c->delta_width > (c->delta_coding == 2 ? GS__RICE_MAX_K : 32))
         return 0;
     ++q;
@@ -11782,7 +11812,7 @@ GS__PRIVATE size_t gs__delta_put_rice(unsigned char *p, size_t room, const gs_wi
     int i;
     if (hn + 1 > room) return 0;
     memcpy(p, head, hn);
-    p[hn] = (unsigned char)(k | 2 << 6);
+    p[hn] = (unsigned char)(k | (c->flags & GS_WIRE_CHUNK_PREDICT ? 0x20 : 0) | 2 << 6);
     w.p = p + hn + 1; w.end = p + room; w.acc = 0; w.n = 0; w.over = 0;
     for (i = 0; i < c->elements; ++i) {
         uint64_t z = gs__zigzag(d[i]), q = z >> k;
@@ -11828,7 +11858,7 @@ GS__PRIVATE size_t gs__delta_put(unsigned char *p, size_t room, const gs_wire_ch
         double b = gs__rice_cost(hist, k);
         if (b < rbits) { rbits = b; rk = k; }
     }
-    if (rbits / 8.0 + 1.0 < (double)(coding ? need1 : need0))
+    if ((c->flags & GS_WIRE_CHUNK_PREDICT) || rbits / 8.0 + 1.0 < (double)(coding ? need1 : need0))
         return gs__delta_put_rice(p, room, c, d, head, hn, rk);
     need = hn + 1 + (coding ? need1 : need0);
     if (need > room) return 0;
@@ -12092,7 +12122,8 @@ GS__PRIVATE gs_result gs__wire_add_delta_in(unsigned char *buf, size_t cap, size
     int i;
     if (c->elements == 0 || c->elements > GS_WIRE_QUANT_CHUNK) return GS_ERR_INVALID_ARG;
     dist = c->sequence - c->baseline;
-    if (c->encoding != GS_ENCODING_QUANT || c->flags != GS_WIRE_CHUNK_DELTA || dist == 0 ||
+    if (c->encoding != GS_ENCODING_QUANT ||
+        (c->flags & ~(unsigned)GS_WIRE_CHUNK_PREDICT) != GS_WIRE_CHUNK_DELTA || dist == 0 ||
         dist > 0x80000000u || c->count == 0 || c->index >= c->count)
         return GS_ERR_INVALID_ARG;
     for (i = 0; i < c->elements; ++i)
@@ -13481,6 +13512,64 @@ GS__PRIVATE gs__base *gs__ring_slot(gs__base *ring, int nchunks, uint32_t seq,
     return e;
 }
 
+/* GS_WIRE_CHUNK_PREDICT (see >>wire): into p, the steps by which baseline
+   b's velocities carry its positions [first, first + n) over dt seconds of
+   simulation time (0 for every other value; seg: the chunk's segments,
+   the baseline's). 1 if a position was carried, 0 if none can be (no
+   position with a velocity in this range), -1 if b lacks a velocity's
+   chunk or a product is past +-2^31 steps or not finite. Sender and
+   receiver must agree bit for bit: one product and one quotient in a fixed
+   order, each through memory (volatile), so that no compiler keeps more
+   precision or fuses the rounding's addition into the product. */
+GS__PRIVATE int gs__delta_pred(const gs__ghost *g, const gs__base *b,
+                               const gs_wire_segment *seg, int nseg, size_t first, int n,
+                               double dt, int64_t *p) {
+    size_t end[3], npos, vstart, vars = g->n - 1, e = first, vlo = 1, vhi = 0, per;
+    int cls[3], nr = gs__ghost_runs(g, end, cls), s, i, t, any = 0;
+    double sv = 0.0;
+    memset(p, 0, (size_t)n * sizeof *p);
+    if (nr < 2 || cls[0] != 0 || cls[nr - 1] != 2) return 0;
+    vstart = end[nr - 2]; /* a velocity run follows the positions */
+    npos = end[0] < vars - vstart ? end[0] : vars - vstart;
+    per = (size_t)g->per_chunk;
+    for (s = 0; s < nseg && e < npos; e += seg[s++].count) {
+        if (seg[s].kind != GS_WIRE_SCALAR) continue;
+        for (i = 0; i < seg[s].count && e + (size_t)i < npos; ++i) {
+            size_t ve = vstart + e + (size_t)i;
+            volatile double f, x;
+            if (ve < vlo || ve >= vhi) { /* the velocity's segment in b */
+                size_t c = ve / per, lo = c * per;
+                const gs_wire_segment *bs = b->seg + c * GS_WIRE_MAX_SEGMENTS;
+                if (!b->got[c]) return -1;
+                for (t = 0; t < b->nseg[c] && ve >= lo + bs[t].count; ++t) lo += bs[t].count;
+                if (t == b->nseg[c] || bs[t].kind != GS_WIRE_SCALAR) return -1;
+                vlo = lo;
+                vhi = lo + bs[t].count;
+                sv = bs[t].step;
+            }
+            f = sv * dt;
+            f = f / seg[s].step;
+            x = (double)b->k[ve] * f;
+            if (!(fabs(x) <= 2147483647.0)) return -1;
+            p[e - first + (size_t)i] = gs__round(x);
+            any = 1;
+        }
+    }
+    return any;
+}
+
+/* The sum of the bit lengths of n differences' zigzags: what a Rice run
+   of them costs, near enough to choose between two. */
+GS__PRIVATE long gs__delta_bits(const int64_t *d, int n) {
+    long bits = 0;
+    int i;
+    for (i = 0; i < n; ++i) {
+        uint64_t z = gs__zigzag(d[i]);
+        bits += z ? 64 - gs__clz64(z) : 0;
+    }
+    return bits;
+}
+
 /* The baseline of a delta ghost's next snapshot: the newest every peer
    acknowledged, which is the oldest of their acknowledgements (the chunks
    are encoded once for all peers), if the ring still holds it. NULL: the
@@ -13537,7 +13626,22 @@ GS__PRIVATE void gs__send_delta_chunk(gs_net *net, gs__ghost *g, double now, siz
         }
     }
     if (delta) {
+        /* against the baseline carried along its velocities when that is
+           smaller (a drifting or swinging body: its positions then differ
+           from the prediction by what its velocity changed) */
+        int64_t *pr = g->kbuf + g->per_chunk;
         ch->flags = GS_WIRE_CHUNK_DELTA;
+        if (gs__delta_pred(g, base, ts, nseg, first, ch->elements, ch->time - base->time, pr) > 0) {
+            long plain = gs__delta_bits(d, ch->elements), pred;
+            for (j = 0; j < ch->elements; ++j) pr[j] = d[j] - pr[j];
+            pred = gs__delta_bits(pr, ch->elements);
+            for (j = 0; j < ch->elements && pred < plain; ++j)
+                if (pr[j] < -2147483647LL || pr[j] > 2147483647LL) pred = plain;
+            if (pred < plain) {
+                memcpy(d, pr, (size_t)ch->elements * sizeof *d);
+                ch->flags |= GS_WIRE_CHUNK_PREDICT;
+            }
+        }
         ch->baseline = base->seq;
         r = gs__put_chunk(net, now, size, ch, NULL, d);
         usable = 1;
@@ -13563,6 +13667,7 @@ GS__PRIVATE void gs__send_ghost(gs_net *net, gs__ghost *g, double now, size_t *s
         base = gs__delta_base(net, g);
         to = gs__ring_slot(g->ring, g->nchunks, g->b_seq, base);
         if (to == base) base = NULL;
+        if (to) to->time = S[0];
     }
     for (c = 0; c < (rest ? 1 : g->nchunks); ++c) {
         gs_wire_chunk ch;
@@ -14015,7 +14120,13 @@ GS__PRIVATE int gs__delta_take(gs_net *net, gs__ghost *g, int p, const gs_wire_c
                (size_t)*nseg * sizeof *seg);
         gs_wire_deltas(c, g->kbuf);
         for (i = 0; i < c->elements; ++i) g->kbuf[i] += b->k[c->first + (uint32_t)i];
-        ok = gs__qk_ok(seg, *nseg, g->kbuf);
+        if (c->flags & GS_WIRE_CHUNK_PREDICT) { /* one meaning: it must carry something */
+            int64_t *pr = g->kbuf + g->per_chunk;
+            ok = gs__delta_pred(g, b, seg, *nseg, c->first, c->elements, c->time - b->time,
+                                pr) > 0;
+            for (i = 0; i < c->elements && ok; ++i) g->kbuf[i] += pr[i];
+        }
+        ok = ok && gs__qk_ok(seg, *nseg, g->kbuf);
     }
     if (!ok) {
         net->peers[p].st.rejected[GS_REJECT_BASELINE]++;
@@ -14032,6 +14143,7 @@ GS__PRIVATE void gs__ring_keep(gs__ghost *g, int p, const gs_wire_chunk *c, cons
     struct gs__ghost_peer *gp = &g->gp[p];
     gs__base *e = gs__ring_slot(gp->ring, g->nchunks, c->sequence, NULL);
     if (!e || e->got[c->index]) return;
+    e->time = c->time; /* every chunk of a snapshot has its time */
     if (k) memcpy(e->k + c->first, k, (size_t)c->elements * sizeof *k);
     else gs__qk_from_chunk(c, e->k + c->first);
     memcpy(e->seg + (size_t)c->index * GS_WIRE_MAX_SEGMENTS, seg, (size_t)nseg * sizeof *seg);
