@@ -3911,6 +3911,12 @@ typedef struct gs__mesh {
        in block order (see gs__xpbd_schedule). */
     struct gs__xblk *xblk;
     int nxblk;
+    /* The end of one XPBD substep also predicts the next (pred_next, set
+       by gs__mesh_step), so the next one starts from the copy
+       (pred_ready) instead of reading the state again: within a step
+       nothing but contacts and pins acts between substeps, and those
+       particles are predicted again from the state. */
+    int pred_next, pred_ready;
     double *xsp;
     int *xgi;         /* GATHER blocks' ends: a0 b0 a1 b1 .. per lane */
     int nbatch;
@@ -5092,7 +5098,19 @@ GS__PRIVATE void gs__xpbd_contacts(gs__mesh *m, double h) {
    check_ok, lo, hi, boxes). */
 typedef struct gs__fin {
     double w2, sum, lo[3], hi[3];
+    double h; /* s; the next substep's, for its prediction (pred_next) */
 } gs__fin;
+
+/* gs__int_xpbd_blocks's prediction of particle i from its state (x, v)
+   over h, into the transposed copy. */
+GS__PRIVATE void gs__xpbd_predict1(gs__mesh *m, size_t i, gs_vec3 x, gs_vec3 v0, double h) {
+    size_t st = gs__soa_stride((size_t)m->n);
+    double *X = m->soa, *Y = X + st, *Z = Y + st, *PX = Z + st, *PY = PX + st, *PZ = PY + st;
+    gs_vec3 a = gs__madd(m->base.world->gravity, v0, -m->air);
+    gs_vec3 v = m->inv_mass[i] > 0.0 ? gs__madd(v0, a, h) : v0;
+    X[i] = x.x + v.x * h; Y[i] = x.y + v.y * h; Z[i] = x.z + v.z * h;
+    PX[i] = x.x; PY[i] = x.y; PZ[i] = x.z;
+}
 
 GS__PRIVATE void gs__fin_box(gs__mesh *m, size_t k, const double *lo, const double *hi,
                              double vm, gs__fin *f) {
@@ -5110,7 +5128,7 @@ GS__PRIVATE void gs__fin_box(gs__mesh *m, size_t k, const double *lo, const doub
 GS__PRIVATE void gs__xpbd_fin1(gs__mesh *m, size_t i, size_t end, size_t k, double ih,
                                gs__fin *f) {
     size_t st = gs__soa_stride((size_t)m->n);
-    const double *X = m->soa, *Y = X + st, *Z = Y + st, *PX = Z + st, *PY = PX + st, *PZ = PY + st;
+    double *X = m->soa, *Y = X + st, *Z = Y + st, *PX = Z + st, *PY = PX + st, *PZ = PY + st;
     double lo[3] = {HUGE_VAL, HUGE_VAL, HUGE_VAL}, hi[3] = {-HUGE_VAL, -HUGE_VAL, -HUGE_VAL};
     double vm = 0.0, w2 = f->w2, sum = f->sum;
     for (; i < end; ++i) {
@@ -5119,6 +5137,7 @@ GS__PRIVATE void gs__xpbd_fin1(gs__mesh *m, size_t i, size_t end, size_t k, doub
         double s2 = v.x * v.x + v.y * v.y + v.z * v.z, a;
         m->xn[i] = p;
         m->vn[i] = v;
+        if (m->pred_next) gs__xpbd_predict1(m, i, p, v, f->h);
         w2 = s2 > w2 ? s2 : w2;
         w2 = s2 == s2 ? w2 : s2; /* a NaN speed stays NaN */
         sum += (p.x + p.y) + p.z;
@@ -5169,11 +5188,14 @@ GS__XINLINE void gs__st_aos4(double *p, __m256d x, __m256d y, __m256d z) {
 __attribute__((target("avx"))) GS__PRIVATE void gs__xpbd_fin4(gs__mesh *m, size_t i, size_t k,
                                                               double ih, gs__fin *f) {
     size_t st = gs__soa_stride((size_t)m->n), end = i + GS__CHUNK;
-    const double *X = m->soa, *Y = X + st, *Z = Y + st, *PX = Z + st, *PY = PX + st, *PZ = PY + st;
+    double *X = m->soa, *Y = X + st, *Z = Y + st, *PX = Z + st, *PY = PX + st, *PZ = PY + st;
     __m256d hv = _mm256_set1_pd(ih), sign = _mm256_set1_pd(-0.0), w2 = _mm256_set1_pd(f->w2);
     __m256d lx = _mm256_set1_pd(HUGE_VAL), ly = lx, lz = lx, hx = _mm256_set1_pd(-HUGE_VAL);
     __m256d hy = hx, hz = hx, vm = _mm256_setzero_pd(), sum = _mm256_setzero_pd(), nan = vm;
     double lo[3], hi[3], *xn = &m->xn[0].x, *vn = &m->vn[0].x;
+    gs_vec3 g = m->base.world->gravity;
+    __m256d h = _mm256_set1_pd(f->h), nair = _mm256_set1_pd(-m->air), zero = _mm256_setzero_pd();
+    __m256d gx = _mm256_set1_pd(g.x), gy = _mm256_set1_pd(g.y), gz = _mm256_set1_pd(g.z);
     for (; i < end; i += 4) {
         __m256d px = _mm256_loadu_pd(X + i), py = _mm256_loadu_pd(Y + i), pz = _mm256_loadu_pd(Z + i);
         __m256d vx = _mm256_mul_pd(_mm256_sub_pd(px, _mm256_loadu_pd(PX + i)), hv);
@@ -5191,6 +5213,21 @@ __attribute__((target("avx"))) GS__PRIVATE void gs__xpbd_fin4(gs__mesh *m, size_
         hx = _mm256_max_pd(px, hx); hy = _mm256_max_pd(py, hy); hz = _mm256_max_pd(pz, hz);
         gs__st_aos4(xn + 3 * i, px, py, pz);
         gs__st_aos4(vn + 3 * i, vx, vy, vz);
+        if (m->pred_next) { /* gs__xpbd_predict1, four lanes */
+            __m256d free = _mm256_cmp_pd(_mm256_loadu_pd(m->inv_mass + i), zero, _CMP_GT_OQ);
+            __m256d ux = _mm256_add_pd(vx, _mm256_mul_pd(_mm256_add_pd(gx, _mm256_mul_pd(vx, nair)), h));
+            __m256d uy = _mm256_add_pd(vy, _mm256_mul_pd(_mm256_add_pd(gy, _mm256_mul_pd(vy, nair)), h));
+            __m256d uz = _mm256_add_pd(vz, _mm256_mul_pd(_mm256_add_pd(gz, _mm256_mul_pd(vz, nair)), h));
+            ux = _mm256_blendv_pd(vx, ux, free);
+            uy = _mm256_blendv_pd(vy, uy, free);
+            uz = _mm256_blendv_pd(vz, uz, free);
+            _mm256_storeu_pd(X + i, _mm256_add_pd(px, _mm256_mul_pd(ux, h)));
+            _mm256_storeu_pd(Y + i, _mm256_add_pd(py, _mm256_mul_pd(uy, h)));
+            _mm256_storeu_pd(Z + i, _mm256_add_pd(pz, _mm256_mul_pd(uz, h)));
+            _mm256_storeu_pd(PX + i, px);
+            _mm256_storeu_pd(PY + i, py);
+            _mm256_storeu_pd(PZ + i, pz);
+        }
     }
     f->w2 = gs__hmax4(w2);
     if (_mm256_movemask_pd(nan)) f->w2 = NAN;
@@ -5231,11 +5268,16 @@ GS__PRIVATE void gs__int_xpbd_blocks(gs__mesh *m, double h) {
     gs__fin f;
     const gs_vec3 *x = m->x, *v0 = m->v, *ext = m->ext_active ? m->ext : NULL;
     int j;
-    for (i = 0; i < n; ++i) {
-        gs_vec3 a = gs__madd(g, v0[i], -m->air), v = im[i] > 0.0 ? gs__madd(v0[i], a, h) : v0[i];
-        X[i] = x[i].x + v.x * h; Y[i] = x[i].y + v.y * h; Z[i] = x[i].z + v.z * h;
-        PX[i] = x[i].x; PY[i] = x[i].y; PZ[i] = x[i].z;
+    if (!m->pred_ready) {
+        for (i = 0; i < n; ++i) {
+            gs_vec3 a = gs__madd(g, v0[i], -m->air), v = im[i] > 0.0 ? gs__madd(v0[i], a, h) : v0[i];
+            X[i] = x[i].x + v.x * h; Y[i] = x[i].y + v.y * h; Z[i] = x[i].z + v.z * h;
+            PX[i] = x[i].x; PY[i] = x[i].y; PZ[i] = x[i].z;
+        }
+    } else { /* the last substep's end predicted from its state before the pins' reset */
+        for (j = 0; j < m->npins; ++j) gs__xpbd_predict1(m, (size_t)m->pins[j], x[m->pins[j]], v0[m->pins[j]], h);
     }
+    m->pred_ready = 0;
     for (j = 0; ext && j < m->ntouched; ++j) { /* ext is zero elsewhere */
         gs_vec3 a, v;
         i = (size_t)m->touched[j];
@@ -5247,6 +5289,7 @@ GS__PRIVATE void gs__int_xpbd_blocks(gs__mesh *m, double h) {
     gs__xpbd_blocks(m, h);
     if (ext) gs__xpbd_soa_contacts(m, h);
     f.w2 = f.sum = 0.0;
+    f.h = h; /* the substeps of a step are equal */
     f.lo[0] = f.lo[1] = f.lo[2] = HUGE_VAL;
     f.hi[0] = f.hi[1] = f.hi[2] = -HUGE_VAL;
     for (k = 0, i = 0; i < n; ++k, i += GS__CHUNK) { /* box by box (gs__mesh_chunks) */
@@ -5260,6 +5303,7 @@ GS__PRIVATE void gs__int_xpbd_blocks(gs__mesh *m, double h) {
     }
     m->chunks_next = 1;
     m->checked = 1;
+    m->pred_ready = m->pred_next;
     m->check_ok = f.w2 <= vmax2 && gs__finite(f.sum) &&
                   gs__in_range3(gs__v3(f.lo[0], f.lo[1], f.lo[2])) &&
                   gs__in_range3(gs__v3(f.hi[0], f.hi[1], f.hi[2]));
@@ -5439,8 +5483,10 @@ GS__PRIVATE gs_result gs__mesh_step(gs_agent *a, double dt) {
     int n_sub, i;
     gs_result r = gs__mesh_plan(m, dt, &n_sub);
     m->probe_touch = 0;
+    m->pred_ready = 0; /* the state may have been set or blended since */
     if (r != GS_OK) return r;
     for (i = 0; i < n_sub; ++i) {
+        m->pred_next = i + 1 < n_sub;
         r = gs__mesh_substep(m, gs__agent_time(a) + i * (dt / n_sub), dt / n_sub);
         if (r == GS_OK) {
             if (n_sub > 1) gs__mesh_park(m, x_start);
