@@ -3612,7 +3612,6 @@ GS__PRIVATE gs_result gs__agent_put_state(gs_agent *a, const double *in) {
 }
 
 GS__PRIVATE void gs__sync_log(gs_agent *a, const double *in);
-GS__PRIVATE void gs__sync_sighted(gs_agent *a);
 
 GS_API gs_result gs_agent_set_state(gs_agent *a, const double *in, size_t n) {
     size_t i;
@@ -3636,10 +3635,7 @@ GS_API gs_result gs_agent_set_state(gs_agent *a, const double *in, size_t n) {
                         "gs_agent_set_state: time is %g s, must be in [0, "
                         "GS_WIRE_MAX_TIME = %g]", in[0], GS_WIRE_MAX_TIME);
     r = gs__agent_put_state(a, in);
-    if (r == GS_OK) {
-        gs__sync_log(a, in);
-        gs__sync_sighted(a); /* as a re-run, which applies it as a blend */
-    }
+    if (r == GS_OK) gs__sync_log(a, in);
     return r;
 }
 
@@ -6592,21 +6588,6 @@ GS__PRIVATE void gs__shape_build(gs__check *c, const gs_shape_desc *d,
         if (2.0 * s->fd[i] < s->size) s->size = 2.0 * s->fd[i];
 }
 
-/* A peer's probe in replay mode: how its owner's application moves it, as
-   its snapshots tell (gs__sync_sighted, gs__sync_carry). All doubles: the
-   world history keeps it as they are. */
-typedef struct gs__lead {
-    gs_vec3 x, d, dd;  /* m: the last snapshot's position, the path's step
-                          per frame of the owner's before it, and that
-                          step's change per frame */
-    double t, per;     /* s: the last snapshot's time; the owner's frame */
-    double next;       /* s: when the owner's next input is due */
-    double j;          /* the owner's frames carried since the last
-                          snapshot */
-    double k;          /* frames between the last two snapshots */
-    double n;          /* snapshots seen: 0, 1, 2, 3 (or more) */
-} gs__lead;
-
 typedef struct gs__rigid {
     gs_agent base;
     int probe;                 /* kinematic: moved by the application */
@@ -6653,7 +6634,6 @@ typedef struct gs__rigid {
     gs_vec3 target;            /* probe */
     gs_quat target_q;
     double max_speed;          /* probe, m/s */
-    gs__lead lead;             /* a peer's probe, replay mode */
     uint32_t owner;
     gs__shape shape;           /* last: see its vertex arrays */
 } gs__rigid;
@@ -7058,37 +7038,6 @@ GS__PRIVATE gs__rigid *gs__as_rigid(const gs_agent *a) {
     if (!a || (a->kind != &gs__rigid_kind && a->kind != &gs__probe_kind))
         return NULL;
     return (gs__rigid *)a;
-}
-
-/* What a ghost of a body carries beyond its state (gs_agent_get_state):
-   its own acceleration of its last step, which the contacts read to carry
-   it along its path to another body's time. A peer's copy that took the
-   state without it would step on differently from the same state, and the
-   hosts' runs would part in every stiff contact. A probe has none (it is
-   moved, not accelerated). */
-GS__PRIVATE size_t gs__carry_size(const gs_agent *a) {
-    const gs__rigid *r = gs__as_rigid(a);
-    return r && !r->probe ? 3 : 0;
-}
-
-GS__PRIVATE void gs__carry_get(const gs_agent *a, double *out) {
-    const gs__rigid *r = gs__as_rigid(a);
-    if (!r || r->probe) return;
-    out[0] = r->a_own.x; out[1] = r->a_own.y; out[2] = r->a_own.z;
-}
-
-/* After its set_state (which forgets the path): the carried acceleration
-   from `in`, finite (the wire checks); one that would move the body by
-   more than its speed bound in a step is no path and stays forgotten
-   (a peer's values are not trusted to bound the broad phase's sweep). */
-GS__PRIVATE void gs__carry_put(gs_agent *a, const double *in) {
-    gs__rigid *r = gs__as_rigid(a);
-    gs_vec3 acc;
-    if (!r || r->probe) return;
-    acc = gs__v3(in[0], in[1], in[2]);
-    if (!(gs__len(acc) * a->dt <= r->solver.max_speed)) return;
-    r->a_own = acc;
-    gs__sap_update(r);
 }
 
 
@@ -9183,25 +9132,6 @@ GS__PRIVATE int gs__ghost_sizes(size_t n, const gs_ghost_desc *d, size_t *bytes,
                                                    (gs__snaps_new) */
 }
 
-/* A ghost's values: the agent's state, then what its kind carries beyond
-   it for a peer's copy to step on as it would (gs__carry_size). */
-GS__PRIVATE void gs__ghost_get(const gs__ghost *g, double *out) {
-    size_t ns = gs_agent_state_size(g->agent);
-    gs_agent_get_state(g->agent, out, ns);
-    if (g->n > ns) gs__carry_get(g->agent, out + ns);
-}
-
-/* Sets n ghost values (checked: finite) on a: the state, then what is
-   carried if n holds it (an input logged before a world's ghost came has
-   the state alone). */
-GS__PRIVATE gs_result gs__ghost_put(gs_agent *a, const double *in, size_t n) {
-    size_t ns = gs_agent_state_size(a);
-    gs_result r = gs__agent_put_state(a, in);
-    if (r == GS_OK && n > ns) gs__carry_put(a, in + ns);
-    if (r == GS_OK) gs__sync_sighted(a);
-    return r;
-}
-
 GS_API gs_result gs_ghost_attach(gs_agent *a, const gs_ghost_desc *desc) {
     gs_world *w = a ? a->world : NULL;
     gs_ghost_desc d;
@@ -9210,7 +9140,7 @@ GS_API gs_result gs_ghost_attach(gs_agent *a, const gs_ghost_desc *desc) {
     int i;
     gs_result r = gs__world_unlocked(w, "gs_ghost_attach");
     if (r != GS_OK) return r;
-    n = gs_agent_state_size(a) + gs__carry_size(a);
+    n = gs_agent_state_size(a);
     vars = n - 1;
     if (!desc) return gs__fail(w, GS_ERR_INVALID_ARG, "gs_ghost_attach: desc is NULL");
     if (a->ghost) return gs__fail(w, GS_ERR_INVALID_ARG, "gs_ghost_attach: the agent has a ghost");
@@ -9240,7 +9170,7 @@ GS_API gs_result gs_ghost_attach(gs_agent *a, const gs_ghost_desc *desc) {
     g->wq = g->offset_next + n;
     g->sent = g->wq + (size_t)GS__MAX_PEERS * (size_t)d.queue_size;
     g->pred = g->sent + n;
-    gs__ghost_get(g, g->B);
+    gs_agent_get_state(a, g->B, n);
     memcpy(g->sent, g->B, n * sizeof(double));
     g->b_seq = 1;
     g->t_local = g->B[0];
@@ -9365,7 +9295,7 @@ GS_API gs_result gs_scene_attach_ghosts(gs_scene *sc, const gs_ghost_desc *share
 GS__PRIVATE void gs__ghost_publish_now(gs__ghost *g, gs_net *net) {
     double t = gs__agent_time(g->agent);
     gs__lock(net);
-    gs__ghost_get(g, g->B);
+    gs_agent_get_state(g->agent, g->B, g->n);
     g->b_seq++;
     if (net) net->published = 1;
     gs__unlock(net);
@@ -9878,7 +9808,7 @@ GS__PRIVATE double gs__time_bound(gs__ghost *g, double t_i, double corr) {
 GS__PRIVATE int gs__blend_apply(gs__ghost *g, double t_i) {
     double *t;
     int e;
-    if (gs__ghost_put(g->agent, g->scratch, g->n) != GS_OK) return 0;
+    if (gs__agent_put_state(g->agent, g->scratch) != GS_OK) return 0;
     g->moved += fabs(g->scratch[0] - t_i);
     /* the formula as written pulls back at every blend, and the clock
        stays: the time pulled back is simulated again (the latency trap) */
@@ -9904,7 +9834,7 @@ GS__PRIVATE uint32_t gs__ghost_blend(gs__ghost *g, gs__blend_net *bn, int *appli
     uint32_t seen = 0;
     int used;
     *applied = 0;
-    gs__ghost_get(g, g->local);
+    gs_agent_get_state(g->agent, g->local, n);
     t_i = g->local[0];
     memset(&ps, 0, sizeof ps);
     ps.w0 = gs__ghost_weigh(g, bn, t_i, g->wq);
@@ -9980,12 +9910,7 @@ GS__PRIVATE int gs__ghost_pending(const gs__ghost *g) {
 #define GS__SYNC_AGENT 11   /* doubles per agent before its state: steps,
                                t_offset, priority, 6 counters, sleeping,
                                rest */
-#define GS__SYNC_LEAD 15    /* doubles in a gs__lead */
-#define GS__SYNC_RIGID (13 + GS__SYNC_LEAD) /* a_own, 3 spare, target,
-                               target_q, lead */
-typedef char gs__lead_is_doubles[sizeof(gs__lead) == GS__SYNC_LEAD * sizeof(double) ? 1 : -1];
-#define GS__LEAD_AHEAD 0.1  /* s; how far past its last snapshot a peer's
-                               probe is carried (gs__sync_carry) */
+#define GS__SYNC_RIGID 13   /* a_own, 3 spare, target, target_q */
 #define GS__SYNC_NONE UINT64_MAX /* a log entry applied before the advance */
 #define GS__SYNC_SPLIT (UINT64_MAX - 1) /* one applied at a blend time */
 #define GS__LOG_HEAD 5      /* doubles before an input log entry's values */
@@ -10208,7 +10133,6 @@ GS__PRIVATE double *gs__sync_save_agent(const gs_agent *a, double *p) {
         p[6] = r->target.x; p[7] = r->target.y; p[8] = r->target.z;
         p[9] = r->target_q.x; p[10] = r->target_q.y; p[11] = r->target_q.z;
         p[12] = r->target_q.w;
-        memcpy(p + 13, &r->lead, sizeof r->lead);
         p += GS__SYNC_RIGID;
     }
     a->kind->get_state(a, p);
@@ -10235,7 +10159,6 @@ GS__PRIVATE const double *gs__sync_load_agent(gs_agent *a, const double *p) {
         r->a_own = gs__v3(x[0], x[1], x[2]);
         r->target = gs__v3(x[6], x[7], x[8]);
         r->target_q = gs__quat(x[9], x[10], x[11], x[12]);
-        memcpy(&r->lead, x + 13, sizeof r->lead);
         r->q = gs__quat(e[3], e[4], e[5], e[6]); /* set_state renormalizes */
         gs__sap_update(r);
     }
@@ -10306,7 +10229,7 @@ GS__PRIVATE void gs__sync_log(gs_agent *a, const double *in) {
 
 /* A blend, at the dispatch it followed: an input of the frame running
    (in a replay, of the frame re-run). */
-GS__PRIVATE void gs__sync_log_blend(gs_agent *a, const double *in, size_t n) {
+GS__PRIVATE void gs__sync_log_blend(gs_agent *a, const double *in) {
     gs__sync *sy = a->world->sync;
     uint64_t frame = sy->replaying ? sy->replay_seq : sy->at_start ? sy->seq : sy->seq - 1;
     if (!sy->cap || !a->world->busy || sy->replaying == GS__RERUN_TEST) return;
@@ -10314,7 +10237,8 @@ GS__PRIVATE void gs__sync_log_blend(gs_agent *a, const double *in, size_t n) {
     gs__log_put(sy, frame,
                 sy->at_start ? GS__SYNC_NONE : sy->at_split == sy->at_split ? GS__SYNC_SPLIT
                                                                            : a->world->dispatches,
-                sy->at_split == sy->at_split ? sy->at_split : 0.0, a->index, in, n);
+                sy->at_split == sy->at_split ? sy->at_split : 0.0, a->index, in,
+                gs_agent_state_size(a));
 }
 
 /* A re-run: applies the entries of frame `frame` logged at `dispatch`,
@@ -10331,18 +10255,16 @@ GS__PRIVATE void gs__sync_apply_log(gs_world *w, uint64_t frame, uint64_t dispat
         if (f != frame || d != dispatch || ai < 0 || ai >= w->agent_count) continue;
         if (d == GS__SYNC_SPLIT && gs__log_get(sy, at + 4) != when) continue;
         a = w->agents[ai];
-        /* a state by hand, or a blend's (with what a ghost carries) */
-        if (n != gs_agent_state_size(a) && n != gs_agent_state_size(a) + gs__carry_size(a))
-            continue;
+        if (n != gs_agent_state_size(a)) continue;
         /* an entry that wraps around the ring is put together in the
            last slot of the ring (a re-run's end, free until then) */
         v = at + GS__LOG_HEAD;
         if (v % sy->log_cap + n <= sy->log_cap) {
-            gs__ghost_put(a, sy->log + v % sy->log_cap, n);
+            gs__agent_put_state(a, sy->log + v % sy->log_cap);
         } else {
             double *buf = sy->ring + ((size_t)sy->cap + 1) * sy->stride;
             for (i = 0; i < n; ++i) buf[i] = gs__log_get(sy, v + i);
-            gs__ghost_put(a, buf, n);
+            gs__agent_put_state(a, buf);
         }
     }
 }
@@ -10422,7 +10344,7 @@ GS__PRIVATE void gs__sync_blend(gs_world *w, double t, int keep_waiting) {
         seen |= gs__ghost_blend(g, &bn, &applied);
         if (applied) { /* in replay mode only a state that differs is set */
             sy->changed = 1;
-            gs__sync_log_blend(g->agent, g->scratch, g->n);
+            gs__sync_log_blend(g->agent, g->scratch);
         }
         if (g->pulled > 0.0) {
             back++;
@@ -10608,69 +10530,15 @@ GS__PRIVATE void gs__sync_target(gs_world *w, double seconds, double before) {
         sy->frames[(sy->seq - 1) % (uint64_t)sy->cap].target_run = w->target;
 }
 
-/* Replay mode: a peer's probe, set from its owner's snapshot, tells how
-   the owner's application moves it (gs__sync_carry). The owner sets its
-   target once a frame and the probe goes there in a step, so that its
-   snapshots, taken at the ends of the owner's frames, hold each frame's
-   target: the path is sampled once a frame, and read per frame, not per
-   second (a snapshot's time is the probe's step after the frame's end,
-   a step later in one frame than in the next). Frames between snapshots
-   are counted by the period: a snapshot lost makes one interval two
-   frames. */
-GS__PRIVATE void gs__sync_sighted(gs_agent *a) {
-    gs__rigid *r = gs__as_rigid(a);
-    gs__lead *l;
-    double t, k;
-    gs_vec3 d;
-    if (!r || !r->probe || r->owner == a->world->host_id || a->world->sync->d.mode != GS_SYNC_REPLAY)
-        return;
-    l = &r->lead;
-    t = gs__agent_time(a);
-    if (l->n > 0.0 && !(t > l->t)) return; /* an older one: the path stands */
-    if (l->n > 0.0) {
-        k = l->n > 1.0 ? fmax(1.0, floor((t - l->t) / l->per + 0.5)) : 1.0;
-        d = gs__scale(gs__sub(r->x, l->x), 1.0 / k);
-        l->dd = l->n > 1.0 ? gs__scale(gs__sub(d, l->d), 2.0 / (k + l->k)) : gs__v3(0.0, 0.0, 0.0);
-        l->d = d;
-        l->per = (t - l->t) / k;
-        l->k = k;
-    }
-    l->n = l->n < 3.0 ? l->n + 1.0 : 3.0;
-    l->x = r->x;
-    l->t = t;
-    l->next = t;
-    l->j = 0.0;
-}
-
-/* Replay mode, after a peer's probe stepped (and after a blend): the input
-   its owner gives it next. At each of the owner's frames (a period on from
-   its last snapshot) the target is where the path its snapshots trace
-   puts the next frame's end: quadratic in frames through the last
-   snapshot, carried at most GS__LEAD_AHEAD past it, then held (an outage
-   does not send it away). Carried along its velocity instead, it lagged
-   the owner's by a frame of the path (3.2 mm p95 on a 1 ms link while it
-   pushes, against 0.2 mm: bench/sync_modes); held still, it would stop
-   while the cloth it pushes, copied with the probe's speed, runs on into
-   it for the latency the replay covers, and the contact would throw the
-   sphere lying there. Before two snapshots it goes on along its velocity. */
+/* Replay mode: a peer's probe goes on along the velocity its owner's last
+   snapshot gave it, a step at a time. Held still (its target where the
+   snapshot put it), it would stop while the cloth it pushes, copied with
+   the probe's speed, runs on into it for the latency the replay covers,
+   and the contact would throw the sphere lying there. */
 GS__PRIVATE void gs__sync_carry(gs_agent *a) {
     gs__rigid *r = gs__as_rigid(a);
-    gs__lead *l;
-    gs_vec3 to;
-    double j;
     if (!r || !r->probe || r->owner == a->world->host_id) return;
-    l = &r->lead;
-    if (!(l->n > 1.0 && l->per > 0.0)) {
-        r->target = gs__madd(r->x, r->v, a->dt);
-        return;
-    }
-    if (gs__agent_time(a) < l->next - 0.5 * a->dt) return; /* on to the target */
-    l->next += l->per;
-    if (l->j * l->per >= GS__LEAD_AHEAD) return;
-    l->j += 1.0;
-    j = l->j;
-    to = gs__madd(gs__madd(l->x, l->d, j), l->dd, 0.5 * j * (j + 1.0));
-    if (gs__in_range3(to)) r->target = to;
+    r->target = gs__madd(r->x, r->v, a->dt);
 }
 
 /* The world's hook after a step (a dispatch, gs_agent_step): in a re-run
@@ -13277,11 +13145,10 @@ GS__PRIVATE void gs__datagram_flush(gs_net *net, double now, size_t *size) {
 GS__PRIVATE int gs__ghost_runs(const gs__ghost *g, size_t end[3], int cls[3]) {
     const gs_agent *a = g->agent;
     size_t vars = g->n - 1;
-    if ((a->kind == &gs__rigid_kind || a->kind == &gs__probe_kind) &&
-        vars == 13 + gs__carry_size(a)) { /* the carried acceleration as a velocity */
+    if ((a->kind == &gs__rigid_kind || a->kind == &gs__probe_kind) && vars == 13) {
         end[0] = 3; cls[0] = 0;
         end[1] = 7; cls[1] = 1;
-        end[2] = vars; cls[2] = 2;
+        end[2] = 13; cls[2] = 2;
         return 3;
     }
     if (a->kind->positions && a->kind->positions(a) < vars) {
@@ -13325,13 +13192,10 @@ GS__PRIVATE int gs__ghost_moved(const gs__ghost *g, const double *ref) {
     size_t end[3], lo = 0, i;
     int cls[3], r, nr = gs__ghost_runs(g, end, cls);
     double thr = g->d.rest_threshold;
-    /* what is carried beyond the state follows it: a body at rest keeps
-       some acceleration of its own (gravity, held by pushes) */
-    size_t stop = g->n - 1 - gs__carry_size(g->agent);
     if (!g->sent_any) return 1;
     for (r = 0; r < nr; lo = end[r++]) {
         double lim = cls[r] == 2 ? thr * g->d.send_rate : thr;
-        for (i = lo; i < end[r] && i < stop; ++i)
+        for (i = lo; i < end[r]; ++i)
             if (!(fabs(g->B[1 + i] - ref[1 + i]) <= lim)) return 1;
     }
     return 0;

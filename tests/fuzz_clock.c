@@ -108,10 +108,6 @@ static int fc_add(fc_state *s, unsigned char *buf, size_t *size, int i, double t
     gs_wire_chunk c;
     size_t n = gs_agent_state_size(s->f.agent[i]), vars = n - 1;
     FUZZ_CHECK(gs_agent_get_state(s->f.agent[i], st, n) == GS_OK);
-    if (i == 2) { /* the sphere's ghost carries its own acceleration too */
-        st[n] = st[n + 1] = st[n + 2] = 0.0;
-        vars += 3;
-    }
     memset(&c, 0, sizeof c);
     c.object_id = 10u + (uint32_t)i;
     c.sequence = sseq;

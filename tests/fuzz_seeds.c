@@ -145,7 +145,7 @@ static void hand_made(void) {
     int i;
     for (i = 0; i < 300; ++i) v[i] = 0.01 * (i % 17) - 0.05;
     v[3] = 0.0; v[4] = 0.0; v[5] = 0.0; v[6] = 1.0; /* a unit quaternion */
-    c[0] = chunk(12, 0.05, 0, 1, 0, 16, GS_ENCODING_F64);
+    c[0] = chunk(12, 0.05, 0, 1, 0, 13, GS_ENCODING_F64);
     wire_seed("wire-rigid", 1, c, 1, v);
     c[0] = chunk(13, 0.05, 0, 1, 0, 13, GS_ENCODING_F32);
     wire_seed("wire-probe-f32", 2, c, 1, v);
@@ -157,14 +157,14 @@ static void hand_made(void) {
     wire_seed("wire-cloth-last", 5, c, 1, v);
     c[0] = chunk(11, 0.05, 1, 2, 279, 9, GS_ENCODING_F32);
     wire_seed("wire-cloth-f32-last", 6, c, 1, v);
-    c[0] = chunk(12, 0.05, 0, 1, 0, 16, GS_ENCODING_F64);
+    c[0] = chunk(12, 0.05, 0, 1, 0, 13, GS_ENCODING_F64);
     c[1] = chunk(14, 0.05, 0, 1, 0, 6, GS_ENCODING_F64);
     c[2] = chunk(15, 0.05, 0, 1, 0, 0, GS_ENCODING_F64);
     c[3] = chunk(13, 0.05, 0, 1, 0, 13, GS_ENCODING_F32);
     wire_seed("wire-packed", 7, c, 4, v);
     c[0] = chunk(99, 0.05, 0, 1, 0, 2, GS_ENCODING_F64); /* unknown object */
     wire_seed("wire-unknown-object", 8, c, 1, v);
-    c[0] = chunk(12, 0.05, 0, 1, 0, 15, GS_ENCODING_F64); /* short range */
+    c[0] = chunk(12, 0.05, 0, 1, 0, 12, GS_ENCODING_F64); /* short range */
     wire_seed("wire-bad-range", 9, c, 1, v);
     c[0] = chunk(14, 1e9, 0, 1, 0, 6, GS_ENCODING_F64); /* far ahead */
     wire_seed("wire-far-time", 10, c, 1, v);
@@ -186,7 +186,7 @@ static void extremes(double *v) {
     int i;
     for (i = 0; i < 300; ++i) v[i] = i % 3 == 0 ? 1.7976931348623157e308 : i % 3 == 1 ? -1e300 : 4.9e-324;
     v[3] = 0.0; v[4] = -0.0; v[5] = 0.0; v[6] = 1.0;
-    c[0] = chunk(12, 0.05, 0, 1, 0, 16, GS_ENCODING_F64);
+    c[0] = chunk(12, 0.05, 0, 1, 0, 13, GS_ENCODING_F64);
     c[1] = chunk(14, 0.05, 0, 1, 0, 6, GS_ENCODING_F64);
     wire_seed("wire-huge-f64", 12, c, 2, v);
     for (i = 0; i < 300; ++i) v[i] = i % 2 ? 3.4028234663852886e38 : -1.4e-45;
@@ -195,7 +195,7 @@ static void extremes(double *v) {
     wire_seed("wire-huge-f32", 13, c, 2, v);
     for (i = 0; i < 300; ++i) v[i] = 0.01 * i;
     c[0] = chunk(14, GS_WIRE_MAX_TIME, 0, 1, 0, 6, GS_ENCODING_F64);
-    c[1] = chunk(12, GS_WIRE_MAX_TIME, 0, 1, 0, 16, GS_ENCODING_F64);
+    c[1] = chunk(12, GS_WIRE_MAX_TIME, 0, 1, 0, 13, GS_ENCODING_F64);
     wire_seed("wire-time-max", 14, c, 2, v);
 }
 
