@@ -10591,10 +10591,14 @@ GS__PRIVATE void gs__sync_end(gs_world *w, double seconds, const gs_advance_repo
                 /* on a frame grid the target is a boundary, perhaps still
                    ahead (an application that computes a frame early): the
                    datagram leaves at it, not before, as the peers read
-                   this timeline from its time less its send time */
-                gs__lock(w->net);
-                g->stands_at = sy->d.frame > 0.0 ? w->target - sy->origin : 0.0;
-                gs__unlock(w->net);
+                   this timeline from its time less its send time (the
+                   grid is fixed at creation: without one stands_at stays
+                   0 and the net's lock is not taken for it) */
+                if (sy->d.frame > 0.0) {
+                    gs__lock(w->net);
+                    g->stands_at = w->target - sy->origin;
+                    gs__unlock(w->net);
+                }
                 gs__ghost_publish_now(g, w->net);
             }
         }

@@ -18,6 +18,7 @@
 
 #include "ghostsim.h"
 #include "net_helpers.h"
+#include "world_helpers.h"
 
 #define F 0.005    /* s; the frame, ghostpeer's */
 #define DT 0.002   /* s; the agent's step, the paper scene's cloth */
@@ -64,18 +65,8 @@ static gs_world *grid_world(fake_clock *c, double frame, gs_sync_clock clock) {
 }
 
 static gs_agent *toy_new(gs_world *w, toy *t) {
-    gs_custom_desc cd;
-    gs_agent *a = NULL;
-    memset(&cd, 0, sizeof cd);
-    cd.dt = DT;
-    cd.state_size = 2;
-    cd.step = toy_step;
-    cd.get_state = toy_get;
-    cd.set_state = toy_set;
-    cd.user = t;
     t->x[1] = 0.1;
-    assert_int_equal(gs_custom_create(w, &cd, &a), GS_OK);
-    return a;
+    return custom_new(w, DT, 2, toy_step, toy_get, toy_set, t);
 }
 
 /* Advances w with its clock at `now` (the seconds since its last). */

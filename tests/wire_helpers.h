@@ -1,6 +1,6 @@
 /* wire_helpers.h - the tests' hand-built datagrams: a CRC-32 of their own,
    to make a changed datagram's checksum good again, and a one-snapshot
-   datagram. Include after cmocka.h and ghostsim.h. */
+   datagram, a delta chunk's round trip. Include after cmocka.h and ghostsim.h. */
 #ifndef GS_TEST_WIRE_HELPERS_H
 #define GS_TEST_WIRE_HELPERS_H
 
@@ -54,6 +54,19 @@ static GS_TEST_UNUSED size_t snapshot_datagram(unsigned char *buf, uint32_t send
     assert_int_equal(gs_wire_begin(buf, GS_WIRE_MAX_DATAGRAM, &h, &size), GS_OK);
     assert_int_equal(gs_wire_add(buf, GS_WIRE_MAX_DATAGRAM, &size, &c, vals), GS_OK);
     return gs_wire_end(buf, size);
+}
+
+/* A datagram with h's header and one delta chunk c of differences d,
+   decoded into v: the round trip every delta codec test starts with. */
+static GS_TEST_UNUSED void delta_round_trip(unsigned char *buf, const gs_wire_header *h,
+                                            const gs_wire_chunk *c, const int64_t *d,
+                                            gs_wire_view *v) {
+    size_t size, n;
+    gs_reject why;
+    assert_int_equal(gs_wire_begin(buf, GS_WIRE_MAX_DATAGRAM, h, &size), GS_OK);
+    assert_int_equal(gs_wire_add_delta(buf, GS_WIRE_MAX_DATAGRAM, &size, c, d), GS_OK);
+    n = gs_wire_end(buf, size);
+    assert_int_equal(gs_wire_decode(buf, n, v, &why), GS_OK);
 }
 
 #endif
