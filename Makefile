@@ -183,8 +183,12 @@ test-asan: $(addprefix $(BUILD)/asan/,$(TESTS) $(TESTS_NOSODIUM))
 # cloth suites run those paths under ASan.
 SLOW_SUITES := test_net test_ghost
 PLAIN_ONLY := test_manual test_rest test_simd
+# test_converge (the paper scene's convergence on the simnet, 46 s under
+# ASan on a 2-core machine) runs plain in make test and under ASan in
+# test-slow, which .ci/run runs after: make test was 13 minutes with it.
+ASAN_SLOW := test_converge
 SUITES_BY_LENGTH := $(addprefix run-asan-,$(SLOW_SUITES)) run-plain-test_rest \
-  $(addprefix run-asan-,$(filter-out $(SLOW_SUITES) $(PLAIN_ONLY),$(TESTS))) \
+  $(addprefix run-asan-,$(filter-out $(SLOW_SUITES) $(PLAIN_ONLY) $(ASAN_SLOW),$(TESTS))) \
   $(addprefix run-plain-,$(filter-out test_manual test_rest,$(TESTS)) $(TESTS_NOSODIUM))
 run-plain-%: $(BUILD)/%
 	@sh tests/run.sh "plain" $(BUILD)/$*
@@ -218,7 +222,7 @@ test: deps
 # simulation; README "Convergence"), test_rest's bad link on three seeds
 # (make test runs one), and the UDP tests under valgrind
 # (leaks of sockets, threads and buffers; two minutes, one thread at a time).
-test-slow: $(BUILD)/test_net $(BUILD)/test_rest
+test-slow: $(BUILD)/test_net $(BUILD)/test_rest $(addprefix run-asan-,$(ASAN_SLOW))
 	@GHOSTSIM_SLOW_TESTS=1 sh tests/run.sh "slow" "$(BUILD)/test_net test_scene_perfect_and_bad"
 	@GHOSTSIM_SLOW_TESTS=1 sh tests/run.sh "slow" "$(BUILD)/test_rest"
 	@$(MAKE) --no-print-directory valgrind-udp
