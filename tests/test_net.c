@@ -1368,7 +1368,10 @@ static void test_udp_peers_at_run_time(void **state) {
     g = udp_pair_run(&p, 240, 1e-4, &frames);
     print_message("udp peers at run time: gap %.2e m %.2f s after both knew each other\n", g,
                   frames * FRAME);
-    assert_true(g < 1e-4);
+    /* as in udp_converge: under valgrind the hosts' frames drift tens of
+       ms apart on the wall clock (CI saw 2.6e-4 m), and 1e-3 m is what
+       that run can say */
+    assert_true(g < (UNDER_VALGRIND() ? 1e-3 : 1e-4));
     /* replacing a peer's address is allowed */
     assert_int_equal(gs_net_add_peer(p.u[0], 2, a[1]), GS_OK);
     /* host 1 drops host 2: host 2 hears nothing more from host 1 */
