@@ -177,8 +177,8 @@ test-asan: $(addprefix $(BUILD)/asan/,$(TESTS) $(TESTS_NOSODIUM))
 # code in the other suites), and the manual's quick starts run on a quiet
 # machine, after: its UDP one must keep wall-clock pace.
 # test_rest (the paper scene at rest after faults, on the simnet) runs plain
-# only: under ASan it takes 2.5 minutes, and test_net puts the same sync code
-# under the sanitizers. test_simd too (35 s under ASan, most of it the
+# only, in test-slow: under ASan it takes 2.5 minutes, and test_net puts the
+# same sync code under the sanitizers. test_simd runs plain only (35 s under ASan, most of it the
 # scene's settle): it compares the SIMD paths' bytes with plain C's, and the
 # cloth suites run those paths under ASan.
 SLOW_SUITES := test_net test_ghost
@@ -187,7 +187,7 @@ PLAIN_ONLY := test_manual test_rest test_simd
 # ASan on a 2-core machine) runs plain in make test and under ASan in
 # test-slow, which .ci/run runs after: make test was 13 minutes with it.
 ASAN_SLOW := test_converge
-SUITES_BY_LENGTH := $(addprefix run-asan-,$(SLOW_SUITES)) run-plain-test_rest \
+SUITES_BY_LENGTH := $(addprefix run-asan-,$(SLOW_SUITES)) \
   $(addprefix run-asan-,$(filter-out $(SLOW_SUITES) $(PLAIN_ONLY) $(ASAN_SLOW),$(TESTS))) \
   $(addprefix run-plain-,$(filter-out test_manual test_rest,$(TESTS)) $(TESTS_NOSODIUM))
 run-plain-%: $(BUILD)/%
@@ -212,19 +212,24 @@ test-build: examples $(addprefix $(BUILD)/,$(TESTS) $(TESTS_NOSODIUM)) \
 test: deps
 	@sh tests/phase.sh "build, checks, fuzzers, cmocka suites" $(MAKE) --no-print-directory -j2 \
 	  --output-sync=target fuzz-ci compile-checks $(SUITES_BY_LENGTH) doc-check examples \
-	  cmake-check install-check $(BUILD)/tsan/test_net $(BUILD)/test_net $(BUILD)/test_manual
-	@sh tests/phase.sh "tsan, the manual over UDP" $(MAKE) --no-print-directory \
-	  tsan run-plain-test_manual
-	@sh tests/phase.sh "peers and faults" $(MAKE) --no-print-directory test-peers faults-short
+	  cmake-check install-check $(BUILD)/test_net $(BUILD)/test_manual
+	@sh tests/phase.sh "the manual over UDP" $(MAKE) --no-print-directory run-plain-test_manual
+	@sh tests/phase.sh "peers" $(MAKE) --no-print-directory test-peers
 
 # Suites too slow for make test's 10 minutes, which .ci/run runs after it:
 # the paper scene's convergence on a perfect and a bad link (85 s of
-# simulation; README "Convergence"), test_rest's bad link on three seeds
-# (make test runs one), and the UDP tests under valgrind
-# (leaks of sockets, threads and buffers; two minutes, one thread at a time).
+# simulation; README "Convergence"), test_rest (the paper scene at rest
+# after faults on the simnet, three seeds of the bad link), the UDP tests
+# under ThreadSanitizer (90 s of CPU) and valgrind (leaks of sockets,
+# threads and buffers; two minutes, one thread at a time), and the short
+# fault suite between ghostpeer processes (60 s). make test was 14 min 44 s
+# with them on a loaded 2-core machine, 13 min 14 s on an idle one (phases
+# 1-3: 503, 124, 166 s); each runs alone here, as each measures pace.
 test-slow: $(BUILD)/test_net $(BUILD)/test_rest $(addprefix run-asan-,$(ASAN_SLOW))
 	@GHOSTSIM_SLOW_TESTS=1 sh tests/run.sh "slow" "$(BUILD)/test_net test_scene_perfect_and_bad"
 	@GHOSTSIM_SLOW_TESTS=1 sh tests/run.sh "slow" "$(BUILD)/test_rest"
+	@$(MAKE) --no-print-directory tsan
+	@$(MAKE) --no-print-directory faults-short
 	@$(MAKE) --no-print-directory valgrind-udp
 
 # The UDP tests (gather and scatter threads) under ThreadSanitizer, and under
