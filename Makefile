@@ -181,12 +181,15 @@ test-asan: $(addprefix $(BUILD)/asan/,$(TESTS) $(TESTS_NOSODIUM))
 # same sync code under the sanitizers. test_simd runs plain only (35 s under ASan, most of it the
 # scene's settle): it compares the SIMD paths' bytes with plain C's, and the
 # cloth suites run those paths under ASan.
-SLOW_SUITES := test_net test_ghost
+SLOW_SUITES := test_delta test_ghost
 PLAIN_ONLY := test_manual test_rest test_simd
-# test_converge (the paper scene's convergence on the simnet, 46 s under
-# ASan on a 2-core machine) runs plain in make test and under ASan in
-# test-slow, which .ci/run runs after: make test was 13 minutes with it.
-ASAN_SLOW := test_converge
+# Under ASan in test-slow, which .ci/run runs after make test, plain in make
+# test: test_converge (the paper scene's convergence on the simnet, 46 s
+# under ASan on a 2-core machine), test_net (75 s: its scene and UDP runs;
+# test-slow also runs its UDP tests under tsan and valgrind), test_scale
+# and test_xpbd (32 s each: large cloths). make test's first phase was 546 s
+# with them, at f8d97fb from a fresh clone.
+ASAN_SLOW := test_converge test_net test_scale test_xpbd
 SUITES_BY_LENGTH := $(addprefix run-asan-,$(SLOW_SUITES)) \
   $(addprefix run-asan-,$(filter-out $(SLOW_SUITES) $(PLAIN_ONLY) $(ASAN_SLOW),$(TESTS))) \
   $(addprefix run-plain-,$(filter-out test_manual test_rest,$(TESTS)) $(TESTS_NOSODIUM))
