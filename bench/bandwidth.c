@@ -51,7 +51,13 @@
    snapshots timed are deltas. The ratios to f64 come from the same run.
    Last, each target against the best encoding for it, met or missed, with
    its divergence at equal simulation time (the mean) beside f64's plus one
-   position step (5e-5 m), and the CPU ratios against theirs (<= 1). */
+   position step (5e-5 m), and the CPU ratios against theirs (<= 1).
+   --cpu (alone) prints the CPU table only, in f64, quant and quant+delta,
+   and writes no JSON: what a profiler runs, e.g. valgrind --tool=callgrind
+   --toggle-collect=cpu_encode --toggle-collect=cpu_decode
+   --dump-after=cpu_times build/bench/bandwidth --cpu, one part per
+   encoding (cpu_encode and cpu_decode are the timed calls, cpu_times one
+   encoding's run: all three kept out of line for that). */
 #define GHOSTSIM_IMPLEMENTATION
 #include "ghostsim.h"
 #include "tests/net_helpers.h"
@@ -283,7 +289,19 @@ static void cpu_deliver(cpu_pair *c, int to) {
     c->n = 0;
 }
 
-static void cpu_times(int enc, double *enc_us, double *dec_us, double *bytes) {
+#if defined(__GNUC__) || defined(__clang__)
+#define NOINLINE __attribute__((noinline))
+#else
+#define NOINLINE
+#endif
+/* The two timed calls. */
+static NOINLINE void cpu_encode(cpu_pair *c) { gs_net_update(c->h[0].net, c->now); }
+static NOINLINE void cpu_decode(cpu_pair *c) {
+    int i;
+    for (i = 0; i < c->n; ++i) gs_net_deliver(c->h[1].net, c->d[i], c->size[i], c->now, NULL);
+}
+
+static NOINLINE void cpu_times(int enc, double *enc_us, double *dec_us, double *bytes) {
     cpu_pair *c = (cpu_pair *)calloc(1, sizeof *c);
     double te[200], td[200];
     int i, k, reps = 200;
@@ -308,10 +326,10 @@ static void cpu_times(int enc, double *enc_us, double *dec_us, double *bytes) {
         c->n = 0;
         c->now += FRAME;
         t0 = bu_now();
-        gs_net_update(c->h[0].net, c->now);
+        cpu_encode(c);
         te[k] = bu_now() - t0;
         t0 = bu_now();
-        for (i = 0; i < c->n; ++i) gs_net_deliver(c->h[1].net, c->d[i], c->size[i], c->now, NULL);
+        cpu_decode(c);
         td[k] = bu_now() - t0;
         for (i = 0; i < c->n; ++i) *bytes += (double)c->size[i];
         c->n = 0; /* the acknowledgements back */
@@ -328,12 +346,29 @@ static void cpu_times(int enc, double *enc_us, double *dec_us, double *bytes) {
     free(c);
 }
 
+/* --cpu: the CPU table alone, f64 first (the ratios are to it). */
+static int cpu_only(void) {
+    static const int enc[3] = {ENC_F64, ENC_QUANT, ENC_DELTA};
+    double eu[3], du[3], by[3];
+    int e;
+    fprintf(stderr, "paper scene, one full snapshot (all 6 objects), median of 200:\n");
+    fprintf(stderr, "%-11s %10s %10s %10s\n", "encoding", "bytes", "encode us", "decode us");
+    for (e = 0; e < 3; ++e) {
+        cpu_times(enc[e], &eu[e], &du[e], &by[e]);
+        fprintf(stderr, "%-11s %10.0f %10.1f %10.1f   encode+decode %.2f x f64's\n",
+                enc_name[enc[e]], by[e], eu[e], du[e], (eu[e] + du[e]) / (eu[0] + du[0]));
+    }
+    return 0;
+}
+
 int main(int argc, char **argv) {
     bu_args args;
     bu_json *j;
     result r[SC_COUNT][ENC_COUNT];
     double eu[ENC_COUNT], du[ENC_COUNT], by[ENC_COUNT];
-    int s, e, rc = bu_parse_args(argc, argv, "bandwidth", &args);
+    int s, e, rc;
+    if (argc == 2 && strcmp(argv[1], "--cpu") == 0) return cpu_only();
+    rc = bu_parse_args(argc, argv, "bandwidth", &args);
     if (rc) return rc < 0 ? 2 : 0;
     fprintf(stderr, "%-13s %-11s %12s %12s %11s %11s %12s %10s\n", "scene", "encoding",
             "kbit/s/host", "kbit/s/obj", "div@t mean", "div@t p95", "div-vs-snap", "target");
