@@ -11205,6 +11205,21 @@ GS__PRIVATE void gs__bitw_put(gs__bitw *b, uint64_t v, int bits) {
         b->n -= 32;
     }
 }
+/* gs__bitw_put's store, on a writer held in locals (o, end, acc, n,
+   over): 32 bits out once n reaches 32. */
+#define GS__BITS_OUT(o, end, acc, n, over)                                      \
+    do {                                                                       \
+        if ((n) >= 32) {                                                       \
+            if ((end) - (o) >= 4) {                                            \
+                gs__put32(o, (uint32_t)(acc));                                 \
+                (o) += 4;                                                      \
+            } else {                                                           \
+                (over) = 1;                                                    \
+            }                                                                  \
+            (acc) >>= 32;                                                      \
+            (n) -= 32;                                                         \
+        }                                                                      \
+    } while (0)
 /* The bits left, padded to a whole byte. */
 GS__PRIVATE void gs__bitw_flush(gs__bitw *b) {
     for (; b->n > 0; b->n -= 8, b->acc >>= 8) {
@@ -11811,21 +11826,43 @@ GS__PRIVATE size_t gs__delta_put_rice(unsigned char *p, size_t room, const gs_wi
                                       const int64_t *d, const unsigned char *head, size_t hn,
                                       int k) {
     gs__bitw w;
-    int i;
+    unsigned char *o, *end;
+    uint64_t acc = 0, low = ((uint64_t)1 << k) - 1;
+    int i, n = 0, over = 0;
     if (hn + 1 > room) return 0;
     memcpy(p, head, hn);
     p[hn] = (unsigned char)(k | (c->flags & GS_WIRE_CHUNK_PREDICT ? 0x20 : 0) | 2 << 6);
-    w.p = p + hn + 1; w.end = p + room; w.acc = 0; w.n = 0; w.over = 0;
+    /* the writer in locals (as gs__quant_put_scalar), n < 32 bits held:
+       a value's unary run, its 1 and its k low bits go in as one code of
+       q + 1 + k bits when that is at most 32 (k <= 15 always), else in
+       two; an escape as 16 zeros and 32 bits. The bits are gs__bitw_put's,
+       in its order. */
+    o = p + hn + 1;
+    end = p + room;
     for (i = 0; i < c->elements; ++i) {
         uint64_t z = gs__zigzag(d[i]), q = z >> k;
+        int len;
         if (q < GS__RICE_ESCAPE) {
-            gs__bitw_put(&w, (uint64_t)1 << q, (int)q + 1);
-            if (k) gs__bitw_put(&w, z & (((uint64_t)1 << k) - 1), k);
+            len = (int)q + 1 + k;
+            if (len <= 32) {
+                acc |= ((uint64_t)1 << q | (z & low) << (q + 1)) << n;
+                n += len;
+            } else {
+                acc |= (uint64_t)1 << q << n;
+                n += (int)q + 1;
+                GS__BITS_OUT(o, end, acc, n, over);
+                acc |= (z & low) << n;
+                n += k;
+            }
         } else {
-            gs__bitw_put(&w, 0, GS__RICE_ESCAPE);
-            gs__bitw_put(&w, z, 32);
+            n += GS__RICE_ESCAPE;
+            GS__BITS_OUT(o, end, acc, n, over);
+            acc |= (z & 0xffffffffu) << n;
+            n += 32;
         }
+        GS__BITS_OUT(o, end, acc, n, over);
     }
+    w.p = o; w.end = end; w.acc = acc; w.n = n; w.over = over;
     gs__bitw_flush(&w);
     return w.over ? 0 : (size_t)(w.p - p);
 }
