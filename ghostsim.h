@@ -11819,6 +11819,8 @@ GS__PRIVATE int gs__clz64(uint64_t v) {
     return n;
 #endif
 }
+/* The bit length of v (0 for 0). */
+GS__PRIVATE_INLINE int gs__bitlen64(uint64_t v) { return 64 - gs__clz64(v | 1u) - (v == 0); }
 
 /* A delta payload in the Rice coding of parameter k at p (room bytes,
    the head of hn bytes first): its size, or 0 if it does not fit. */
@@ -11878,10 +11880,12 @@ GS__PRIVATE size_t gs__delta_put(unsigned char *p, size_t room, const gs_wire_ch
     int i, nz = 0, w0 = 0, w1 = 0, coding, wd, hist[33], k, k0 = 0, rk = 0, below = 0;
     double rbits = HUGE_VAL;
     memset(hist, 0, sizeof hist);
-    for (i = 0; i < c->elements; ++i) {
-        uint64_t z = gs__zigzag(d[i]);
+    for (i = 0; i < c->elements; ++i) { /* branch-free: z is often 0 and often not */
+        uint64_t z = gs__zigzag(d[i]), nz1 = z != 0;
         m0 |= z;
-        if (z) { nz++; m1 |= z - 1; hist[64 - gs__clz64(z)]++; } else hist[0]++;
+        nz += (int)nz1;
+        m1 |= z - nz1;
+        hist[gs__bitlen64(z)]++;
     }
     /* Rice's best k is near the median's bit length (the mean would follow
        the few large values, which escape anyway): the four about it are
@@ -12165,8 +12169,11 @@ GS__PRIVATE gs_result gs__wire_add_delta_in(unsigned char *buf, size_t cap, size
         (c->flags & ~(unsigned)GS_WIRE_CHUNK_PREDICT) != GS_WIRE_CHUNK_DELTA || dist == 0 ||
         dist > 0x80000000u || c->count == 0 || c->index >= c->count)
         return GS_ERR_INVALID_ARG;
-    for (i = 0; i < c->elements; ++i)
-        if (diff[i] < -2147483648LL || diff[i] > 2147483647LL) return GS_ERR_INVALID_ARG;
+    {
+        uint64_t bad = 0; /* one test for all, the loop branch-free */
+        for (i = 0; i < c->elements; ++i) bad |= (uint64_t)(diff[i] + 2147483648LL) >> 32;
+        if (bad) return GS_ERR_INVALID_ARG;
+    }
     if (!gs__finite(c->time)) return GS_ERR_NOT_FINITE;
     if (c->time < 0.0 || c->time > GS_WIRE_MAX_TIME) return GS_ERR_INVALID_ARG;
     hn = gs__chunk_head(head, x, c);
@@ -13425,6 +13432,41 @@ GS__PRIVATE int gs__qk_make(gs_wire_segment *seg, int nseg, const double *v, int
     return ok;
 }
 
+/* gs__qk_make's integers of values v in a baseline's layout seg (its
+   steps kept) into k, and in the same pass their differences from the
+   baseline's integers bk into d, and the sum of the differences' zigzag
+   bit lengths into *bits (what a Rice run of them costs, near enough to
+   choose between two). 0 if an integer
+   leaves the decoder's range, a quaternion is 0 or a difference is past
+   +-(2^31 - 1): the chunk then goes whole. */
+GS__PRIVATE int gs__qk_diff(gs_wire_segment *seg, int nseg, const double *v, int64_t *k,
+                            const int64_t *bk, int64_t *d, long *bits) {
+    int s, i, n;
+    uint64_t bad = 0;
+    long b = 0;
+    for (s = 0; s < nseg; ++s, v += n, k += n, bk += n, d += n) {
+        n = seg[s].count;
+        if (seg[s].kind == GS_WIRE_SCALAR) {
+            double inv = 1.0 / seg[s].step;
+            for (i = 0; i < n; ++i) {
+                double x = v[i] * inv;
+                if (!(fabs(x) <= (double)GS__QK_MAX)) return 0; /* before the conversion */
+                k[i] = gs__round(x);
+            }
+        } else if (!gs__qk_make(&seg[s], 1, v, k, 0)) {
+            return 0;
+        }
+        for (i = 0; i < n; ++i) {
+            d[i] = k[i] - bk[i];
+            /* |d| <= 2^31 - 1: d + 2^31 - 1 in [0, 2^32 - 2] */
+            bad |= (uint64_t)(d[i] + 2147483647LL) > 4294967294u;
+            b += gs__bitlen64(gs__zigzag(d[i]));
+        }
+    }
+    *bits = b;
+    return !bad;
+}
+
 /* The values of integers k in the segments' layout: what a decoder of the
    chunk reads, bit for bit (the same products as gs__quant_get's). */
 GS__PRIVATE void gs__qk_values(const gs_wire_segment *seg, int nseg, const int64_t *k,
@@ -13593,18 +13635,6 @@ GS__PRIVATE int gs__delta_pred(const gs__ghost *g, const gs__base *b,
     return any;
 }
 
-/* The sum of the bit lengths of n differences' zigzags: what a Rice run
-   of them costs, near enough to choose between two. */
-GS__PRIVATE long gs__delta_bits(const int64_t *d, int n) {
-    long bits = 0;
-    int i;
-    for (i = 0; i < n; ++i) {
-        uint64_t z = gs__zigzag(d[i]);
-        bits += z ? 64 - gs__clz64(z) : 0;
-    }
-    return bits;
-}
-
 /* The baseline of a delta ghost's next snapshot: the newest every peer
    acknowledged, which is the oldest of their acknowledgements (the chunks
    are encoded once for all peers), if the ring still holds it. NULL: the
@@ -13652,13 +13682,10 @@ GS__PRIVATE void gs__send_delta_chunk(gs_net *net, gs__ghost *g, double now, siz
     gs_wire_segment *ts = to->seg + (size_t)c * GS_WIRE_MAX_SEGMENTS;
     const gs_wire_segment *bs = base ? base->seg + (size_t)c * GS_WIRE_MAX_SEGMENTS : NULL;
     gs_result r;
+    long plain = 0;
     if (base && base->got[c] && gs__seg_same(bs, base->nseg[c], ch->segments, nseg)) {
         memcpy(ts, bs, (size_t)nseg * sizeof *ts);
-        delta = gs__qk_make(ts, nseg, v, k, 0);
-        for (j = 0; j < ch->elements && delta; ++j) {
-            d[j] = k[j] - base->k[first + (size_t)j];
-            delta = d[j] >= -2147483647LL && d[j] <= 2147483647LL;
-        }
+        delta = gs__qk_diff(ts, nseg, v, k, base->k + first, d, &plain);
     }
     if (delta) {
         /* against the baseline carried along its velocities when that is
@@ -13667,13 +13694,15 @@ GS__PRIVATE void gs__send_delta_chunk(gs_net *net, gs__ghost *g, double now, siz
         int64_t *pr = g->kbuf + g->per_chunk;
         ch->flags = GS_WIRE_CHUNK_DELTA;
         if (gs__delta_pred(g, base, ts, nseg, first, ch->elements, ch->time - base->time, pr) > 0) {
-            long plain = gs__delta_bits(d, ch->elements), pred;
-            for (j = 0; j < ch->elements; ++j) pr[j] = d[j] - pr[j];
-            pred = gs__delta_bits(pr, ch->elements);
-            for (j = 0; j < ch->elements && pred < plain; ++j)
-                if (pr[j] < -2147483647LL || pr[j] > 2147483647LL) pred = plain;
-            if (pred < plain) {
-                memcpy(d, pr, (size_t)ch->elements * sizeof *d);
+            long pred = 0;
+            uint64_t bad = 0;
+            for (j = 0; j < ch->elements; ++j) { /* as gs__qk_diff's pass */
+                pr[j] = d[j] - pr[j];
+                bad |= (uint64_t)(pr[j] + 2147483647LL) > 4294967294u;
+                pred += gs__bitlen64(gs__zigzag(pr[j]));
+            }
+            if (pred < plain && !bad) {
+                d = pr;
                 ch->flags |= GS_WIRE_CHUNK_PREDICT;
             }
         }
