@@ -11585,13 +11585,14 @@ GS__PRIVATE int gs__ctz64(uint64_t v) {
 #endif
 }
 
-/* A reader of a Rice run that never reads past end (0 bits there); bits
-   counts what it took, so that a parse can tell a run that overran. */
+/* A reader of a Rice run that never reads past end (0 bits there, counted
+   in zeros), so that gs__rice_bits can tell a parse the bits it took and
+   a run that overran, without a count per value. */
 typedef struct gs__rice {
-    const unsigned char *p, *end;
+    const unsigned char *p, *start, *end;
     uint64_t acc;
     int n;
-    size_t bits;
+    size_t zeros; /* bytes of 0 bits taken past end */
 } gs__rice;
 GS__PRIVATE_INLINE void gs__rice_fill(gs__rice *r) {
     if (r->n > 56) return;
@@ -11602,7 +11603,8 @@ GS__PRIVATE_INLINE void gs__rice_fill(gs__rice *r) {
         return;
     }
     while (r->n <= 56) {
-        r->acc |= (uint64_t)(r->p < r->end ? *r->p++ : 0u) << r->n;
+        if (r->p < r->end) r->acc |= (uint64_t)*r->p++ << r->n;
+        else r->zeros++;
         r->n += 8;
     }
 }
@@ -11617,7 +11619,6 @@ GS__PRIVATE_INLINE uint64_t gs__rice_get(gs__rice *r, int k, int *esc) {
         z = (uint64_t)tz << k | (r->acc & (((uint64_t)1 << k) - 1));
         r->acc >>= k;
         r->n -= tz + 1 + k;
-        r->bits += (size_t)(tz + 1 + k);
         *esc = 0;
         return z;
     }
@@ -11625,12 +11626,16 @@ GS__PRIVATE_INLINE uint64_t gs__rice_get(gs__rice *r, int k, int *esc) {
     z = r->acc & 0xffffffffu;
     r->acc >>= 32;
     r->n -= GS__RICE_ESCAPE + 32;
-    r->bits += GS__RICE_ESCAPE + 32;
     *esc = 1;
     return z;
 }
 GS__PRIVATE void gs__rice_init(gs__rice *r, const unsigned char *p, const unsigned char *end) {
-    r->p = p; r->end = end; r->acc = 0; r->n = 0; r->bits = 0;
+    r->p = r->start = p; r->end = end; r->acc = 0; r->n = 0; r->zeros = 0;
+}
+/* The bits taken so far: every byte loaded (or 0 past end) less those
+   held. */
+GS__PRIVATE size_t gs__rice_bits(const gs__rice *r) {
+    return 8 * ((size_t)(r->p - r->start) + r->zeros) - (size_t)r->n;
 }
 
 /* The bits a Rice run of parameter k takes, estimated from the values'
@@ -11697,16 +11702,20 @@ GS__PRIVATE size_t gs__delta_parse(gs_wire_chunk *c, const unsigned char *p, siz
     c->baseline = c->sequence - (uint32_t)dist;
     if (c->delta_coding == 2) { /* walked: its length is where it ends */
         gs__rice r;
-        int esc;
+        size_t bits;
+        int esc, k = c->delta_width;
         gs__rice_init(&r, q, end);
         for (i = 0; i < c->elements; ++i) {
-            uint64_t z = gs__rice_get(&r, c->delta_width, &esc);
+            uint64_t z = gs__rice_get(&r, k, &esc);
             /* one meaning: an escape only for what unary cannot say */
-            if (r.bits > 8 * (size_t)(end - q) || (esc && z >> c->delta_width < GS__RICE_ESCAPE))
-                return 0;
+            if (esc && z >> k < GS__RICE_ESCAPE) return 0;
         }
-        need = (r.bits + 7) / 8;
-        if (r.bits % 8 && q[need - 1] >> (r.bits % 8)) return 0; /* padding 0 */
+        /* a run that overran took 0 bits past end: its bits say so (at the
+           end: they only grow) */
+        bits = gs__rice_bits(&r);
+        if (bits > 8 * (size_t)(end - q)) return 0;
+        need = (bits + 7) / 8;
+        if (bits % 8 && q[need - 1] >> (bits % 8)) return 0; /* padding 0 */
     } else if (c->delta_coding == 0) {
         need = ((size_t)c->elements * (size_t)c->delta_width + 7) / 8;
     } else {
@@ -11778,15 +11787,14 @@ GS_API int gs_wire_acks(const gs_wire_chunk *c, gs_wire_ack *out, int max) {
         (n) -= (w);                                                            \
     } while (0)
 
-/* In one pass, the accumulator in locals (as gs__quant_get): this is the
+
+/* A delta chunk's differences added to a baseline's integers bk, into
+   out, in one pass, the readers in locals (as gs__quant_get): the
    receiving side's inner loop. */
-GS_API void gs_wire_deltas(const gs_wire_chunk *c, int64_t *out) {
-    const unsigned char *q, *end, *map = NULL;
+GS__PRIVATE void gs__delta_sum(const gs_wire_chunk *c, const int64_t *bk, int64_t *out) {
+    const unsigned char *q = c->payload, *end = q + c->payload_bytes, *map = NULL;
     uint64_t dist = 0, acc = 0, mask, z;
     int i, n = 0, w;
-    if (!c || !out || !(c->flags & GS_WIRE_CHUNK_DELTA) || !c->payload) return;
-    q = c->payload;
-    end = q + c->payload_bytes;
     gs__varint_get(&q, end, 5, &dist);
     q++;
     w = c->delta_width;
@@ -11795,7 +11803,7 @@ GS_API void gs_wire_deltas(const gs_wire_chunk *c, int64_t *out) {
         gs__rice r;
         int esc;
         gs__rice_init(&r, q, end);
-        for (i = 0; i < c->elements; ++i) out[i] = gs__unzigzag(gs__rice_get(&r, w, &esc));
+        for (i = 0; i < c->elements; ++i) out[i] = bk[i] + gs__unzigzag(gs__rice_get(&r, w, &esc));
         return;
     }
     if (c->delta_coding) {
@@ -11803,10 +11811,20 @@ GS_API void gs_wire_deltas(const gs_wire_chunk *c, int64_t *out) {
         q += ((size_t)c->elements + 7) / 8;
     }
     for (i = 0; i < c->elements; ++i) {
-        if (map && !(map[i >> 3] >> (i & 7) & 1)) { out[i] = 0; continue; }
+        if (map && !(map[i >> 3] >> (i & 7) & 1)) { out[i] = bk[i]; continue; }
         GS__UNPACK(z, q, end, acc, n, w, mask);
-        out[i] = gs__unzigzag(z + (map != NULL));
+        out[i] = bk[i] + gs__unzigzag(z + (map != NULL));
     }
+}
+
+/* A baseline of 0s: gs_wire_deltas's differences are gs__delta_sum's
+   from it. */
+static const int64_t gs__zero_k[GS_WIRE_QUANT_CHUNK] = {0};
+GS_API void gs_wire_deltas(const gs_wire_chunk *c, int64_t *out) {
+    if (!c || !out || !(c->flags & GS_WIRE_CHUNK_DELTA) || !c->payload ||
+        c->elements > GS_WIRE_QUANT_CHUNK)
+        return;
+    gs__delta_sum(c, gs__zero_k, out);
 }
 
 /* The index of the highest set bit of v (v != 0), from the top. */
@@ -11819,8 +11837,9 @@ GS__PRIVATE int gs__clz64(uint64_t v) {
     return n;
 #endif
 }
-/* The bit length of v (0 for 0). */
-GS__PRIVATE_INLINE int gs__bitlen64(uint64_t v) { return 64 - gs__clz64(v | 1u) - (v == 0); }
+/* The bit length of v < 2^63 (0 for 0): the top bit of 2v + 1, one bit
+   scan and no test for 0. */
+GS__PRIVATE_INLINE int gs__bitlen64(uint64_t v) { return 63 - gs__clz64(v << 1 | 1u); }
 
 /* A delta payload in the Rice coding of parameter k at p (room bytes,
    the head of hn bytes first): its size, or 0 if it does not fit. */
@@ -12154,7 +12173,8 @@ GS_API gs_result gs_wire_add(unsigned char *buf, size_t cap, size_t *size,
     return gs__wire_add_in(buf, cap, size, &x, c, values);
 }
 
-/* gs_wire_add_delta with the context known. */
+/* gs_wire_add_delta with the context known and the differences checked
+   within [-2^31, 2^31 - 1] (the net's are, as it makes them). */
 GS__PRIVATE gs_result gs__wire_add_delta_in(unsigned char *buf, size_t cap, size_t *size,
                                             gs__wire_ctx *x, const gs_wire_chunk *c,
                                             const int64_t *diff) {
@@ -12162,18 +12182,12 @@ GS__PRIVATE gs_result gs__wire_add_delta_in(unsigned char *buf, size_t cap, size
     size_t vs, room, hn;
     uint32_t dist;
     gs_result r;
-    int i;
     if (c->elements == 0 || c->elements > GS_WIRE_QUANT_CHUNK) return GS_ERR_INVALID_ARG;
     dist = c->sequence - c->baseline;
     if (c->encoding != GS_ENCODING_QUANT ||
         (c->flags & ~(unsigned)GS_WIRE_CHUNK_PREDICT) != GS_WIRE_CHUNK_DELTA || dist == 0 ||
         dist > 0x80000000u || c->count == 0 || c->index >= c->count)
         return GS_ERR_INVALID_ARG;
-    {
-        uint64_t bad = 0; /* one test for all, the loop branch-free */
-        for (i = 0; i < c->elements; ++i) bad |= (uint64_t)(diff[i] + 2147483648LL) >> 32;
-        if (bad) return GS_ERR_INVALID_ARG;
-    }
     if (!gs__finite(c->time)) return GS_ERR_NOT_FINITE;
     if (c->time < 0.0 || c->time > GS_WIRE_MAX_TIME) return GS_ERR_INVALID_ARG;
     hn = gs__chunk_head(head, x, c);
@@ -12188,8 +12202,11 @@ GS__PRIVATE gs_result gs__wire_add_delta_in(unsigned char *buf, size_t cap, size
 GS_API gs_result gs_wire_add_delta(unsigned char *buf, size_t cap, size_t *size,
                                    const gs_wire_chunk *c, const int64_t *diff) {
     gs__wire_ctx x;
+    int i;
     if (!buf || !size || !c || !diff) return GS_ERR_INVALID_ARG;
     if (!gs__wire_scan(buf, cap, *size, &x)) return GS_ERR_INVALID_ARG;
+    for (i = 0; i < c->elements && i < GS_WIRE_QUANT_CHUNK; ++i)
+        if (diff[i] < -2147483648LL || diff[i] > 2147483647LL) return GS_ERR_INVALID_ARG;
     return gs__wire_add_delta_in(buf, cap, size, &x, c, diff);
 }
 
@@ -14182,8 +14199,7 @@ GS__PRIVATE int gs__delta_take(gs_net *net, gs__ghost *g, int p, const gs_wire_c
         *nseg = b->nseg[c->index];
         memcpy(seg, b->seg + (size_t)c->index * GS_WIRE_MAX_SEGMENTS,
                (size_t)*nseg * sizeof *seg);
-        gs_wire_deltas(c, g->kbuf);
-        for (i = 0; i < c->elements; ++i) g->kbuf[i] += b->k[c->first + (uint32_t)i];
+        gs__delta_sum(c, b->k + c->first, g->kbuf);
         if (c->flags & GS_WIRE_CHUNK_PREDICT) { /* one meaning: it must carry something */
             int64_t *pr = g->kbuf + g->per_chunk;
             ok = gs__delta_pred(g, b, seg, *nseg, c->first, c->elements, c->time - b->time,
