@@ -13621,16 +13621,17 @@ GS__PRIVATE int gs__delta_pred(const gs__ghost *g, const gs__base *b,
     size_t end[3], npos, vstart, vars = g->n - 1, e = first, vlo = 1, vhi = 0, per;
     int cls[3], nr = gs__ghost_runs(g, end, cls), s, i, t, any = 0;
     double sv = 0.0;
+    volatile double f = 0.0, x;
     memset(p, 0, (size_t)n * sizeof *p);
     if (nr < 2 || cls[0] != 0 || cls[nr - 1] != 2) return 0;
     vstart = end[nr - 2]; /* a velocity run follows the positions */
     npos = end[0] < vars - vstart ? end[0] : vars - vstart;
     per = (size_t)g->per_chunk;
     for (s = 0; s < nseg && e < npos; e += seg[s++].count) {
+        int fresh = 1; /* f depends on the two steps only: made again when one changes */
         if (seg[s].kind != GS_WIRE_SCALAR) continue;
         for (i = 0; i < seg[s].count && e + (size_t)i < npos; ++i) {
             size_t ve = vstart + e + (size_t)i;
-            volatile double f, x;
             if (ve < vlo || ve >= vhi) { /* the velocity's segment in b */
                 size_t c = ve / per, lo = c * per;
                 const gs_wire_segment *bs = b->seg + c * GS_WIRE_MAX_SEGMENTS;
@@ -13640,9 +13641,13 @@ GS__PRIVATE int gs__delta_pred(const gs__ghost *g, const gs__base *b,
                 vlo = lo;
                 vhi = lo + bs[t].count;
                 sv = bs[t].step;
+                fresh = 1;
             }
-            f = sv * dt;
-            f = f / seg[s].step;
+            if (fresh) {
+                f = sv * dt;
+                f = f / seg[s].step;
+                fresh = 0;
+            }
             x = (double)b->k[ve] * f;
             if (!(fabs(x) <= 2147483647.0)) return -1;
             p[e - first + (size_t)i] = gs__round(x);
@@ -13712,12 +13717,13 @@ GS__PRIVATE void gs__send_delta_chunk(gs_net *net, gs__ghost *g, double now, siz
         ch->flags = GS_WIRE_CHUNK_DELTA;
         if (gs__delta_pred(g, base, ts, nseg, first, ch->elements, ch->time - base->time, pr) > 0) {
             long pred = 0;
-            uint64_t bad = 0;
-            for (j = 0; j < ch->elements; ++j) { /* as gs__qk_diff's pass */
+            int bad = 0;
+            for (j = 0; j < ch->elements; ++j) {
                 pr[j] = d[j] - pr[j];
-                bad |= (uint64_t)(pr[j] + 2147483647LL) > 4294967294u;
                 pred += gs__bitlen64(gs__zigzag(pr[j]));
             }
+            for (j = 0; j < ch->elements && pred < plain && !bad; ++j) /* only if chosen */
+                bad = pr[j] < -2147483647LL || pr[j] > 2147483647LL;
             if (pred < plain && !bad) {
                 d = pr;
                 ch->flags |= GS_WIRE_CHUNK_PREDICT;
