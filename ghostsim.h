@@ -11594,8 +11594,10 @@ typedef struct gs__rice {
     int n;
     size_t zeros; /* bytes of 0 bits taken past end */
 } gs__rice;
+/* At least 48 bits held after it (an escape's 16 + 32, more than any
+   other value takes): a word loaded every few values, not every one. */
 GS__PRIVATE_INLINE void gs__rice_fill(gs__rice *r) {
-    if (r->n > 56) return;
+    if (r->n >= 48) return;
     if (r->end - r->p >= 8) { /* whole words: the bytes above n go in again, the same */
         r->acc |= gs__get64(r->p) << r->n;
         r->p += (63 - r->n) >> 3;
