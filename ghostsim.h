@@ -1337,7 +1337,13 @@ typedef struct gs_ghost_desc {
                               heartbeats of a rest, so that one loss does
                               not leave a peer a stale state. Default 0:
                               every published state is sent */
-    double heartbeat_rate; /* Hz of wall time while at rest; default 4 */
+    double heartbeat_rate; /* Hz of wall time while at rest; default 4.
+                              Heartbeats go at the multiples of the period
+                              on the net's clock (not each ghost's own
+                              phase), so that a net's resting ghosts of one
+                              rate beat in the same gs_net_update and share
+                              one datagram: a scene at rest sends this many
+                              datagrams a second to each peer */
     double importance;     /* > 0; when a peer's bandwidth budget cannot
                               carry every ghost due, ghosts go by priority:
                               the wall time since each was last sent times
@@ -1626,7 +1632,10 @@ GS_API gs_result gs_world_sync_test(gs_world *w, int frames, int *bad_agent);
        + refused, and zigzag(sequence - the previous entry's, from 0). An
        entry tells the newest snapshot of that object the sender of the
        chunk holds whole (every chunk), or with refused = 1 that it
-       refused a delta of it: the next goes whole.
+       refused a delta of it: the next goes whole. Not every snapshot is
+       acknowledged: a host with nothing else to send holds its
+       acknowledgements a while (see gs_net_update); the sender codes
+       against the newest it heard.
    v1 and v2 datagrams are refused as GS_REJECT_OLD_VERSION.
    A snapshot too big for one datagram is cut into chunks that each stand
    alone: a lost chunk leaves its range unblended, the rest still counts.
@@ -2073,7 +2082,13 @@ GS_API gs_result gs_net_remove_peer(gs_net *net, uint32_t host);
    stepped back goes on sending) and counted: gs_peer_stats.clock_backwards,
    and the health GS_PEER_CLOCK_BACK until the clock is past its old
    reading again. Call it once a frame, after gs_world_advance (see THE
-   FRAME LOOP at the top). GS_ERR_BUSY from the send callback. */
+   FRAME LOOP at the top). GS_ERR_BUSY from the send callback.
+   Acknowledgements of delta snapshots received (see >>wire, kind 3) ride
+   a datagram that goes anyway; when nothing else would go (this host's
+   ghosts at rest) they are held until one has waited its ghost's
+   heartbeat period or 4 (GS_DELTA_RING / 4) snapshots of one ghost wait,
+   which bounds how far behind the peer's delta baseline falls; a refusal
+   goes at once. */
 GS_API gs_result gs_net_update(gs_net *net, double now);
 /* The frame's network call for a transport that needs one (gs_udp; any
    with a poll): the transport's poll delivers what waits (gs_udp in poll
@@ -8758,6 +8773,9 @@ struct gs__ghost_peer {
     uint32_t ack_seq;     /* the newest of its snapshots we hold whole, */
     int ack_known;        /* if any, */
     int ack_due, nack_due;/* to tell it: held, or a delta refused */
+    int acks_held;        /* snapshots held whole since our last ack went */
+    int ack_waiting;      /* an ack is held (not sent) since ack_since */
+    double ack_since;     /* s, wall time (the net's update clock) */
 };
 
 struct gs__ghost {
@@ -8795,7 +8813,8 @@ struct gs__ghost {
     int rest_repeats;     /* heartbeats of this rest that carry it again */
     int sent_any;         /* 0: send the state whole next (a first send, a
                              peer added or started again) */
-    double next_heartbeat;/* s, wall time */
+    double next_heartbeat;/* s, wall time, on the beat grid (gs__beat_next) */
+    int at_rest;          /* its last send found it unmoved (send on change) */
     double sent_at;       /* s, wall time it was last sent (priority) */
     size_t wire_bytes;    /* bytes its last snapshot took on the wire */
     gs__base *ring;       /* delta: the last GS_DELTA_RING snapshots sent */
@@ -8926,6 +8945,7 @@ struct gs_net {
     int order_cap;            /* its room: at least the world's ghosts */
     unsigned char buf[GS_WIRE_MAX_DATAGRAM];
     gs__wire_ctx wctx;        /* what buf's next chunk is coded against */
+    int flushes;              /* datagrams with chunks sent this update */
     gs_wire_view view;        /* decode scratch (too big for the stack) */
     gs__net_guard guard;      /* key, nonces, opened datagram (>>net) */
 };
@@ -9021,6 +9041,7 @@ GS__PRIVATE gs_result gs__ghost_add_peer(gs__ghost *g, int slot) {
     if (gp->q) return GS_OK;
     gp->resting = 0;
     gp->acked_known = gp->ack_known = gp->ack_due = gp->nack_due = 0;
+    gp->acks_held = gp->ack_waiting = 0;
     g->sent_any = 0; /* the new peer has none of our states */
     gp->q = gs__snaps_new(w, g);
     gp->taken = gp->q ? gp->q + g->d.queue_size + 1 : NULL;
@@ -13204,6 +13225,7 @@ GS__PRIVATE void gs__datagram_flush(gs_net *net, double now, size_t *size) {
     gs_result r;
     int p;
     if (gs__hdr_chunks(net->buf) == 0) return;
+    net->flushes++;
     for (p = 0; p < GS__MAX_PEERS; ++p) {
         gs__peer *pe = &net->peers[p];
         const unsigned char *d;
@@ -13708,8 +13730,25 @@ GS__PRIVATE void gs__send_ghost(gs_net *net, gs__ghost *g, double now, size_t *s
     }
 }
 
+/* The beat grid: a resting ghost's heartbeats go at the multiples of its
+   heartbeat period on the net's clock, so that every resting ghost of a
+   net (of one heartbeat rate) beats in the same update and their
+   heartbeats share one datagram, which goes to every peer: at rest a net
+   sends heartbeat_rate datagrams a second, not one per ghost's own phase.
+   Returns the first grid instant after now; GS__BEAT_SLACK (of a period)
+   takes an instant a rounding short of a grid point for that point. */
+#define GS__BEAT_SLACK 1e-6
+GS__PRIVATE double gs__beat_next(double now, double hb) {
+    return hb * (floor(now / hb + GS__BEAT_SLACK) + 1.0);
+}
+GS__PRIVATE int gs__beat_due(const gs__ghost *g, double now) {
+    double hb = 1.0 / g->d.heartbeat_rate;
+    /* a next beat more than a period ahead: the clock went back */
+    return now >= g->next_heartbeat - GS__BEAT_SLACK * hb || g->next_heartbeat - now > hb;
+}
+
 /* Sends a due ghost: its state, or while it rests (send on change) a
-   heartbeat at the heartbeat rate, the first two of a rest with the state
+   heartbeat on the beat grid, the first two of a rest with the state
    again. */
 GS__PRIVATE void gs__send_due(gs_net *net, gs__ghost *g, double now, size_t *size) {
     double hb = 1.0 / g->d.heartbeat_rate;
@@ -13717,9 +13756,10 @@ GS__PRIVATE void gs__send_due(gs_net *net, gs__ghost *g, double now, size_t *siz
     int moved = !on_change ? 1
               : predict ? !gs__ghost_predict(g) || gs__ghost_moved(g, g->pred)
                         : gs__ghost_moved(g, g->sent);
+    g->at_rest = !moved;
     if (!moved) {
-        if (now < g->next_heartbeat && g->next_heartbeat - now <= hb) return;
-        g->next_heartbeat = now + hb;
+        if (!gs__beat_due(g, now)) return;
+        g->next_heartbeat = gs__beat_next(now, hb);
         if (g->rest_repeats > 0 && predict) {
             /* the prediction itself, at B's time: a peer that missed the
                snapshot it comes from then predicts as we do from here */
@@ -13739,7 +13779,7 @@ GS__PRIVATE void gs__send_due(gs_net *net, gs__ghost *g, double now, size_t *siz
     else memcpy(g->sent, g->B, g->n * sizeof(double));
     g->sent_any = 1;
     g->rest_repeats = 2;
-    g->next_heartbeat = now + hb;
+    g->next_heartbeat = gs__beat_next(now, hb);
 }
 
 /* Has a ghost a new B to send at wall time now? Its next send further
@@ -13752,17 +13792,51 @@ GS__PRIVATE void gs__send_due(gs_net *net, gs__ghost *g, double now, size_t *siz
 GS__PRIVATE int gs__ghost_due(const gs__ghost *g, double now) {
     double period = 1.0 / g->d.send_rate;
     if (g->stands_at - now > 0.0 && g->stands_at - now <= GS__SYNC_FRAME_MAX) return 0;
-    return g->b_seq != g->sent_seq && (now >= g->next_send || g->next_send - now > period);
+    if (g->b_seq == g->sent_seq) return 0;
+    /* a resting ghost's beat goes in its update, whatever its send phase */
+    return now >= g->next_send || g->next_send - now > period || (g->at_rest && gs__beat_due(g, now));
+}
+
+/* Whether the acknowledgements due go in this update. They are held while
+   nothing else would go (at rest, a datagram per received snapshot would
+   cost its 52 bytes of header and CRC every frame) and go when a datagram
+   goes anyway (the one being built holds a chunk, or one went this
+   update), a delta was refused (the peer's deltas are of no use until it
+   hears), an ack has waited one heartbeat period of its ghost, or
+   GS__ACK_HOLD snapshots of one ghost are held: the peer codes against the
+   newest snapshot we acknowledged, so a held ack ages its baseline by up
+   to that many snapshots (and a round trip), within the GS_DELTA_RING it
+   keeps, past which it would send whole. */
+#define GS__ACK_HOLD (GS_DELTA_RING / 4)
+GS__PRIVATE int gs__acks_go(gs_net *net, double now) {
+    gs_world *w = net->world;
+    int p, i, go = gs__hdr_chunks(net->buf) > 0 || net->flushes > 0;
+    for (i = 0; i < w->agent_count; ++i) {
+        gs__ghost *g = gs__ghost_of(w->agents[i]);
+        for (p = 0; g && p < GS__MAX_PEERS; ++p) {
+            struct gs__ghost_peer *gp = &g->gp[p];
+            if (!net->peers[p].used || !(gp->ack_due || gp->nack_due)) continue;
+            if (!gp->ack_waiting) {
+                gp->ack_waiting = 1;
+                gp->ack_since = now;
+            }
+            go |= gp->nack_due || gp->acks_held >= GS__ACK_HOLD || now < gp->ack_since ||
+                  now - gp->ack_since >= (1.0 - GS__BEAT_SLACK) / g->d.heartbeat_rate;
+        }
+    }
+    return go;
 }
 
 /* Acknowledgements to every peer of what we hold whole of its delta
-   ghosts' snapshots, or refused, since the last ones: one entry per
-   object that has news, in the datagram every peer gets (the chunk names
-   the one it is for). A lost one is made good by the next snapshot's. */
+   ghosts' snapshots, or refused, since the last ones (when gs__acks_go):
+   one entry per object that has news, in the datagram every peer gets
+   (the chunk names the one it is for). A lost one is made good by the
+   next snapshot's. */
 GS__PRIVATE void gs__send_acks(gs_net *net, double now, size_t *size) {
     gs_wire_ack acks[GS_WIRE_MAX_ACKS];
     gs_world *w = net->world;
     int p, i, n, k;
+    if (!gs__acks_go(net, now)) return;
     for (p = 0; p < GS__MAX_PEERS; ++p) {
         if (!net->peers[p].used) continue;
         for (i = 0, n = 0; i <= w->agent_count; ++i) {
@@ -13772,6 +13846,7 @@ GS__PRIVATE void gs__send_acks(gs_net *net, double now, size_t *size) {
                 acks[n].sequence = g->gp[p].ack_seq;
                 acks[n].refused = g->gp[p].nack_due;
                 g->gp[p].ack_due = g->gp[p].nack_due = 0;
+                g->gp[p].acks_held = g->gp[p].ack_waiting = 0;
                 ++n;
             }
             if (n == GS_WIRE_MAX_ACKS || (n && i == w->agent_count)) {
@@ -13867,6 +13942,7 @@ GS_API gs_result gs_net_update(gs_net *net, double now) {
     net->updated = 1;
     net->update_now = now;
     net->unsent_world = 0.0;
+    net->flushes = 0;
     for (p = 0; p < GS__MAX_PEERS; ++p) peers += net->peers[p].used;
     if (peers) gs__datagram_begin(net, now, &size);
     for (i = 0; i < w->agent_count && n < net->order_cap; ++i) {
@@ -13957,6 +14033,7 @@ GS__PRIVATE int gs__peer_run(gs_net *net, int p, uint32_t run) {
             if (g) { /* its sequences start again: no baseline of before */
                 g->gp[p].resting = 0;
                 g->gp[p].ack_known = g->gp[p].ack_due = g->gp[p].nack_due = 0;
+                g->gp[p].acks_held = g->gp[p].ack_waiting = 0;
                 for (k = 0; g->gp[p].ring && k < GS_DELTA_RING; ++k) g->gp[p].ring[k].used = 0;
             }
             for (k = 0; g && g->gp[p].q && k <= g->d.queue_size; ++k) {
@@ -14151,6 +14228,7 @@ GS__PRIVATE void gs__ring_keep(gs__ghost *g, int p, const gs_wire_chunk *c, cons
         gp->ack_seq = e->seq;
         gp->ack_known = 1;
         gp->ack_due = 1;
+        gp->acks_held++;
     }
 }
 
