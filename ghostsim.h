@@ -1014,6 +1014,18 @@ typedef struct gs_rigid_desc {
                               plane (rolling / radius is the usual
                               coefficient). Without it a ball that rolls
                               off onto the ground rolls for ever. Default 0 */
+    double spin_friction;  /* m, >= 0; torsional friction: at each contact
+                              a torque of up to spin_friction * N against
+                              the body's spin about the contact normal
+                              relative to what it touches. A real contact
+                              is a patch, not a point: Coulomb friction mu
+                              over a disc of radius a under even pressure
+                              resists a spin with (2/3) mu a N, so this is
+                              about (2/3) mu a. Without it nothing opposes a
+                              spin about the normal (rolling resistance
+                              acts about the contact plane's axes) and a
+                              settled ball keeps its yaw rate for ever.
+                              Default 0 (the contacts are points) */
 } gs_rigid_desc;
 
 /* A kinematic body the application moves: nothing pushes it back. */
@@ -6664,6 +6676,7 @@ typedef struct gs__rigid {
     int continuous;
     double stable_dt;          /* s; contact spring-damper bound */
     double rolling;            /* m; rolling resistance lever arm */
+    double spin_friction;      /* m; torsional friction lever arm */
     double i_min;              /* kg m^2; smallest principal inertia */
     gs_vec3 target;            /* probe */
     gs_quat target_q;
@@ -6759,6 +6772,7 @@ GS__PRIVATE void gs__rigid_check(gs__check *c, const gs_rigid_desc *d,
     gs__check_vec(c, "angular_velocity", d->angular_velocity);
     gs__check_material(c, &d->material);
     gs__check_nonneg(c, "rolling", d->rolling);
+    gs__check_nonneg(c, "spin_friction", d->spin_friction);
     gs__check_solver(c, &d->solver);
     if (c->r == GS_OK && (d->solver.integrator == GS_INTEGRATOR_IMPLICIT_EULER ||
                           d->solver.integrator == GS_INTEGRATOR_XPBD))
@@ -7117,6 +7131,7 @@ GS_API gs_result gs_rigid_create(gs_world *w, const gs_rigid_desc *desc,
     r->reach2 = gs__rigid_reach2(r);
     r->i_min = gs__rigid_i_min(r);
     r->rolling = d.rolling;
+    r->spin_friction = d.spin_friction;
     r->k_sum = r->mat.stiffness;
     r->c_sum = r->mat.damping;
     r->stable_dt = gs__rigid_bound(r);
@@ -7981,15 +7996,23 @@ GS__PRIVATE int gs__world_has_contacts(const gs_world *w) {
    slide (a solid sphere's contact point moves 3.5x as easily as its
    centre, which the friction slope does not count), and at half the limit
    the two locked into a two-step oscillation, a ball crawling at 1 mm/s
-   for ever (measured; at a fifth and below it stops cleanly). */
+   for ever (measured; at a fifth and below it stops cleanly).
+   Torsional friction (spin_friction) is the same about the normal: up to
+   spin_friction * fn against the spin about it, viscous below that at the
+   same fraction of the explicit limit. */
 #define GS__ROLL_K 0.1
+GS__PRIVATE gs_vec3 gs__resist(gs_vec3 w, double lever, double fn, const gs__rigid *r) {
+    double spin = gs__len(w), most;
+    if (!(lever > 0.0) || !(spin > 0.0)) return gs__v3(0.0, 0.0, 0.0);
+    most = fmin(lever * fn, GS__ROLL_K * r->i_min * spin / r->base.dt);
+    return gs__scale(w, -most / spin);
+}
 GS__PRIVATE gs_vec3 gs__rolling_torque(const gs__rigid *r, gs_vec3 normal, double fn,
                                        gs_vec3 w_rel) {
-    gs_vec3 wt = gs__madd(w_rel, normal, -gs__dot(w_rel, normal));
-    double spin = gs__len(wt), most;
-    if (!(r->rolling > 0.0) || !(fn > 0.0) || !(spin > 0.0)) return gs__v3(0.0, 0.0, 0.0);
-    most = fmin(r->rolling * fn, GS__ROLL_K * r->i_min * spin / r->base.dt);
-    return gs__scale(wt, -most / spin);
+    double wn = gs__dot(w_rel, normal);
+    if (!(fn > 0.0)) return gs__v3(0.0, 0.0, 0.0);
+    return gs__add(gs__resist(gs__madd(w_rel, normal, -wn), r->rolling, fn, r),
+                   gs__resist(gs__scale(normal, wn), r->spin_friction, fn, r));
 }
 
 /* Adds a contact's force, times share (the part of the substep it acts
@@ -8578,6 +8601,12 @@ GS__PRIVATE double gs__scene_rand(uint32_t *state) {
    on a 8 cm sphere (a ball on cloth or carpet). A sphere a probe throws
    onto the ground otherwise rolls for ever, and on the cloth the spheres
    creep for tens of seconds before they rest. */
+#ifndef GS__SCENE_SPIN
+/* m: (2/3) mu a for the scene's friction 0.4 over the ~18 mm contact
+   patch of a resting sphere (radius 0.08 m sunk ~2 mm into the cloth:
+   a = sqrt(2 R d)), 4.8 mm, rounded down */
+#define GS__SCENE_SPIN 0.004
+#endif
 #ifndef GS__SCENE_ROLLING
 #define GS__SCENE_ROLLING 0.004
 #endif
@@ -8605,6 +8634,7 @@ GS__PRIVATE gs_result gs__scene_bodies(gs_world *w, gs_scene *sc) {
                              (gs__scene_rand(&rng) - 0.5) * 0.5 * d->cloth_size);
         rd.material = gs__scene_material();
         rd.rolling = GS__SCENE_ROLLING;
+        rd.spin_friction = GS__SCENE_SPIN;
         rd.solver.dt = d->dt;
         r = gs_rigid_create(w, &rd, &sc->spheres[i]);
         if (r == GS_OK) sc->sphere_count++;
