@@ -5034,13 +5034,155 @@ __attribute__((target("avx"))) GS__PRIVATE void gs__xpbd_blocks_avx(gs__mesh *m,
     gs__xpbd_blocks4(m, h);
 }
 
-/* The same four-wide operations where the CPU has AVX-512VL: its 32
-   vector registers hold a block's sixteen vectors and constants, which
-   sixteen registers cannot (a fifth of the AVX loop is spills and
+/* Eight lanes (zmm) where the CPU has AVX-512: the blocks of one SPAN,
+   PAIRS or DUOS entry share no particle among them (one segment of a
+   run, or one parity class of it), so blocks t and t + 1 go as one of
+   eight lanes, lane by lane gs__xpbd_one's operations: the same bits. An
+   odd last block, GATHER and ONE entries stay four wide (gs__xpbd_four). */
+#define GS__X8INLINE __attribute__((target("avx512f,avx512vl"), always_inline, unused)) static inline
+
+typedef struct gs__x8 {
+    __m512d ax, ay, az, bx, by, bz, pax, pay, paz, pbx, pby, pbz, wa, wb;
+} gs__x8;
+
+typedef struct gs__xk8 {
+    __m512d kc, kr, ch;
+} gs__xk8;
+
+/* Two blocks' lanes of array p and back: SPAN's are contiguous; PAIRS'
+   and DUOS' ends a and b are picked from the sixteen elements from a in
+   gs__xblk_lane's lane order (so xsp's constants load as they lie), and
+   put back by the inverse permutation. */
+GS__X8INLINE __m512i gs__xix8(int kind, int which) {
+    static const long long ix[2][4][8] = {
+        {{0, 4, 2, 6, 8, 12, 10, 14}, {1, 5, 3, 7, 9, 13, 11, 15}, /* PAIRS: a, b */
+         {0, 8, 2, 10, 1, 9, 3, 11}, {4, 12, 6, 14, 5, 13, 7, 15}}, /* back: lo, hi */
+        {{0, 1, 4, 5, 8, 9, 12, 13}, {2, 3, 6, 7, 10, 11, 14, 15}, /* DUOS */
+         {0, 1, 8, 9, 2, 3, 10, 11}, {4, 5, 12, 13, 6, 7, 14, 15}}};
+    return _mm512_loadu_si512((const void *)ix[kind == GS__XB_DUOS][which]);
+}
+
+GS__X8INLINE void gs__xld8(const double *p, int kind, int a, int b, __m512d *va, __m512d *vb) {
+    __m512d v0, v1;
+    if (kind == GS__XB_SPAN) {
+        *va = _mm512_loadu_pd(p + a);
+        *vb = _mm512_loadu_pd(p + b);
+        return;
+    }
+    v0 = _mm512_loadu_pd(p + a);
+    v1 = _mm512_loadu_pd(p + a + 8);
+    *va = _mm512_permutex2var_pd(v0, gs__xix8(kind, 0), v1);
+    *vb = _mm512_permutex2var_pd(v0, gs__xix8(kind, 1), v1);
+}
+
+GS__X8INLINE void gs__xst8(double *p, int kind, int a, int b, __m512d va, __m512d vb) {
+    if (kind == GS__XB_SPAN) {
+        _mm512_storeu_pd(p + a, va);
+        _mm512_storeu_pd(p + b, vb);
+        return;
+    }
+    _mm512_storeu_pd(p + a, _mm512_permutex2var_pd(va, gs__xix8(kind, 2), vb));
+    _mm512_storeu_pd(p + a + 8, _mm512_permutex2var_pd(va, gs__xix8(kind, 3), vb));
+}
+
+GS__X8INLINE gs__xk8 gs__xpbd_k8(__m512d k, __m512d c, __m512d rest, __m512d h) {
+    gs__xk8 q;
+    __m512d kh = _mm512_mul_pd(_mm512_mul_pd(k, h), h);
+    q.ch = _mm512_mul_pd(c, h);
+    q.kc = _mm512_add_pd(kh, q.ch);
+    q.kr = _mm512_mul_pd(kh, rest);
+    return q;
+}
+
+/* gs__xpbd_core4 on eight lanes. */
+GS__X8INLINE void gs__xpbd_core8(gs__x8 *e, const gs__xk8 *q) {
+    __m512d dx, dy, dz, l2, l, de, num, den, s, sa, sb;
+    dx = _mm512_sub_pd(e->bx, e->ax); dy = _mm512_sub_pd(e->by, e->ay); dz = _mm512_sub_pd(e->bz, e->az);
+    l2 = _mm512_add_pd(_mm512_add_pd(_mm512_mul_pd(dx, dx), _mm512_mul_pd(dy, dy)),
+                       _mm512_mul_pd(dz, dz));
+    l = _mm512_sqrt_pd(l2);
+    de = _mm512_add_pd(_mm512_add_pd(_mm512_mul_pd(dx, _mm512_sub_pd(e->pbx, e->pax)),
+                                     _mm512_mul_pd(dy, _mm512_sub_pd(e->pby, e->pay))),
+                       _mm512_mul_pd(dz, _mm512_sub_pd(e->pbz, e->paz)));
+    num = _mm512_sub_pd(_mm512_add_pd(_mm512_mul_pd(q->kr, l), _mm512_mul_pd(q->ch, de)),
+                        _mm512_mul_pd(q->kc, l2));
+    den = _mm512_mul_pd(l2, _mm512_add_pd(_mm512_mul_pd(q->kc, _mm512_add_pd(e->wa, e->wb)),
+                                          _mm512_set1_pd(1.0)));
+    s = _mm512_maskz_div_pd(_mm512_cmp_pd_mask(den, _mm512_setzero_pd(), _CMP_GT_OQ), num, den);
+    sa = _mm512_mul_pd(e->wa, s);
+    sb = _mm512_mul_pd(e->wb, s);
+    e->ax = _mm512_sub_pd(e->ax, _mm512_mul_pd(sa, dx));
+    e->ay = _mm512_sub_pd(e->ay, _mm512_mul_pd(sa, dy));
+    e->az = _mm512_sub_pd(e->az, _mm512_mul_pd(sa, dz));
+    e->bx = _mm512_add_pd(e->bx, _mm512_mul_pd(sb, dx));
+    e->by = _mm512_add_pd(e->by, _mm512_mul_pd(sb, dy));
+    e->bz = _mm512_add_pd(e->bz, _mm512_mul_pd(sb, dz));
+}
+
+GS__X8INLINE void gs__xpbd_eight(double *X, const double *P, size_t st, const double *im,
+                                 int kind, int a, int b, const gs__xk8 *q) {
+    gs__x8 e;
+    gs__xld8(X, kind, a, b, &e.ax, &e.bx);
+    gs__xld8(X + st, kind, a, b, &e.ay, &e.by);
+    gs__xld8(X + 2 * st, kind, a, b, &e.az, &e.bz);
+    gs__xld8(P, kind, a, b, &e.pax, &e.pbx);
+    gs__xld8(P + st, kind, a, b, &e.pay, &e.pby);
+    gs__xld8(P + 2 * st, kind, a, b, &e.paz, &e.pbz);
+    gs__xld8(im, kind, a, b, &e.wa, &e.wb);
+    gs__xpbd_core8(&e, q);
+    gs__xst8(X, kind, a, b, e.ax, e.bx);
+    gs__xst8(X + st, kind, a, b, e.ay, e.by);
+    gs__xst8(X + 2 * st, kind, a, b, e.az, e.bz);
+}
+
+/* gs__xpbd_entry4 two blocks at a time. */
+GS__X8INLINE void gs__xpbd_entry8(double *X, const double *P, size_t st, const double *im,
+                                  const double *sp, size_t ns, int kind, int a, int b, int s,
+                                  int count, int uni, double h) {
+    int step = kind == GS__XB_SPAN ? 4 : 8, t;
+    __m512d hv = _mm512_set1_pd(h);
+    gs__xk8 kq;
+    if (uni) kq = gs__xpbd_k8(_mm512_set1_pd(sp[s]), _mm512_set1_pd(sp[ns + (size_t)s]),
+                              _mm512_set1_pd(sp[2 * ns + (size_t)s]), hv);
+    for (t = 0; t + 1 < count; t += 2) {
+        const double *q = sp + s + 4 * t;
+        if (!uni) kq = gs__xpbd_k8(_mm512_loadu_pd(q), _mm512_loadu_pd(q + ns),
+                                   _mm512_loadu_pd(q + 2 * ns), hv);
+        gs__xpbd_eight(X, P, st, im, kind, a + step * t, b + 4 * t, &kq);
+    }
+    if (t < count)
+        gs__xpbd_entry4(X, P, st, im, sp, ns, kind, a + step * t, b + 4 * t, s + 4 * t, 1, uni, h);
+}
+
+/* gs__xpbd_blocks4 with SPAN, PAIRS and DUOS entries eight wide. Its 32
+   vector registers also hold a four-wide block's sixteen vectors and
+   constants, which sixteen cannot (a fifth of the AVX loop is spills and
    reloads, measured). */
 __attribute__((target("avx512f,avx512vl"))) GS__PRIVATE void gs__xpbd_blocks_avx512(gs__mesh *m,
                                                                                   double h) {
-    gs__xpbd_blocks4(m, h);
+    size_t st = gs__soa_stride((size_t)m->n), ns = gs__soa_stride((size_t)m->ns);
+    double *X = m->soa;
+    const double *P = X + 3 * st;
+    const double *im = m->inv_mass, *sp = m->xsp;
+    int i;
+    for (i = 0; i < m->nxblk; ++i) {
+        const struct gs__xblk *k = &m->xblk[i];
+        switch (k->kind) {
+        case GS__XB_SPAN:
+            gs__xpbd_entry8(X, P, st, im, sp, ns, GS__XB_SPAN, k->a, k->b, k->s, k->count, k->uni, h);
+            break;
+        case GS__XB_PAIRS:
+            gs__xpbd_entry8(X, P, st, im, sp, ns, GS__XB_PAIRS, k->a, 0, k->s, k->count, k->uni, h);
+            break;
+        case GS__XB_DUOS:
+            gs__xpbd_entry8(X, P, st, im, sp, ns, GS__XB_DUOS, k->a, 0, k->s, k->count, k->uni, h);
+            break;
+        case GS__XB_GATHER:
+            gs__xpbd_gather4(X, P, st, im, sp, ns, m->xgi + k->b, k->lanes, k->s, h);
+            break;
+        default: gs__xpbd_one(X, P, st, im, sp + k->s, ns, k->a, k->b, h); break;
+        }
+    }
 }
 #endif
 
@@ -5112,7 +5254,7 @@ GS__PRIVATE void gs__xpbd_predict1(gs__mesh *m, size_t i, gs_vec3 x, gs_vec3 v0,
     PX[i] = x.x; PY[i] = x.y; PZ[i] = x.z;
 }
 
-GS__PRIVATE void gs__fin_box(gs__mesh *m, size_t k, const double *lo, const double *hi,
+GS__PRIVATE_INLINE void gs__fin_box(gs__mesh *m, size_t k, const double *lo, const double *hi,
                              double vm, gs__fin *f) {
     int c;
     m->clo[k] = gs__v3(lo[0], lo[1], lo[2]);
@@ -5156,14 +5298,14 @@ GS__PRIVATE void gs__xpbd_fin1(gs__mesh *m, size_t i, size_t end, size_t k, doub
 #ifdef GS__MESH_AVX
 /* The largest (smallest) of four lanes, as the scalar loop's comparisons
    take them (a NaN lane is dropped as there). */
-__attribute__((target("avx"))) GS__PRIVATE double gs__hmax4(__m256d v) {
+GS__XINLINE double gs__hmax4(__m256d v) {
     double t[4], r;
     int q;
     _mm256_storeu_pd(t, v);
     for (r = t[0], q = 1; q < 4; ++q) r = t[q] > r ? t[q] : r;
     return r;
 }
-__attribute__((target("avx"))) GS__PRIVATE double gs__hmin4(__m256d v) {
+GS__XINLINE double gs__hmin4(__m256d v) {
     double t[4], r;
     int q;
     _mm256_storeu_pd(t, v);
