@@ -3870,13 +3870,15 @@ typedef struct gs__run {
     int s0, a0, off, len; /* springs s0.., particles a0.. and a0 + off.. */
 } gs__run;
 
-/* One block of the XPBD pass: four springs, or one (GS__XB_ONE), whose
-   ends lie in the transposed copy as `kind` says (gs__xblk_lane). */
-enum { GS__XB_SPAN, GS__XB_PAIRS, GS__XB_DUOS, GS__XB_ONE, GS__XB_GATHER };
+/* One block of the XPBD pass: four springs, or one (GS__XB_ONE), or the
+   one to three at the end of a segment (GS__XB_TAIL: SPAN's layout, its
+   lanes past `lanes` left out), whose ends lie in the transposed copy as
+   `kind` says (gs__xblk_lane). */
+enum { GS__XB_SPAN, GS__XB_PAIRS, GS__XB_DUOS, GS__XB_ONE, GS__XB_GATHER, GS__XB_TAIL };
 struct gs__xblk {
     int kind, a, b, s; /* first end a, first end b, first k/c/rest in xsp */
     int count;         /* blocks of four in a row, each next to the last */
-    int lanes;         /* springs a block: 4, ONE 1, GATHER 1..4 (its
+    int lanes;         /* springs a block: 4, ONE 1, TAIL 1..3, GATHER 1..4 (its
                           ends in xgi from b: a0 b0 a1 b1 ..) */
     int uni;           /* every lane has the same k, c, rest (a cloth's
                           family): the kernel holds them in registers */
@@ -4695,12 +4697,11 @@ GS__PRIVATE void gs__xblk_lane(const gs__mesh *m, const struct gs__xblk *k, int 
     }
 }
 
-/* Appends a block whose lanes are springs s[0..3] (one for GS__XB_ONE). */
-GS__PRIVATE void gs__xpbd_block(gs__mesh *m, int kind, int a, int b, const int *s) {
+/* Appends a block whose lanes are springs s[0..lanes - 1]. */
+GS__PRIVATE void gs__xpbd_block(gs__mesh *m, int kind, int a, int b, const int *s, int lanes) {
     size_t ns = gs__soa_stride((size_t)m->ns);
     struct gs__xblk *k = &m->xblk[m->nxblk++];
-    int q, lanes = kind == GS__XB_ONE ? 1 : 4, at = k == m->xblk ? 0 : k[-1].s +
-                                              (k[-1].kind == GS__XB_ONE ? 1 : 4);
+    int q, at = k == m->xblk ? 0 : k[-1].s + k[-1].lanes;
     k->kind = kind; k->a = a; k->b = b; k->s = at; k->count = 1; k->lanes = lanes;
     for (q = 0; q < lanes; ++q) {
         const gs__spring *sp = &m->springs[s[q]];
@@ -4710,18 +4711,18 @@ GS__PRIVATE void gs__xpbd_block(gs__mesh *m, int kind, int a, int b, const int *
     }
 }
 
-/* Springs s0 + j, j = j0, j0 + step.., of run u: in fours with ends
-   contiguous (SPAN, step 1), then the rest one by one. */
+/* Springs s0 + j, j = j0..j1 - 1, of run u: in fours with ends
+   contiguous (SPAN), then the rest as one TAIL block (one by one where
+   the run is serial, j1 = j0 + 1: ONE). */
 GS__PRIVATE void gs__xpbd_span(gs__mesh *m, const gs__run *u, int j0, int j1) {
     int j = j0, s[4], q;
     for (; j + 3 < j1; j += 4) {
         for (q = 0; q < 4; ++q) s[q] = u->s0 + j + q;
-        gs__xpbd_block(m, GS__XB_SPAN, u->a0 + j, u->a0 + u->off + j, s);
+        gs__xpbd_block(m, GS__XB_SPAN, u->a0 + j, u->a0 + u->off + j, s, 4);
     }
-    for (; j < j1; ++j) {
-        s[0] = u->s0 + j;
-        gs__xpbd_block(m, GS__XB_ONE, u->a0 + j, u->a0 + u->off + j, s);
-    }
+    if (j == j1) return;
+    for (q = 0; j + q < j1; ++q) s[q] = u->s0 + j + q;
+    gs__xpbd_block(m, j1 - j0 == 1 ? GS__XB_ONE : GS__XB_TAIL, u->a0 + j, u->a0 + u->off + j, s, q);
 }
 
 /* Offset 1 or 2: the springs of one parity class (cls = 0, 1) of run u. */
@@ -4736,12 +4737,12 @@ GS__PRIVATE void gs__xpbd_parity(gs__mesh *m, const gs__run *u, int cls) {
             gs__xblk_lane(m, &probe, 0, q, &a, &b);
             s[q] = u->s0 + (a - u->a0);
         }
-        gs__xpbd_block(m, probe.kind, probe.a, 0, s);
+        gs__xpbd_block(m, probe.kind, probe.a, 0, s, 4);
     }
     for (; j < u->len; j += per)
         for (q = 0; q < off && j + q < u->len; ++q) {
             s[0] = u->s0 + j + q;
-            gs__xpbd_block(m, GS__XB_ONE, u->a0 + j + q, u->a0 + j + q + off, s);
+            gs__xpbd_block(m, GS__XB_ONE, u->a0 + j + q, u->a0 + j + q + off, s, 1);
         }
 }
 
@@ -4753,7 +4754,8 @@ GS__PRIVATE void gs__xpbd_merge(gs__mesh *m) {
         struct gs__xblk *p = &m->xblk[o];
         const struct gs__xblk *k = &m->xblk[i];
         int step = k->kind == GS__XB_SPAN ? 4 : 8;
-        if (k->kind != GS__XB_ONE && k->kind == p->kind && k->a == p->a + step * p->count &&
+        if (k->kind != GS__XB_ONE && k->kind != GS__XB_TAIL && k->kind == p->kind &&
+            k->a == p->a + step * p->count &&
             (k->kind != GS__XB_SPAN || k->b == p->b + 4 * p->count) &&
             k->s == p->s + 4 * p->count)
             p->count++;
@@ -4766,7 +4768,8 @@ GS__PRIVATE void gs__xpbd_merge(gs__mesh *m) {
 /* Lanes i.. of entry k have the same k, c and rest bits. */
 GS__PRIVATE int gs__xpbd_uniform(const gs__mesh *m, const struct gs__xblk *k) {
     size_t ns = gs__soa_stride((size_t)m->ns);
-    int i, n = k->kind == GS__XB_GATHER || k->kind == GS__XB_ONE ? 0 : 4 * k->count;
+    int i, n = k->kind == GS__XB_SPAN || k->kind == GS__XB_PAIRS || k->kind == GS__XB_DUOS
+                   ? 4 * k->count : 0;
     const double *sp = m->xsp + k->s;
     for (i = 1; i < n; ++i)
         if (memcmp(&sp[i], &sp[0], sizeof *sp) || memcmp(&sp[ns + (size_t)i], &sp[ns], sizeof *sp) ||
@@ -5004,6 +5007,35 @@ GS__XINLINE void gs__xpbd_gather4(double *X, const double *P, size_t st, const d
     }
 }
 
+/* A TAIL block: SPAN's loads (a row's padding past n is zeros), its
+   lanes past `lanes` with no mass (no move) and stored back as they were
+   loaded: blended, as masked stores cost four times a block (measured). */
+GS__XINLINE void gs__xpbd_tail4(double *X, const double *P, size_t st, const double *im,
+                                const double *sp, size_t ns, int a, int b, int s, int lanes,
+                                double h) {
+    __m256d keep = _mm256_cmp_pd(_mm256_set_pd(3.0, 2.0, 1.0, 0.0), _mm256_set1_pd(lanes), _CMP_LT_OQ);
+    __m256i mk = _mm256_castpd_si256(keep);
+    gs__xk4 kq;
+    gs__x4 e, o;
+    gs__xld4(X, GS__XB_SPAN, a, b, &e.ax, &e.bx);
+    gs__xld4(X + st, GS__XB_SPAN, a, b, &e.ay, &e.by);
+    gs__xld4(X + 2 * st, GS__XB_SPAN, a, b, &e.az, &e.bz);
+    gs__xld4(P, GS__XB_SPAN, a, b, &e.pax, &e.pbx);
+    gs__xld4(P + st, GS__XB_SPAN, a, b, &e.pay, &e.pby);
+    gs__xld4(P + 2 * st, GS__XB_SPAN, a, b, &e.paz, &e.pbz);
+    e.wa = _mm256_maskload_pd(im + a, mk); /* inv_mass ends at n */
+    e.wb = _mm256_maskload_pd(im + b, mk);
+    kq = gs__xpbd_k4(_mm256_loadu_pd(sp + s), _mm256_loadu_pd(sp + ns + s),
+                     _mm256_loadu_pd(sp + 2 * ns + s), _mm256_set1_pd(h));
+    o = e;
+    gs__xpbd_core4(&e, &kq);
+    gs__xst4(X, GS__XB_SPAN, a, b, _mm256_blendv_pd(o.ax, e.ax, keep), _mm256_blendv_pd(o.bx, e.bx, keep));
+    gs__xst4(X + st, GS__XB_SPAN, a, b, _mm256_blendv_pd(o.ay, e.ay, keep),
+             _mm256_blendv_pd(o.by, e.by, keep));
+    gs__xst4(X + 2 * st, GS__XB_SPAN, a, b, _mm256_blendv_pd(o.az, e.az, keep),
+             _mm256_blendv_pd(o.bz, e.bz, keep));
+}
+
 GS__XINLINE void gs__xpbd_blocks4(gs__mesh *m, double h) {
     size_t st = gs__soa_stride((size_t)m->n), ns = gs__soa_stride((size_t)m->ns);
     double *X = m->soa;
@@ -5025,6 +5057,7 @@ GS__XINLINE void gs__xpbd_blocks4(gs__mesh *m, double h) {
         case GS__XB_GATHER:
             gs__xpbd_gather4(X, P, st, im, sp, ns, m->xgi + k->b, k->lanes, k->s, h);
             break;
+        case GS__XB_TAIL: gs__xpbd_tail4(X, P, st, im, sp, ns, k->a, k->b, k->s, k->lanes, h); break;
         default: gs__xpbd_one(X, P, st, im, sp + k->s, ns, k->a, k->b, h); break;
         }
     }
@@ -5180,6 +5213,7 @@ __attribute__((target("avx512f,avx512vl"))) GS__PRIVATE void gs__xpbd_blocks_avx
         case GS__XB_GATHER:
             gs__xpbd_gather4(X, P, st, im, sp, ns, m->xgi + k->b, k->lanes, k->s, h);
             break;
+        case GS__XB_TAIL: gs__xpbd_tail4(X, P, st, im, sp, ns, k->a, k->b, k->s, k->lanes, h); break;
         default: gs__xpbd_one(X, P, st, im, sp + k->s, ns, k->a, k->b, h); break;
         }
     }
