@@ -4166,6 +4166,47 @@ GS__PRIVATE void gs__int_explicit_euler(gs__mesh *m, double h) {
 /* ---- symplectic Euler over runs of springs (see gs__mesh.runs) ---- */
 
 #ifdef GS__MESH_AVX
+/* Inlined whatever the optimizer thinks: out of line, each block's
+   sixteen vectors go through memory (a third of the pass, measured). */
+#define GS__XINLINE __attribute__((target("avx"), always_inline, unused)) static inline
+/* The largest (smallest) of four lanes, as the scalar loop's comparisons
+   take them (a NaN lane is dropped as there). */
+GS__XINLINE double gs__hmax4(__m256d v) {
+    double t[4], r;
+    int q;
+    _mm256_storeu_pd(t, v);
+    for (r = t[0], q = 1; q < 4; ++q) r = t[q] > r ? t[q] : r;
+    return r;
+}
+GS__XINLINE double gs__hmin4(__m256d v) {
+    double t[4], r;
+    int q;
+    _mm256_storeu_pd(t, v);
+    for (r = t[0], q = 1; q < 4; ++q) r = t[q] < r ? t[q] : r;
+    return r;
+}
+
+/* Four particles' x, y, z lanes as 12 doubles x0 y0 z0 x1 .. z3 at p. */
+GS__XINLINE void gs__st_aos4(double *p, __m256d x, __m256d y, __m256d z) {
+    __m256d t0 = _mm256_unpacklo_pd(x, y);          /* x0 y0 | x2 y2 */
+    __m256d u = _mm256_shuffle_pd(z, x, 0xA);       /* z0 x1 | z2 x3 */
+    __m256d w = _mm256_shuffle_pd(y, z, 0xF);       /* y1 z1 | y3 z3 */
+    _mm256_storeu_pd(p, _mm256_permute2f128_pd(t0, u, 0x20));
+    _mm256_storeu_pd(p + 4, _mm256_permute2f128_pd(w, t0, 0x30));
+    _mm256_storeu_pd(p + 8, _mm256_permute2f128_pd(u, w, 0x31));
+}
+
+/* The inverse: 12 doubles at p as four particles' x, y, z lanes. */
+GS__XINLINE void gs__ld_aos4(const double *p, __m256d *x, __m256d *y, __m256d *z) {
+    __m256d m0 = _mm256_loadu_pd(p), m1 = _mm256_loadu_pd(p + 4), m2 = _mm256_loadu_pd(p + 8);
+    __m256d t0 = _mm256_permute2f128_pd(m0, m1, 0x30); /* x0 y0 | x2 y2 */
+    __m256d t1 = _mm256_permute2f128_pd(m0, m2, 0x21); /* z0 x1 | z2 x3 */
+    __m256d t2 = _mm256_permute2f128_pd(m1, m2, 0x30); /* y1 z1 | y3 z3 */
+    *x = _mm256_shuffle_pd(t0, t1, 0xA);
+    *y = _mm256_shuffle_pd(t0, t2, 0x5);
+    *z = _mm256_shuffle_pd(t1, t2, 0xA);
+}
+
 /* gs__run_forces four springs at a time; returns how many it did. */
 __attribute__((target("avx"))) GS__PRIVATE int gs__run_forces4(const gs__mesh *m,
                                                                 const gs__run *r) {
@@ -4280,6 +4321,65 @@ GS__PRIVATE void gs__run_add(int avx, double *acc, const double *f, const double
     for (; j < len; ++j) acc[p0 + j] += f[j] * sign * im[p0 + j];
 }
 
+#ifdef GS__MESH_AVX
+/* gs__int_symplectic_runs's copy in, four particles at a time; returns
+   how many it did. */
+__attribute__((target("avx"))) GS__PRIVATE size_t gs__runs_in4(gs__mesh *m) {
+    size_t n = (size_t)m->n, st = gs__soa_stride(n), i;
+    double *X = m->soa, *Y = X + st, *Z = Y + st, *VX = Z + st, *VY = VX + st, *VZ = VY + st;
+    double *AX = VZ + st, *AY = AX + st, *AZ = AY + st;
+    gs_vec3 g = m->base.world->gravity;
+    __m256d gx = _mm256_set1_pd(g.x), gy = _mm256_set1_pd(g.y), gz = _mm256_set1_pd(g.z);
+    __m256d nair = _mm256_set1_pd(-m->air);
+    for (i = 0; i + 3 < n; i += 4) {
+        __m256d px, py, pz, vx, vy, vz;
+        gs__ld_aos4(&m->x[i].x, &px, &py, &pz);
+        gs__ld_aos4(&m->v[i].x, &vx, &vy, &vz);
+        _mm256_storeu_pd(X + i, px); _mm256_storeu_pd(Y + i, py); _mm256_storeu_pd(Z + i, pz);
+        _mm256_storeu_pd(VX + i, vx); _mm256_storeu_pd(VY + i, vy); _mm256_storeu_pd(VZ + i, vz);
+        _mm256_storeu_pd(AX + i, _mm256_add_pd(gx, _mm256_mul_pd(vx, nair)));
+        _mm256_storeu_pd(AY + i, _mm256_add_pd(gy, _mm256_mul_pd(vy, nair)));
+        _mm256_storeu_pd(AZ + i, _mm256_add_pd(gz, _mm256_mul_pd(vz, nair)));
+    }
+    return i;
+}
+
+/* gs__runs_update's loop four particles at a time; returns how many it
+   did, its largest speed^2, sum and bounds in r (w2, sum, lo xyz, hi
+   xyz), per lane as gs__xpbd_fin4 takes them. */
+__attribute__((target("avx"))) GS__PRIVATE size_t gs__runs_update4(gs__mesh *m, double h, double *r) {
+    size_t n = (size_t)m->n, st = gs__soa_stride(n), i;
+    const double *X = m->soa, *Y = X + st, *Z = Y + st, *VX = Z + st, *VY = VX + st, *VZ = VY + st;
+    const double *AX = VZ + st, *AY = AX + st, *AZ = AY + st;
+    double *xn = &m->xn[0].x, *vn = &m->vn[0].x;
+    __m256d hv = _mm256_set1_pd(h), w2 = _mm256_setzero_pd(), sum = w2, nan = w2;
+    __m256d lx = _mm256_set1_pd(HUGE_VAL), ly = lx, lz = lx, hx = _mm256_set1_pd(-HUGE_VAL), hy = hx, hz = hx;
+    for (i = 0; i + 3 < n; i += 4) {
+        __m256d vx = _mm256_add_pd(_mm256_loadu_pd(VX + i), _mm256_mul_pd(_mm256_loadu_pd(AX + i), hv));
+        __m256d vy = _mm256_add_pd(_mm256_loadu_pd(VY + i), _mm256_mul_pd(_mm256_loadu_pd(AY + i), hv));
+        __m256d vz = _mm256_add_pd(_mm256_loadu_pd(VZ + i), _mm256_mul_pd(_mm256_loadu_pd(AZ + i), hv));
+        __m256d px = _mm256_add_pd(_mm256_loadu_pd(X + i), _mm256_mul_pd(vx, hv));
+        __m256d py = _mm256_add_pd(_mm256_loadu_pd(Y + i), _mm256_mul_pd(vy, hv));
+        __m256d pz = _mm256_add_pd(_mm256_loadu_pd(Z + i), _mm256_mul_pd(vz, hv));
+        __m256d s2 = _mm256_add_pd(_mm256_add_pd(_mm256_mul_pd(vx, vx), _mm256_mul_pd(vy, vy)),
+                                   _mm256_mul_pd(vz, vz));
+        gs__st_aos4(vn + 3 * i, vx, vy, vz);
+        gs__st_aos4(xn + 3 * i, px, py, pz);
+        w2 = _mm256_max_pd(s2, w2);
+        nan = _mm256_or_pd(nan, _mm256_cmp_pd(s2, s2, _CMP_UNORD_Q));
+        sum = _mm256_add_pd(sum, _mm256_add_pd(_mm256_add_pd(px, py), pz));
+        lx = _mm256_min_pd(px, lx); ly = _mm256_min_pd(py, ly); lz = _mm256_min_pd(pz, lz);
+        hx = _mm256_max_pd(px, hx); hy = _mm256_max_pd(py, hy); hz = _mm256_max_pd(pz, hz);
+    }
+    r[0] = _mm256_movemask_pd(nan) ? NAN : gs__hmax4(w2);
+    r[1] = gs__hmax4(sum) + gs__hmin4(sum); /* a NaN or inf lane shows */
+    if (_mm256_movemask_pd(_mm256_cmp_pd(sum, sum, _CMP_UNORD_Q))) r[1] = NAN;
+    r[2] = gs__hmin4(lx); r[3] = gs__hmin4(ly); r[4] = gs__hmin4(lz);
+    r[5] = gs__hmax4(hx); r[6] = gs__hmax4(hy); r[7] = gs__hmax4(hz);
+    return i;
+}
+#endif
+
 /* The update into (xn, vn), with gs__mesh_sane's checks and bounds in the
    same pass (a pinned particle comes out where it was, at rest, as the
    substep's pin pass will set it). */
@@ -4289,7 +4389,15 @@ GS__PRIVATE void gs__runs_update(gs__mesh *m, double h) {
     const double *AX = VZ + st, *AY = AX + st, *AZ = AY + st;
     double vmax2 = m->solver.max_speed * m->solver.max_speed, sum = 0.0, w2 = 0.0;
     double lx = HUGE_VAL, ly = HUGE_VAL, lz = HUGE_VAL, hx = -HUGE_VAL, hy = -HUGE_VAL, hz = -HUGE_VAL;
-    for (i = 0; i < n; ++i) {
+    i = 0;
+#ifdef GS__MESH_AVX
+    if (m->avx) {
+        double r[8];
+        i = gs__runs_update4(m, h, r);
+        w2 = r[0]; sum = r[1]; lx = r[2]; ly = r[3]; lz = r[4]; hx = r[5]; hy = r[6]; hz = r[7];
+    }
+#endif
+    for (; i < n; ++i) {
         double vx = VX[i] + AX[i] * h, vy = VY[i] + AY[i] * h, vz = VZ[i] + AZ[i] * h;
         double px = X[i] + vx * h, py = Y[i] + vy * h, pz = Z[i] + vz * h;
         double s2 = vx * vx + vy * vy + vz * vz;
@@ -4321,7 +4429,11 @@ GS__PRIVATE void gs__int_symplectic_runs(gs__mesh *m, double h) {
     const double *F = m->sp_soa + 3 * ns, *im = m->inv_mass;
     gs_vec3 g = m->base.world->gravity;
     int r;
-    for (i = 0; i < n; ++i) {
+    i = 0;
+#ifdef GS__MESH_AVX
+    if (m->avx) i = gs__runs_in4(m);
+#endif
+    for (; i < n; ++i) {
         X[i] = m->x[i].x; Y[i] = m->x[i].y; Z[i] = m->x[i].z;
         VX[i] = m->v[i].x; VY[i] = m->v[i].y; VZ[i] = m->v[i].z;
         AX[i] = g.x + VX[i] * -m->air;
@@ -4852,9 +4964,6 @@ GS__PRIVATE void gs__xpbd_one(double *X, const double *P, size_t st, const doubl
 }
 
 #ifdef GS__MESH_AVX
-/* Inlined whatever the optimizer thinks: out of line, each block's
-   sixteen vectors go through memory (a third of the pass, measured). */
-#define GS__XINLINE __attribute__((target("avx"), always_inline, unused)) static inline
 /* A block's lanes of array p, and back (gs__xblk_lane's layouts). */
 GS__XINLINE void gs__xld4(const double *p, int kind, int a,
                                                          int b, __m256d *va, __m256d *vb) {
@@ -5330,33 +5439,6 @@ GS__PRIVATE void gs__xpbd_fin1(gs__mesh *m, size_t i, size_t end, size_t k, doub
 }
 
 #ifdef GS__MESH_AVX
-/* The largest (smallest) of four lanes, as the scalar loop's comparisons
-   take them (a NaN lane is dropped as there). */
-GS__XINLINE double gs__hmax4(__m256d v) {
-    double t[4], r;
-    int q;
-    _mm256_storeu_pd(t, v);
-    for (r = t[0], q = 1; q < 4; ++q) r = t[q] > r ? t[q] : r;
-    return r;
-}
-GS__XINLINE double gs__hmin4(__m256d v) {
-    double t[4], r;
-    int q;
-    _mm256_storeu_pd(t, v);
-    for (r = t[0], q = 1; q < 4; ++q) r = t[q] < r ? t[q] : r;
-    return r;
-}
-
-/* Four particles' x, y, z lanes as 12 doubles x0 y0 z0 x1 .. z3 at p. */
-GS__XINLINE void gs__st_aos4(double *p, __m256d x, __m256d y, __m256d z) {
-    __m256d t0 = _mm256_unpacklo_pd(x, y);          /* x0 y0 | x2 y2 */
-    __m256d u = _mm256_shuffle_pd(z, x, 0xA);       /* z0 x1 | z2 x3 */
-    __m256d w = _mm256_shuffle_pd(y, z, 0xF);       /* y1 z1 | y3 z3 */
-    _mm256_storeu_pd(p, _mm256_permute2f128_pd(t0, u, 0x20));
-    _mm256_storeu_pd(p + 4, _mm256_permute2f128_pd(w, t0, 0x30));
-    _mm256_storeu_pd(p + 8, _mm256_permute2f128_pd(u, w, 0x31));
-}
-
 /* gs__xpbd_fin1 four particles at a time over whole boxes: the same xn,
    vn and boxes; the speed and the sum are per lane, which changes
    neither check's outcome (the sum only asks "finite?", and its terms
