@@ -5258,9 +5258,9 @@ GS__PRIVATE void gs__xpbd_predict1(gs__mesh *m, size_t i, gs_vec3 x, gs_vec3 v0,
     PX[i] = x.x; PY[i] = x.y; PZ[i] = x.z;
 }
 
-/* Inlined, so that gs__xpbd_fin4 calls nothing out of line: there, an
-   SSE-encoded copy after its AVX loop took a third of the substep's end
-   (measured). */
+/* Inlined, so that gs__xpbd_fin4 calls nothing out of line: called from
+   there, an SSE-encoded copy after its AVX loop stalled and took two
+   fifths of the substep's end (measured). */
 GS__PRIVATE_INLINE void gs__fin_box(gs__mesh *m, size_t k, const double *lo, const double *hi,
                              double vm, gs__fin *f) {
     int c;
