@@ -4851,6 +4851,22 @@ GS__PRIVATE void gs__xpbd_parity(gs__mesh *m, const gs__run *u, int cls) {
         }
         gs__xpbd_block(m, probe.kind, probe.a, 0, s, 4);
     }
+    if (j < u->len) { /* the rest as one short block where its lanes come first */
+        struct gs__xblk probe;
+        int lanes = 0, more = 0;
+        probe.kind = off == 1 ? GS__XB_PAIRS : GS__XB_DUOS;
+        probe.a = u->a0 + j;
+        probe.b = 0;
+        for (q = 0; q < 4; ++q) {
+            gs__xblk_lane(m, &probe, 0, q, &a, &b);
+            if (a - u->a0 < u->len && q == lanes) s[lanes++] = u->s0 + (a - u->a0);
+            else if (a - u->a0 < u->len) more = 1;
+        }
+        if (!more) {
+            gs__xpbd_block(m, probe.kind, probe.a, 0, s, lanes);
+            return;
+        }
+    }
     for (; j < u->len; j += per)
         for (q = 0; q < off && j + q < u->len; ++q) {
             s[0] = u->s0 + j + q;
@@ -4866,7 +4882,7 @@ GS__PRIVATE void gs__xpbd_merge(gs__mesh *m) {
         struct gs__xblk *p = &m->xblk[o];
         const struct gs__xblk *k = &m->xblk[i];
         int step = k->kind == GS__XB_SPAN ? 4 : 8;
-        if (k->kind != GS__XB_ONE && k->kind != GS__XB_TAIL && k->kind == p->kind &&
+        if (k->lanes == 4 && p->lanes == 4 && k->kind == p->kind &&
             k->a == p->a + step * p->count &&
             (k->kind != GS__XB_SPAN || k->b == p->b + 4 * p->count) &&
             k->s == p->s + 4 * p->count)
@@ -4880,8 +4896,7 @@ GS__PRIVATE void gs__xpbd_merge(gs__mesh *m) {
 /* Lanes i.. of entry k have the same k, c and rest bits. */
 GS__PRIVATE int gs__xpbd_uniform(const gs__mesh *m, const struct gs__xblk *k) {
     size_t ns = gs__soa_stride((size_t)m->ns);
-    int i, n = k->kind == GS__XB_SPAN || k->kind == GS__XB_PAIRS || k->kind == GS__XB_DUOS
-                   ? 4 * k->count : 0;
+    int i, n = k->kind != GS__XB_GATHER && k->lanes == 4 ? 4 * k->count : 0;
     const double *sp = m->xsp + k->s;
     for (i = 1; i < n; ++i)
         if (memcmp(&sp[i], &sp[0], sizeof *sp) || memcmp(&sp[ns + (size_t)i], &sp[ns], sizeof *sp) ||
@@ -5123,27 +5138,46 @@ GS__XINLINE void gs__xpbd_gather4(double *X, const double *P, size_t st, const d
     }
 }
 
-/* A TAIL block: SPAN's loads (a row's padding past n is zeros), its
-   lanes past `lanes` with no mass (no move) and stored back as they were
-   loaded: blended, as masked stores cost four times a block (measured). */
-GS__XINLINE void gs__xpbd_tail4(double *X, const double *P, size_t st, const double *im,
-                                const double *sp, size_t ns, int a, int b, int s, int lanes,
-                                double h) {
+/* gs__xld4 of an array of n elements: those past n load as zero. */
+GS__XINLINE void gs__xld4n(const double *p, int n, int kind, int a, int b, __m256d *va,
+                           __m256d *vb) {
+    __m256d q = _mm256_set_pd(3.0, 2.0, 1.0, 0.0), lim = _mm256_set1_pd(n);
+    int c = kind == GS__XB_SPAN ? b : a + 4;
+    __m256i ma = _mm256_castpd_si256(_mm256_cmp_pd(_mm256_add_pd(q, _mm256_set1_pd(a)), lim, _CMP_LT_OQ));
+    __m256i mc = _mm256_castpd_si256(_mm256_cmp_pd(_mm256_add_pd(q, _mm256_set1_pd(c)), lim, _CMP_LT_OQ));
+    __m256d v0 = _mm256_maskload_pd(p + a, ma), v1 = _mm256_maskload_pd(p + c, mc);
+    if (kind == GS__XB_SPAN) {
+        *va = v0;
+        *vb = v1;
+    } else if (kind == GS__XB_PAIRS) {
+        *va = _mm256_unpacklo_pd(v0, v1);
+        *vb = _mm256_unpackhi_pd(v0, v1);
+    } else {
+        *va = _mm256_permute2f128_pd(v0, v1, 0x20);
+        *vb = _mm256_permute2f128_pd(v0, v1, 0x31);
+    }
+}
+
+/* A block of `kind` with its first `lanes` lanes only (a TAIL, or the
+   last PAIRS or DUOS block of a parity class): the other lanes load
+   what lies there (a row's padding past n is zeros, the inverse masses
+   past n zero) and are stored back as they were loaded: blended, as
+   masked stores cost four times a block (measured). */
+GS__XINLINE void gs__xpbd_part4(double *X, const double *P, size_t st, const double *im, int n,
+                                const double *sp, size_t ns, int kind, int a, int b, int s,
+                                int lanes, double h) {
     __m256d keep = _mm256_cmp_pd(_mm256_set_pd(3.0, 2.0, 1.0, 0.0), _mm256_set1_pd(lanes), _CMP_LT_OQ);
-    __m256i mk = _mm256_castpd_si256(keep);
     gs__xk4 kq;
     gs__x4 e, o;
-    gs__xpbd_ld4(X, P, st, GS__XB_SPAN, a, b, &e);
-    e.wa = _mm256_maskload_pd(im + a, mk); /* inv_mass ends at n */
-    e.wb = _mm256_maskload_pd(im + b, mk);
+    gs__xpbd_ld4(X, P, st, kind, a, b, &e);
+    gs__xld4n(im, n, kind, a, b, &e.wa, &e.wb);
     kq = gs__xpbd_k4(_mm256_loadu_pd(sp + s), _mm256_loadu_pd(sp + ns + s),
                      _mm256_loadu_pd(sp + 2 * ns + s), _mm256_set1_pd(h));
     o = e;
     gs__xpbd_core4(&e, &kq);
-    gs__xst4(X, GS__XB_SPAN, a, b, _mm256_blendv_pd(o.ax, e.ax, keep), _mm256_blendv_pd(o.bx, e.bx, keep));
-    gs__xst4(X + st, GS__XB_SPAN, a, b, _mm256_blendv_pd(o.ay, e.ay, keep),
-             _mm256_blendv_pd(o.by, e.by, keep));
-    gs__xst4(X + 2 * st, GS__XB_SPAN, a, b, _mm256_blendv_pd(o.az, e.az, keep),
+    gs__xst4(X, kind, a, b, _mm256_blendv_pd(o.ax, e.ax, keep), _mm256_blendv_pd(o.bx, e.bx, keep));
+    gs__xst4(X + st, kind, a, b, _mm256_blendv_pd(o.ay, e.ay, keep), _mm256_blendv_pd(o.by, e.by, keep));
+    gs__xst4(X + 2 * st, kind, a, b, _mm256_blendv_pd(o.az, e.az, keep),
              _mm256_blendv_pd(o.bz, e.bz, keep));
 }
 
@@ -5160,15 +5194,23 @@ GS__XINLINE void gs__xpbd_blocks4(gs__mesh *m, double h) {
             gs__xpbd_entry4(X, P, st, im, sp, ns, GS__XB_SPAN, k->a, k->b, k->s, k->count, k->uni, h);
             break;
         case GS__XB_PAIRS:
-            gs__xpbd_entry4(X, P, st, im, sp, ns, GS__XB_PAIRS, k->a, 0, k->s, k->count, k->uni, h);
+            if (k->lanes < 4)
+                gs__xpbd_part4(X, P, st, im, m->n, sp, ns, GS__XB_PAIRS, k->a, 0, k->s, k->lanes, h);
+            else
+                gs__xpbd_entry4(X, P, st, im, sp, ns, GS__XB_PAIRS, k->a, 0, k->s, k->count, k->uni, h);
             break;
         case GS__XB_DUOS:
-            gs__xpbd_entry4(X, P, st, im, sp, ns, GS__XB_DUOS, k->a, 0, k->s, k->count, k->uni, h);
+            if (k->lanes < 4)
+                gs__xpbd_part4(X, P, st, im, m->n, sp, ns, GS__XB_DUOS, k->a, 0, k->s, k->lanes, h);
+            else
+                gs__xpbd_entry4(X, P, st, im, sp, ns, GS__XB_DUOS, k->a, 0, k->s, k->count, k->uni, h);
             break;
         case GS__XB_GATHER:
             gs__xpbd_gather4(X, P, st, im, sp, ns, m->xgi + k->b, k->lanes, k->s, h);
             break;
-        case GS__XB_TAIL: gs__xpbd_tail4(X, P, st, im, sp, ns, k->a, k->b, k->s, k->lanes, h); break;
+        case GS__XB_TAIL:
+            gs__xpbd_part4(X, P, st, im, m->n, sp, ns, GS__XB_SPAN, k->a, k->b, k->s, k->lanes, h);
+            break;
         default: gs__xpbd_one(X, P, st, im, sp + k->s, ns, k->a, k->b, h); break;
         }
     }

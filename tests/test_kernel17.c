@@ -1,7 +1,7 @@
 /* test_kernel17.c - issue 17's kernel variants (>>cloth) against plain C:
-   - XPBD's TAIL blocks (a segment's last one to three springs as one
-     four-lane block, the lanes past the tail loaded but stored back as
-     they were);
+   - XPBD's short blocks (a segment's last one to three springs as one
+     four-lane TAIL block, a parity class's last ones as one PAIRS or DUOS
+     block; the lanes past them loaded but stored back as they were);
    - symplectic Euler's copy into the transposed state and its update
      with the checks, four particles at a time, a scalar remainder after.
    Every lane does the plain loop's IEEE operations in its order, so the
@@ -72,31 +72,40 @@ static void same_bits(gs_integrator it, int nx, int ny, int level, int steps) {
 
 /* Shear runs of a row are nx - 1 long in segments of nx +- 1 (one
    segment): tails of (nx - 1) % 4 springs; bend columns (offset 2 nx)
-   leave tails of 2 nx % 4. 14, 15, 16, 17 wide give every tail length. */
-static void test_tail_lanes(void **state) {
-    int nx, seen[4] = {0, 0, 0, 0};
+   leave tails of 2 nx % 4. A row's neighbours (nx - 1 springs) and bend
+   springs (nx - 2) end their parity classes in short PAIRS and DUOS
+   blocks. 10 to 17 wide give every length of both. */
+static void test_short_block_lanes(void **state) {
+    int nx, tail[4] = {0, 0, 0, 0}, parity[4] = {0, 0, 0, 0};
     (void)state;
-    for (nx = 14; nx <= 17; ++nx) {
+    for (nx = 10; nx <= 17; ++nx) {
         gs_world *w;
         gs__mesh *m = gs__as_mesh(cloth(&w, GS_INTEGRATOR_XPBD, nx, 9, 2));
         int i;
         for (i = 0; i < m->nxblk; ++i) {
             const struct gs__xblk *k = &m->xblk[i];
-            if (k->kind != GS__XB_TAIL) continue;
-            assert_int_equal(k->count, 1);
+            if (k->kind == GS__XB_ONE || k->kind == GS__XB_GATHER || k->lanes == 4) continue;
+            assert_int_equal(k->count, 1); /* never merged */
+            assert_false(k->uni);
             assert_true(k->lanes >= 1 && k->lanes <= 3);
-            assert_true(k->b - k->a >= 4); /* ends a and b apart: lanes independent */
-            seen[k->lanes]++;
+            if (k->kind == GS__XB_TAIL) {
+                assert_true(k->b - k->a >= 4); /* ends a and b apart: lanes independent */
+                tail[k->lanes]++;
+            } else {
+                assert_true(k->kind == GS__XB_PAIRS || k->kind == GS__XB_DUOS);
+                parity[k->lanes]++;
+            }
         }
         gs_world_destroy(w);
     }
-    assert_true(seen[1] > 0 && seen[2] > 0 && seen[3] > 0);
+    assert_true(tail[1] > 0 && tail[2] > 0 && tail[3] > 0);
+    assert_true(parity[1] > 0 && parity[2] > 0 && parity[3] > 0);
 }
 
 static void test_xpbd_tails_same_bits(void **state) {
     int nx;
     (void)state;
-    for (nx = 14; nx <= 17; ++nx) {
+    for (nx = 10; nx <= 17; ++nx) {
         same_bits(GS_INTEGRATOR_XPBD, nx, 9, 1, 60);
         same_bits(GS_INTEGRATOR_XPBD, nx, 9, 2, 60);
     }
@@ -136,7 +145,7 @@ static void test_symplectic_blowup_refused_alike(void **state) {
 
 int main(void) {
     const struct CMUnitTest tests[] = {
-        cmocka_unit_test(test_tail_lanes),
+        cmocka_unit_test(test_short_block_lanes),
         cmocka_unit_test(test_xpbd_tails_same_bits),
         cmocka_unit_test(test_symplectic_remainders_same_bits),
         cmocka_unit_test(test_symplectic_blowup_refused_alike),
