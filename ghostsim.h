@@ -3897,13 +3897,15 @@ typedef struct gs__run {
     int s0, a0, off, len; /* springs s0.., particles a0.. and a0 + off.. */
 } gs__run;
 
-/* One block of the XPBD pass: four springs, or one (GS__XB_ONE), whose
-   ends lie in the transposed copy as `kind` says (gs__xblk_lane). */
-enum { GS__XB_SPAN, GS__XB_PAIRS, GS__XB_DUOS, GS__XB_ONE, GS__XB_GATHER };
+/* One block of the XPBD pass: four springs, or one (GS__XB_ONE), or the
+   one to three at the end of a segment (GS__XB_TAIL: SPAN's layout, its
+   lanes past `lanes` left out), whose ends lie in the transposed copy as
+   `kind` says (gs__xblk_lane). */
+enum { GS__XB_SPAN, GS__XB_PAIRS, GS__XB_DUOS, GS__XB_ONE, GS__XB_GATHER, GS__XB_TAIL };
 struct gs__xblk {
     int kind, a, b, s; /* first end a, first end b, first k/c/rest in xsp */
     int count;         /* blocks of four in a row, each next to the last */
-    int lanes;         /* springs a block: 4, ONE 1, GATHER 1..4 (its
+    int lanes;         /* springs a block: 4, ONE 1, TAIL 1..3, GATHER 1..4 (its
                           ends in xgi from b: a0 b0 a1 b1 ..) */
     int uni;           /* every lane has the same k, c, rest (a cloth's
                           family): the kernel holds them in registers */
@@ -4191,6 +4193,47 @@ GS__PRIVATE void gs__int_explicit_euler(gs__mesh *m, double h) {
 /* ---- symplectic Euler over runs of springs (see gs__mesh.runs) ---- */
 
 #ifdef GS__MESH_AVX
+/* Inlined whatever the optimizer thinks: out of line, each block's
+   sixteen vectors go through memory (a third of the pass, measured). */
+#define GS__XINLINE __attribute__((target("avx"), always_inline, unused)) static inline
+/* The largest (smallest) of four lanes, as the scalar loop's comparisons
+   take them (a NaN lane is dropped as there). */
+GS__XINLINE double gs__hmax4(__m256d v) {
+    double t[4], r;
+    int q;
+    _mm256_storeu_pd(t, v);
+    for (r = t[0], q = 1; q < 4; ++q) r = t[q] > r ? t[q] : r;
+    return r;
+}
+GS__XINLINE double gs__hmin4(__m256d v) {
+    double t[4], r;
+    int q;
+    _mm256_storeu_pd(t, v);
+    for (r = t[0], q = 1; q < 4; ++q) r = t[q] < r ? t[q] : r;
+    return r;
+}
+
+/* Four particles' x, y, z lanes as 12 doubles x0 y0 z0 x1 .. z3 at p. */
+GS__XINLINE void gs__st_aos4(double *p, __m256d x, __m256d y, __m256d z) {
+    __m256d t0 = _mm256_unpacklo_pd(x, y);          /* x0 y0 | x2 y2 */
+    __m256d u = _mm256_shuffle_pd(z, x, 0xA);       /* z0 x1 | z2 x3 */
+    __m256d w = _mm256_shuffle_pd(y, z, 0xF);       /* y1 z1 | y3 z3 */
+    _mm256_storeu_pd(p, _mm256_permute2f128_pd(t0, u, 0x20));
+    _mm256_storeu_pd(p + 4, _mm256_permute2f128_pd(w, t0, 0x30));
+    _mm256_storeu_pd(p + 8, _mm256_permute2f128_pd(u, w, 0x31));
+}
+
+/* The inverse: 12 doubles at p as four particles' x, y, z lanes. */
+GS__XINLINE void gs__ld_aos4(const double *p, __m256d *x, __m256d *y, __m256d *z) {
+    __m256d m0 = _mm256_loadu_pd(p), m1 = _mm256_loadu_pd(p + 4), m2 = _mm256_loadu_pd(p + 8);
+    __m256d t0 = _mm256_permute2f128_pd(m0, m1, 0x30); /* x0 y0 | x2 y2 */
+    __m256d t1 = _mm256_permute2f128_pd(m0, m2, 0x21); /* z0 x1 | z2 x3 */
+    __m256d t2 = _mm256_permute2f128_pd(m1, m2, 0x30); /* y1 z1 | y3 z3 */
+    *x = _mm256_shuffle_pd(t0, t1, 0xA);
+    *y = _mm256_shuffle_pd(t0, t2, 0x5);
+    *z = _mm256_shuffle_pd(t1, t2, 0xA);
+}
+
 /* gs__run_forces four springs at a time; returns how many it did. */
 __attribute__((target("avx"))) GS__PRIVATE int gs__run_forces4(const gs__mesh *m,
                                                                 const gs__run *r) {
@@ -4305,6 +4348,65 @@ GS__PRIVATE void gs__run_add(int avx, double *acc, const double *f, const double
     for (; j < len; ++j) acc[p0 + j] += f[j] * sign * im[p0 + j];
 }
 
+#ifdef GS__MESH_AVX
+/* gs__int_symplectic_runs's copy in, four particles at a time; returns
+   how many it did. */
+__attribute__((target("avx"))) GS__PRIVATE size_t gs__runs_in4(gs__mesh *m) {
+    size_t n = (size_t)m->n, st = gs__soa_stride(n), i;
+    double *X = m->soa, *Y = X + st, *Z = Y + st, *VX = Z + st, *VY = VX + st, *VZ = VY + st;
+    double *AX = VZ + st, *AY = AX + st, *AZ = AY + st;
+    gs_vec3 g = m->base.world->gravity;
+    __m256d gx = _mm256_set1_pd(g.x), gy = _mm256_set1_pd(g.y), gz = _mm256_set1_pd(g.z);
+    __m256d nair = _mm256_set1_pd(-m->air);
+    for (i = 0; i + 3 < n; i += 4) {
+        __m256d px, py, pz, vx, vy, vz;
+        gs__ld_aos4(&m->x[i].x, &px, &py, &pz);
+        gs__ld_aos4(&m->v[i].x, &vx, &vy, &vz);
+        _mm256_storeu_pd(X + i, px); _mm256_storeu_pd(Y + i, py); _mm256_storeu_pd(Z + i, pz);
+        _mm256_storeu_pd(VX + i, vx); _mm256_storeu_pd(VY + i, vy); _mm256_storeu_pd(VZ + i, vz);
+        _mm256_storeu_pd(AX + i, _mm256_add_pd(gx, _mm256_mul_pd(vx, nair)));
+        _mm256_storeu_pd(AY + i, _mm256_add_pd(gy, _mm256_mul_pd(vy, nair)));
+        _mm256_storeu_pd(AZ + i, _mm256_add_pd(gz, _mm256_mul_pd(vz, nair)));
+    }
+    return i;
+}
+
+/* gs__runs_update's loop four particles at a time; returns how many it
+   did, its largest speed^2, sum and bounds in r (w2, sum, lo xyz, hi
+   xyz), per lane as gs__xpbd_fin4 takes them. */
+__attribute__((target("avx"))) GS__PRIVATE size_t gs__runs_update4(gs__mesh *m, double h, double *r) {
+    size_t n = (size_t)m->n, st = gs__soa_stride(n), i;
+    const double *X = m->soa, *Y = X + st, *Z = Y + st, *VX = Z + st, *VY = VX + st, *VZ = VY + st;
+    const double *AX = VZ + st, *AY = AX + st, *AZ = AY + st;
+    double *xn = &m->xn[0].x, *vn = &m->vn[0].x;
+    __m256d hv = _mm256_set1_pd(h), w2 = _mm256_setzero_pd(), sum = w2, nan = w2;
+    __m256d lx = _mm256_set1_pd(HUGE_VAL), ly = lx, lz = lx, hx = _mm256_set1_pd(-HUGE_VAL), hy = hx, hz = hx;
+    for (i = 0; i + 3 < n; i += 4) {
+        __m256d vx = _mm256_add_pd(_mm256_loadu_pd(VX + i), _mm256_mul_pd(_mm256_loadu_pd(AX + i), hv));
+        __m256d vy = _mm256_add_pd(_mm256_loadu_pd(VY + i), _mm256_mul_pd(_mm256_loadu_pd(AY + i), hv));
+        __m256d vz = _mm256_add_pd(_mm256_loadu_pd(VZ + i), _mm256_mul_pd(_mm256_loadu_pd(AZ + i), hv));
+        __m256d px = _mm256_add_pd(_mm256_loadu_pd(X + i), _mm256_mul_pd(vx, hv));
+        __m256d py = _mm256_add_pd(_mm256_loadu_pd(Y + i), _mm256_mul_pd(vy, hv));
+        __m256d pz = _mm256_add_pd(_mm256_loadu_pd(Z + i), _mm256_mul_pd(vz, hv));
+        __m256d s2 = _mm256_add_pd(_mm256_add_pd(_mm256_mul_pd(vx, vx), _mm256_mul_pd(vy, vy)),
+                                   _mm256_mul_pd(vz, vz));
+        gs__st_aos4(vn + 3 * i, vx, vy, vz);
+        gs__st_aos4(xn + 3 * i, px, py, pz);
+        w2 = _mm256_max_pd(s2, w2);
+        nan = _mm256_or_pd(nan, _mm256_cmp_pd(s2, s2, _CMP_UNORD_Q));
+        sum = _mm256_add_pd(sum, _mm256_add_pd(_mm256_add_pd(px, py), pz));
+        lx = _mm256_min_pd(px, lx); ly = _mm256_min_pd(py, ly); lz = _mm256_min_pd(pz, lz);
+        hx = _mm256_max_pd(px, hx); hy = _mm256_max_pd(py, hy); hz = _mm256_max_pd(pz, hz);
+    }
+    r[0] = _mm256_movemask_pd(nan) ? NAN : gs__hmax4(w2);
+    r[1] = gs__hmax4(sum) + gs__hmin4(sum); /* a NaN or inf lane shows */
+    if (_mm256_movemask_pd(_mm256_cmp_pd(sum, sum, _CMP_UNORD_Q))) r[1] = NAN;
+    r[2] = gs__hmin4(lx); r[3] = gs__hmin4(ly); r[4] = gs__hmin4(lz);
+    r[5] = gs__hmax4(hx); r[6] = gs__hmax4(hy); r[7] = gs__hmax4(hz);
+    return i;
+}
+#endif
+
 /* The update into (xn, vn), with gs__mesh_sane's checks and bounds in the
    same pass (a pinned particle comes out where it was, at rest, as the
    substep's pin pass will set it). */
@@ -4314,7 +4416,15 @@ GS__PRIVATE void gs__runs_update(gs__mesh *m, double h) {
     const double *AX = VZ + st, *AY = AX + st, *AZ = AY + st;
     double vmax2 = m->solver.max_speed * m->solver.max_speed, sum = 0.0, w2 = 0.0;
     double lx = HUGE_VAL, ly = HUGE_VAL, lz = HUGE_VAL, hx = -HUGE_VAL, hy = -HUGE_VAL, hz = -HUGE_VAL;
-    for (i = 0; i < n; ++i) {
+    i = 0;
+#ifdef GS__MESH_AVX
+    if (m->avx) {
+        double r[8];
+        i = gs__runs_update4(m, h, r);
+        w2 = r[0]; sum = r[1]; lx = r[2]; ly = r[3]; lz = r[4]; hx = r[5]; hy = r[6]; hz = r[7];
+    }
+#endif
+    for (; i < n; ++i) {
         double vx = VX[i] + AX[i] * h, vy = VY[i] + AY[i] * h, vz = VZ[i] + AZ[i] * h;
         double px = X[i] + vx * h, py = Y[i] + vy * h, pz = Z[i] + vz * h;
         double s2 = vx * vx + vy * vy + vz * vz;
@@ -4346,7 +4456,11 @@ GS__PRIVATE void gs__int_symplectic_runs(gs__mesh *m, double h) {
     const double *F = m->sp_soa + 3 * ns, *im = m->inv_mass;
     gs_vec3 g = m->base.world->gravity;
     int r;
-    for (i = 0; i < n; ++i) {
+    i = 0;
+#ifdef GS__MESH_AVX
+    if (m->avx) i = gs__runs_in4(m);
+#endif
+    for (; i < n; ++i) {
         X[i] = m->x[i].x; Y[i] = m->x[i].y; Z[i] = m->x[i].z;
         VX[i] = m->v[i].x; VY[i] = m->v[i].y; VZ[i] = m->v[i].z;
         AX[i] = g.x + VX[i] * -m->air;
@@ -4722,12 +4836,11 @@ GS__PRIVATE void gs__xblk_lane(const gs__mesh *m, const struct gs__xblk *k, int 
     }
 }
 
-/* Appends a block whose lanes are springs s[0..3] (one for GS__XB_ONE). */
-GS__PRIVATE void gs__xpbd_block(gs__mesh *m, int kind, int a, int b, const int *s) {
+/* Appends a block whose lanes are springs s[0..lanes - 1]. */
+GS__PRIVATE void gs__xpbd_block(gs__mesh *m, int kind, int a, int b, const int *s, int lanes) {
     size_t ns = gs__soa_stride((size_t)m->ns);
     struct gs__xblk *k = &m->xblk[m->nxblk++];
-    int q, lanes = kind == GS__XB_ONE ? 1 : 4, at = k == m->xblk ? 0 : k[-1].s +
-                                              (k[-1].kind == GS__XB_ONE ? 1 : 4);
+    int q, at = k == m->xblk ? 0 : k[-1].s + k[-1].lanes;
     k->kind = kind; k->a = a; k->b = b; k->s = at; k->count = 1; k->lanes = lanes;
     for (q = 0; q < lanes; ++q) {
         const gs__spring *sp = &m->springs[s[q]];
@@ -4737,18 +4850,18 @@ GS__PRIVATE void gs__xpbd_block(gs__mesh *m, int kind, int a, int b, const int *
     }
 }
 
-/* Springs s0 + j, j = j0, j0 + step.., of run u: in fours with ends
-   contiguous (SPAN, step 1), then the rest one by one. */
+/* Springs s0 + j, j = j0..j1 - 1, of run u: in fours with ends
+   contiguous (SPAN), then the rest as one TAIL block (one by one where
+   the run is serial, j1 = j0 + 1: ONE). */
 GS__PRIVATE void gs__xpbd_span(gs__mesh *m, const gs__run *u, int j0, int j1) {
     int j = j0, s[4], q;
     for (; j + 3 < j1; j += 4) {
         for (q = 0; q < 4; ++q) s[q] = u->s0 + j + q;
-        gs__xpbd_block(m, GS__XB_SPAN, u->a0 + j, u->a0 + u->off + j, s);
+        gs__xpbd_block(m, GS__XB_SPAN, u->a0 + j, u->a0 + u->off + j, s, 4);
     }
-    for (; j < j1; ++j) {
-        s[0] = u->s0 + j;
-        gs__xpbd_block(m, GS__XB_ONE, u->a0 + j, u->a0 + u->off + j, s);
-    }
+    if (j == j1) return;
+    for (q = 0; j + q < j1; ++q) s[q] = u->s0 + j + q;
+    gs__xpbd_block(m, j1 - j0 == 1 ? GS__XB_ONE : GS__XB_TAIL, u->a0 + j, u->a0 + u->off + j, s, q);
 }
 
 /* Offset 1 or 2: the springs of one parity class (cls = 0, 1) of run u. */
@@ -4763,12 +4876,28 @@ GS__PRIVATE void gs__xpbd_parity(gs__mesh *m, const gs__run *u, int cls) {
             gs__xblk_lane(m, &probe, 0, q, &a, &b);
             s[q] = u->s0 + (a - u->a0);
         }
-        gs__xpbd_block(m, probe.kind, probe.a, 0, s);
+        gs__xpbd_block(m, probe.kind, probe.a, 0, s, 4);
+    }
+    if (j < u->len) { /* the rest as one short block where its lanes come first */
+        struct gs__xblk probe;
+        int lanes = 0, more = 0;
+        probe.kind = off == 1 ? GS__XB_PAIRS : GS__XB_DUOS;
+        probe.a = u->a0 + j;
+        probe.b = 0;
+        for (q = 0; q < 4; ++q) {
+            gs__xblk_lane(m, &probe, 0, q, &a, &b);
+            if (a - u->a0 < u->len && q == lanes) s[lanes++] = u->s0 + (a - u->a0);
+            else if (a - u->a0 < u->len) more = 1;
+        }
+        if (!more) {
+            gs__xpbd_block(m, probe.kind, probe.a, 0, s, lanes);
+            return;
+        }
     }
     for (; j < u->len; j += per)
         for (q = 0; q < off && j + q < u->len; ++q) {
             s[0] = u->s0 + j + q;
-            gs__xpbd_block(m, GS__XB_ONE, u->a0 + j + q, u->a0 + j + q + off, s);
+            gs__xpbd_block(m, GS__XB_ONE, u->a0 + j + q, u->a0 + j + q + off, s, 1);
         }
 }
 
@@ -4780,7 +4909,8 @@ GS__PRIVATE void gs__xpbd_merge(gs__mesh *m) {
         struct gs__xblk *p = &m->xblk[o];
         const struct gs__xblk *k = &m->xblk[i];
         int step = k->kind == GS__XB_SPAN ? 4 : 8;
-        if (k->kind != GS__XB_ONE && k->kind == p->kind && k->a == p->a + step * p->count &&
+        if (k->lanes == 4 && p->lanes == 4 && k->kind == p->kind &&
+            k->a == p->a + step * p->count &&
             (k->kind != GS__XB_SPAN || k->b == p->b + 4 * p->count) &&
             k->s == p->s + 4 * p->count)
             p->count++;
@@ -4793,7 +4923,7 @@ GS__PRIVATE void gs__xpbd_merge(gs__mesh *m) {
 /* Lanes i.. of entry k have the same k, c and rest bits. */
 GS__PRIVATE int gs__xpbd_uniform(const gs__mesh *m, const struct gs__xblk *k) {
     size_t ns = gs__soa_stride((size_t)m->ns);
-    int i, n = k->kind == GS__XB_GATHER || k->kind == GS__XB_ONE ? 0 : 4 * k->count;
+    int i, n = k->kind != GS__XB_GATHER && k->lanes == 4 ? 4 * k->count : 0;
     const double *sp = m->xsp + k->s;
     for (i = 1; i < n; ++i)
         if (memcmp(&sp[i], &sp[0], sizeof *sp) || memcmp(&sp[ns + (size_t)i], &sp[ns], sizeof *sp) ||
@@ -4876,9 +5006,6 @@ GS__PRIVATE void gs__xpbd_one(double *X, const double *P, size_t st, const doubl
 }
 
 #ifdef GS__MESH_AVX
-/* Inlined whatever the optimizer thinks: out of line, each block's
-   sixteen vectors go through memory (a third of the pass, measured). */
-#define GS__XINLINE __attribute__((target("avx"), always_inline, unused)) static inline
 /* A block's lanes of array p, and back (gs__xblk_lane's layouts). */
 GS__XINLINE void gs__xld4(const double *p, int kind, int a,
                                                          int b, __m256d *va, __m256d *vb) {
@@ -4959,17 +5086,24 @@ GS__XINLINE void gs__xpbd_core4(gs__x4 *e, const gs__xk4 *q) {
     e->bz = _mm256_add_pd(e->bz, _mm256_mul_pd(sb, dz));
 }
 
+/* A block's ends and their start positions (all of gs__x4 but the
+   inverse masses). */
+GS__XINLINE void gs__xpbd_ld4(const double *X, const double *P, size_t st, int kind, int a, int b,
+                              gs__x4 *e) {
+    gs__xld4(X, kind, a, b, &e->ax, &e->bx);
+    gs__xld4(X + st, kind, a, b, &e->ay, &e->by);
+    gs__xld4(X + 2 * st, kind, a, b, &e->az, &e->bz);
+    gs__xld4(P, kind, a, b, &e->pax, &e->pbx);
+    gs__xld4(P + st, kind, a, b, &e->pay, &e->pby);
+    gs__xld4(P + 2 * st, kind, a, b, &e->paz, &e->pbz);
+}
+
 /* gs__xpbd_one for the four lanes of a block of `kind` (a constant where
    it is inlined). */
 GS__XINLINE void gs__xpbd_four(double *X, const double *P, size_t st, const double *im,
                                int kind, int a, int b, const gs__xk4 *q) {
     gs__x4 e;
-    gs__xld4(X, kind, a, b, &e.ax, &e.bx);
-    gs__xld4(X + st, kind, a, b, &e.ay, &e.by);
-    gs__xld4(X + 2 * st, kind, a, b, &e.az, &e.bz);
-    gs__xld4(P, kind, a, b, &e.pax, &e.pbx);
-    gs__xld4(P + st, kind, a, b, &e.pay, &e.pby);
-    gs__xld4(P + 2 * st, kind, a, b, &e.paz, &e.pbz);
+    gs__xpbd_ld4(X, P, st, kind, a, b, &e);
     gs__xld4(im, kind, a, b, &e.wa, &e.wb);
     gs__xpbd_core4(&e, q);
     gs__xst4(X, kind, a, b, e.ax, e.bx);
@@ -5031,6 +5165,49 @@ GS__XINLINE void gs__xpbd_gather4(double *X, const double *P, size_t st, const d
     }
 }
 
+/* gs__xld4 of an array of n elements: those past n load as zero. */
+GS__XINLINE void gs__xld4n(const double *p, int n, int kind, int a, int b, __m256d *va,
+                           __m256d *vb) {
+    __m256d q = _mm256_set_pd(3.0, 2.0, 1.0, 0.0), lim = _mm256_set1_pd(n);
+    int c = kind == GS__XB_SPAN ? b : a + 4;
+    __m256i ma = _mm256_castpd_si256(_mm256_cmp_pd(_mm256_add_pd(q, _mm256_set1_pd(a)), lim, _CMP_LT_OQ));
+    __m256i mc = _mm256_castpd_si256(_mm256_cmp_pd(_mm256_add_pd(q, _mm256_set1_pd(c)), lim, _CMP_LT_OQ));
+    __m256d v0 = _mm256_maskload_pd(p + a, ma), v1 = _mm256_maskload_pd(p + c, mc);
+    if (kind == GS__XB_SPAN) {
+        *va = v0;
+        *vb = v1;
+    } else if (kind == GS__XB_PAIRS) {
+        *va = _mm256_unpacklo_pd(v0, v1);
+        *vb = _mm256_unpackhi_pd(v0, v1);
+    } else {
+        *va = _mm256_permute2f128_pd(v0, v1, 0x20);
+        *vb = _mm256_permute2f128_pd(v0, v1, 0x31);
+    }
+}
+
+/* A block of `kind` with its first `lanes` lanes only (a TAIL, or the
+   last PAIRS or DUOS block of a parity class): the other lanes load
+   what lies there (a row's padding past n is zeros, the inverse masses
+   past n zero) and are stored back as they were loaded: blended, as
+   masked stores cost four times a block (measured). */
+GS__XINLINE void gs__xpbd_part4(double *X, const double *P, size_t st, const double *im, int n,
+                                const double *sp, size_t ns, int kind, int a, int b, int s,
+                                int lanes, double h) {
+    __m256d keep = _mm256_cmp_pd(_mm256_set_pd(3.0, 2.0, 1.0, 0.0), _mm256_set1_pd(lanes), _CMP_LT_OQ);
+    gs__xk4 kq;
+    gs__x4 e, o;
+    gs__xpbd_ld4(X, P, st, kind, a, b, &e);
+    gs__xld4n(im, n, kind, a, b, &e.wa, &e.wb);
+    kq = gs__xpbd_k4(_mm256_loadu_pd(sp + s), _mm256_loadu_pd(sp + ns + s),
+                     _mm256_loadu_pd(sp + 2 * ns + s), _mm256_set1_pd(h));
+    o = e;
+    gs__xpbd_core4(&e, &kq);
+    gs__xst4(X, kind, a, b, _mm256_blendv_pd(o.ax, e.ax, keep), _mm256_blendv_pd(o.bx, e.bx, keep));
+    gs__xst4(X + st, kind, a, b, _mm256_blendv_pd(o.ay, e.ay, keep), _mm256_blendv_pd(o.by, e.by, keep));
+    gs__xst4(X + 2 * st, kind, a, b, _mm256_blendv_pd(o.az, e.az, keep),
+             _mm256_blendv_pd(o.bz, e.bz, keep));
+}
+
 GS__XINLINE void gs__xpbd_blocks4(gs__mesh *m, double h) {
     size_t st = gs__soa_stride((size_t)m->n), ns = gs__soa_stride((size_t)m->ns);
     double *X = m->soa;
@@ -5044,13 +5221,22 @@ GS__XINLINE void gs__xpbd_blocks4(gs__mesh *m, double h) {
             gs__xpbd_entry4(X, P, st, im, sp, ns, GS__XB_SPAN, k->a, k->b, k->s, k->count, k->uni, h);
             break;
         case GS__XB_PAIRS:
-            gs__xpbd_entry4(X, P, st, im, sp, ns, GS__XB_PAIRS, k->a, 0, k->s, k->count, k->uni, h);
+            if (k->lanes < 4)
+                gs__xpbd_part4(X, P, st, im, m->n, sp, ns, GS__XB_PAIRS, k->a, 0, k->s, k->lanes, h);
+            else
+                gs__xpbd_entry4(X, P, st, im, sp, ns, GS__XB_PAIRS, k->a, 0, k->s, k->count, k->uni, h);
             break;
         case GS__XB_DUOS:
-            gs__xpbd_entry4(X, P, st, im, sp, ns, GS__XB_DUOS, k->a, 0, k->s, k->count, k->uni, h);
+            if (k->lanes < 4)
+                gs__xpbd_part4(X, P, st, im, m->n, sp, ns, GS__XB_DUOS, k->a, 0, k->s, k->lanes, h);
+            else
+                gs__xpbd_entry4(X, P, st, im, sp, ns, GS__XB_DUOS, k->a, 0, k->s, k->count, k->uni, h);
             break;
         case GS__XB_GATHER:
             gs__xpbd_gather4(X, P, st, im, sp, ns, m->xgi + k->b, k->lanes, k->s, h);
+            break;
+        case GS__XB_TAIL:
+            gs__xpbd_part4(X, P, st, im, m->n, sp, ns, GS__XB_SPAN, k->a, k->b, k->s, k->lanes, h);
             break;
         default: gs__xpbd_one(X, P, st, im, sp + k->s, ns, k->a, k->b, h); break;
         }
@@ -5064,7 +5250,9 @@ __attribute__((target("avx"))) GS__PRIVATE void gs__xpbd_blocks_avx(gs__mesh *m,
 /* The same four-wide operations where the CPU has AVX-512VL: its 32
    vector registers hold a block's sixteen vectors and constants, which
    sixteen registers cannot (a fifth of the AVX loop is spills and
-   reloads, measured). */
+   reloads, measured). Eight lanes (zmm) gain nothing: the pass is bound
+   by the square roots and divisions, which cost twice as much at twice
+   the width (docs/performance-notes.md). */
 __attribute__((target("avx512f,avx512vl"))) GS__PRIVATE void gs__xpbd_blocks_avx512(gs__mesh *m,
                                                                                   double h) {
     gs__xpbd_blocks4(m, h);
@@ -5139,7 +5327,10 @@ GS__PRIVATE void gs__xpbd_predict1(gs__mesh *m, size_t i, gs_vec3 x, gs_vec3 v0,
     PX[i] = x.x; PY[i] = x.y; PZ[i] = x.z;
 }
 
-GS__PRIVATE void gs__fin_box(gs__mesh *m, size_t k, const double *lo, const double *hi,
+/* Inlined, so that gs__xpbd_fin4 calls nothing out of line: called from
+   there, an SSE-encoded copy after its AVX loop stalled and took two
+   fifths of the substep's end (measured). */
+GS__PRIVATE_INLINE void gs__fin_box(gs__mesh *m, size_t k, const double *lo, const double *hi,
                              double vm, gs__fin *f) {
     int c;
     m->clo[k] = gs__v3(lo[0], lo[1], lo[2]);
@@ -5181,39 +5372,11 @@ GS__PRIVATE void gs__xpbd_fin1(gs__mesh *m, size_t i, size_t end, size_t k, doub
 }
 
 #ifdef GS__MESH_AVX
-/* The largest (smallest) of four lanes, as the scalar loop's comparisons
-   take them (a NaN lane is dropped as there). */
-__attribute__((target("avx"))) GS__PRIVATE double gs__hmax4(__m256d v) {
-    double t[4], r;
-    int q;
-    _mm256_storeu_pd(t, v);
-    for (r = t[0], q = 1; q < 4; ++q) r = t[q] > r ? t[q] : r;
-    return r;
-}
-__attribute__((target("avx"))) GS__PRIVATE double gs__hmin4(__m256d v) {
-    double t[4], r;
-    int q;
-    _mm256_storeu_pd(t, v);
-    for (r = t[0], q = 1; q < 4; ++q) r = t[q] < r ? t[q] : r;
-    return r;
-}
-
-/* Four particles' x, y, z lanes as 12 doubles x0 y0 z0 x1 .. z3 at p. */
-GS__XINLINE void gs__st_aos4(double *p, __m256d x, __m256d y, __m256d z) {
-    __m256d t0 = _mm256_unpacklo_pd(x, y);          /* x0 y0 | x2 y2 */
-    __m256d u = _mm256_shuffle_pd(z, x, 0xA);       /* z0 x1 | z2 x3 */
-    __m256d w = _mm256_shuffle_pd(y, z, 0xF);       /* y1 z1 | y3 z3 */
-    _mm256_storeu_pd(p, _mm256_permute2f128_pd(t0, u, 0x20));
-    _mm256_storeu_pd(p + 4, _mm256_permute2f128_pd(w, t0, 0x30));
-    _mm256_storeu_pd(p + 8, _mm256_permute2f128_pd(u, w, 0x31));
-}
-
 /* gs__xpbd_fin1 four particles at a time over whole boxes: the same xn,
    vn and boxes; the speed and the sum are per lane, which changes
    neither check's outcome (the sum only asks "finite?", and its terms
    are within GS_MAX_COORD). */
-__attribute__((target("avx"))) GS__PRIVATE void gs__xpbd_fin4(gs__mesh *m, size_t i, size_t k,
-                                                              double ih, gs__fin *f) {
+GS__XINLINE void gs__xpbd_fin4(gs__mesh *m, size_t i, size_t k, double ih, gs__fin *f) {
     size_t st = gs__soa_stride((size_t)m->n), end = i + GS__CHUNK;
     double *X = m->soa, *Y = X + st, *Z = Y + st, *PX = Z + st, *PY = PX + st, *PZ = PY + st;
     __m256d hv = _mm256_set1_pd(ih), sign = _mm256_set1_pd(-0.0), w2 = _mm256_set1_pd(f->w2);
@@ -5263,6 +5426,19 @@ __attribute__((target("avx"))) GS__PRIVATE void gs__xpbd_fin4(gs__mesh *m, size_
     lo[0] = gs__hmin4(lx); lo[1] = gs__hmin4(ly); lo[2] = gs__hmin4(lz);
     hi[0] = gs__hmax4(hx); hi[1] = gs__hmax4(hy); hi[2] = gs__hmax4(hz);
     gs__fin_box(m, k, lo, hi, gs__hmax4(vm), f);
+}
+
+__attribute__((target("avx"))) GS__PRIVATE void gs__xpbd_fin_avx(gs__mesh *m, size_t i, size_t k,
+                                                                 double ih, gs__fin *f) {
+    gs__xpbd_fin4(m, i, k, ih, f);
+}
+
+/* The same where the CPU has AVX-512VL: its 32 registers hold the
+   loop's fourteen accumulators and constants without spills. */
+__attribute__((target("avx512f,avx512vl"))) GS__PRIVATE void gs__xpbd_fin_avx512(gs__mesh *m, size_t i,
+                                                                                size_t k, double ih,
+                                                                                gs__fin *f) {
+    gs__xpbd_fin4(m, i, k, ih, f);
 }
 #endif
 
@@ -5322,7 +5498,10 @@ GS__PRIVATE void gs__int_xpbd_blocks(gs__mesh *m, double h) {
     for (k = 0, i = 0; i < n; ++k, i += GS__CHUNK) { /* box by box (gs__mesh_chunks) */
 #ifdef GS__MESH_AVX
         if (m->avx && i + GS__CHUNK <= n) {
-            gs__xpbd_fin4(m, i, k, ih, &f);
+            if (m->avx > 1)
+                gs__xpbd_fin_avx512(m, i, k, ih, &f);
+            else
+                gs__xpbd_fin_avx(m, i, k, ih, &f);
             continue;
         }
 #endif
