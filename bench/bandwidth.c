@@ -7,8 +7,12 @@
      paper-push   the paper's scene (16x16 cloth, 3 spheres, 2 probes),
                   each host driving its probe along gs_scene_probe_path
      paper-rest   the same scene with the probes parked above the cloth
-                  from the start; measured after 4 s (2 s quick) of
-                  settling, over the next 4 s (2 s)
+                  from the start; measured after 20 s (1 s quick) of
+                  settling, over the next 4 s (1 s): the spheres land on
+                  the cloth and roll and sink for about 7 s, and the cloth
+                  creeps under them (by more than the rest threshold, 0.1
+                  mm, per frame) until about 16 s (docs/sync-notes.md), so
+                  that a shorter settle measures a scene still settling
      cloth64-push the scene with a 64x64 cloth and no spheres, probes
                   pushing
      spheres900   900 spheres in a 30 x 30 grid, no gravity, no contacts
@@ -25,7 +29,9 @@
    over 1 s, and times f64, quant and quant+delta only (the cloth64 and
    spheres900 rows take minutes: a 64x64 cloth settles 3 s at creation on
    each host, and 900 ghosts are looked up linearly per chunk); their rows
-   are then null.
+   are then null. --scene NAME runs that scene alone (every encoding,
+   --quick's aside) and leaves the CPU timing out: the others' rows and the
+   CPU figures are then null.
 
    Figures: kbit/s that host 1 sent to host 2 (its gs_peer_stats
    bytes_sent, datagram bytes, no UDP/IP headers) over the measured span;
@@ -212,7 +218,7 @@ static result run_scene(int scene, int enc, int quick) {
     gs_simnet_desc smd;
     gs_net_desc nd;
     gs_peer_stats a, b;
-    double settle = scene == SC_PAPER_REST ? (quick ? 1.0 : 4.0) : (quick ? 0.25 : 1.0);
+    double settle = scene == SC_PAPER_REST ? (quick ? 1.0 : 20.0) : (quick ? 0.25 : 1.0);
     double span = scene == SC_CLOTH64 || scene == SC_SPHERES ? 2.0 : quick ? 1.0 : 4.0;
     double t = 0.0, wall0 = 0.0, div = 0.0;
     int i, frames = 0;
@@ -361,21 +367,44 @@ static int cpu_only(void) {
     return 0;
 }
 
+/* Takes --scene NAME out of argv (bu_parse_args knows the common flags
+   only): the scene's index, SC_COUNT for all, -1 for a name unknown. */
+static int scene_arg(int *argc, char **argv) {
+    int i, k, s;
+    for (i = 1; i + 1 < *argc; ++i) {
+        if (strcmp(argv[i], "--scene") != 0) continue;
+        const char *name = argv[i + 1];
+        for (s = 0; s < SC_COUNT && strcmp(name, sc_name[s]) != 0; ++s) {}
+        if (s == SC_COUNT) {
+            fprintf(stderr, "bandwidth: unknown scene '%s' (paper-push, paper-rest, "
+                    "cloth64-push, spheres900)\n", name);
+            return -1;
+        }
+        for (k = i; k + 2 < *argc; ++k) argv[k] = argv[k + 2];
+        *argc -= 2;
+        return s;
+    }
+    return SC_COUNT;
+}
+
 int main(int argc, char **argv) {
     bu_args args;
     bu_json *j;
     result r[SC_COUNT][ENC_COUNT];
     double eu[ENC_COUNT], du[ENC_COUNT], by[ENC_COUNT];
-    int s, e, rc;
+    int only, s, e, rc;
     if (argc == 2 && strcmp(argv[1], "--cpu") == 0) return cpu_only();
+    only = scene_arg(&argc, argv);
+    if (only < 0) return 2;
     rc = bu_parse_args(argc, argv, "bandwidth", &args);
     if (rc) return rc < 0 ? 2 : 0;
     fprintf(stderr, "%-13s %-11s %12s %12s %11s %11s %12s %10s\n", "scene", "encoding",
             "kbit/s/host", "kbit/s/obj", "div@t mean", "div@t p95", "div-vs-snap", "target");
     for (s = 0; s < SC_COUNT; ++s)
         for (e = 0; e < ENC_COUNT; ++e) {
-            if (args.quick && (s == SC_CLOTH64 || s == SC_SPHERES || e == ENC_F32 ||
-                               e == ENC_QUANT || e == ENC_DELTA_REST || e == ENC_PREDICT)) {
+            if ((only != SC_COUNT && s != only) ||
+                (args.quick && (s == SC_CLOTH64 || s == SC_SPHERES || e == ENC_F32 ||
+                                e == ENC_QUANT || e == ENC_DELTA_REST || e == ENC_PREDICT))) {
                 memset(&r[s][e], 0, sizeof r[s][e]);
                 continue;
             }
@@ -389,7 +418,7 @@ int main(int argc, char **argv) {
     fprintf(stderr, "%-11s %10s %10s %10s\n", "encoding", "bytes", "encode us", "decode us");
     for (e = 0; e < ENC_COUNT; ++e) {
         if ((args.quick && e == ENC_F32) || e == ENC_QUANT_REST || e == ENC_DELTA_REST ||
-            e == ENC_PREDICT) {
+            e == ENC_PREDICT || only != SC_COUNT) {
             eu[e] = du[e] = by[e] = 0.0; /* send on change: the same encoders */
             continue;
         }
