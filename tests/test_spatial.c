@@ -25,12 +25,12 @@
 #include "wire_helpers.h"
 #include "delta_pair.h"
 
-/* Loss, duplicates and reordering, three seeds: spatial chunks flow and
+/* Loss, duplicates and reordering, two seeds: spatial chunks flow and
    every value queued is the sender's. */
 static void test_spatial_chain_lossy(void **state) {
     uint64_t seed;
     (void)state;
-    for (seed = 1; seed <= 3; ++seed) {
+    for (seed = 1; seed <= 2; ++seed) {
         pair *pr = (pair *)calloc(1, sizeof *pr);
         int f;
         assert_non_null(pr);
@@ -38,10 +38,10 @@ static void test_spatial_chain_lossy(void **state) {
         pr->loss = 0.15;
         pr->dup = 0.1;
         pr->reorder = 0.2;
-        for (f = 0; f < 240; ++f) frame(pr, 1);
+        for (f = 0; f < 150; ++f) frame(pr, 1);
         assert_int_equal(pr->mismatched, 0);
-        assert_true(pr->matched > 500);
-        assert_true(pr->spatial > 200); /* the cloth's 4 chunks a snapshot, most of them */
+        assert_true(pr->matched > 300);
+        assert_true(pr->spatial > 120); /* the cloth's 4 chunks a snapshot, most of them */
         pair_free(pr);
         free(pr);
     }
