@@ -345,7 +345,9 @@
                            acknowledged baselines (gs_ghost_desc.delta,
                            GS_REJECT_BASELINE); compact chunk headers coded
                            against the chunk before, lengths implied, a
-                           Rice coding of deltas.
+                           Rice coding of deltas, and a spatial one (a
+                           cloth's differences less the median edge
+                           prediction from its neighbours in the chunk).
                            One way to make a net: gs_net_create on a
                            gs_transport (gs_simnet_transport,
                            gs_udp_create + gs_udp_transport, or yours);
@@ -1844,8 +1846,11 @@ GS_API gs_result gs_wire_decode(const unsigned char *buf, size_t size,
    c->baseline the baseline's sequence, older than c->sequence by 1..2^31)
    of c->elements (1..GS_WIRE_QUANT_CHUNK, a quantized chunk's most)
    integer differences from the baseline (see >>wire; each within
-   +-2^31); c->segments are not used. The coding is whichever is
-   smaller (Rice when predicted). Errors as gs_wire_add's; GS_ERR_INVALID_ARG for a difference
+   +-2^31). c->delta_row in 1..GS_WIRE_SPATIAL_ROW tries the spatial
+   coding (3) too, its neighbours starting again at the second of
+   c->segment_count segments (c->segments' kinds and counts; none else
+   read). The coding is whichever is smaller (Rice or spatial when
+   predicted). Errors as gs_wire_add's; GS_ERR_INVALID_ARG for a difference
    out of range. */
 GS_API gs_result gs_wire_add_delta(unsigned char *buf, size_t cap, size_t *size,
                                    const gs_wire_chunk *c, const int64_t *diff);
@@ -1854,7 +1859,9 @@ GS_API gs_result gs_wire_add_delta(unsigned char *buf, size_t cap, size_t *size,
 GS_API gs_result gs_wire_add_ack(unsigned char *buf, size_t cap, size_t *size, uint32_t to,
                                  const gs_wire_ack *acks, int n);
 /* The differences of a decoded delta chunk (c->elements), in steps (from
-   the prediction if c->flags has GS_WIRE_CHUNK_PREDICT). */
+   the prediction if c->flags has GS_WIRE_CHUNK_PREDICT), the spatial
+   coding's already added up (a hostile one may leave +-2^31: a receiver
+   refuses it). */
 GS_API void gs_wire_deltas(const gs_wire_chunk *c, int64_t *out);
 /* The entries of a decoded acknowledgement chunk into out (room for max);
    returns how many were written. */

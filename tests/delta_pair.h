@@ -181,4 +181,19 @@ static GS_TEST_UNUSED uint64_t refused(pair *pr, int host) {
     return st.rejected[GS_REJECT_BASELINE];
 }
 
+/* A pair of seed `seed` run `frames` frames with the probes pushing over
+   a bad link: 15% of datagrams lost, 10% duplicated, 20% held back to the
+   next round. The caller checks it, then pair_free and free. */
+static GS_TEST_UNUSED pair *pair_lossy(uint64_t seed, int frames) {
+    pair *pr = (pair *)calloc(1, sizeof *pr);
+    int f;
+    assert_non_null(pr);
+    pair_make(pr, seed);
+    pr->loss = 0.15;
+    pr->dup = 0.1;
+    pr->reorder = 0.2;
+    for (f = 0; f < frames; ++f) frame(pr, 1);
+    return pr;
+}
+
 #endif

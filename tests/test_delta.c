@@ -37,14 +37,7 @@ static void test_delta_chain_lossy(void **state) {
     uint64_t seed;
     (void)state;
     for (seed = 1; seed <= 3; ++seed) {
-        pair *pr = (pair *)calloc(1, sizeof *pr);
-        int f;
-        assert_non_null(pr);
-        pair_make(pr, seed);
-        pr->loss = 0.15;
-        pr->dup = 0.1;
-        pr->reorder = 0.2;
-        for (f = 0; f < 240; ++f) frame(pr, 1);
+        pair *pr = pair_lossy(seed, 240);
         assert_int_equal(pr->mismatched, 0);
         assert_true(pr->matched > 500);
         assert_true(pr->deltas > 300);

@@ -31,14 +31,7 @@ static void test_spatial_chain_lossy(void **state) {
     uint64_t seed;
     (void)state;
     for (seed = 1; seed <= 2; ++seed) {
-        pair *pr = (pair *)calloc(1, sizeof *pr);
-        int f;
-        assert_non_null(pr);
-        pair_make(pr, seed);
-        pr->loss = 0.15;
-        pr->dup = 0.1;
-        pr->reorder = 0.2;
-        for (f = 0; f < 150; ++f) frame(pr, 1);
+        pair *pr = pair_lossy(seed, 150);
         assert_int_equal(pr->mismatched, 0);
         assert_true(pr->matched > 300);
         assert_true(pr->spatial > 120); /* the cloth's 4 chunks a snapshot, most of them */
