@@ -25,12 +25,12 @@
 #include "wire_helpers.h"
 #include "delta_pair.h"
 
-/* Loss, duplicates and reordering, two seeds: spatial chunks flow and
+/* Loss, duplicates and reordering (test_delta.c runs three seeds of it): spatial chunks flow and
    every value queued is the sender's. */
 static void test_spatial_chain_lossy(void **state) {
     uint64_t seed;
     (void)state;
-    for (seed = 1; seed <= 2; ++seed) {
+    for (seed = 1; seed <= 1; ++seed) {
         pair *pr = pair_lossy(seed, 150);
         assert_int_equal(pr->mismatched, 0);
         assert_true(pr->matched > 300);
@@ -139,7 +139,7 @@ static void test_spatial_wire(void **state) {
     assert_true(with < size);
 }
 
-/* Bytes host 1 sent over 120 frames of a pushed 12x12 cloth on a perfect
+/* Bytes host 1 sent over 60 frames of a pushed 12x12 cloth on a perfect
    link, with its ghosts' spatial coding tried or (row 0) not. */
 static uint64_t pushed_bytes(int spatial) {
     pair *pr = (pair *)calloc(1, sizeof *pr);
@@ -152,7 +152,7 @@ static uint64_t pushed_bytes(int spatial) {
         gs__ghost *g = gs__ghost_of(pr->w[0]->agents[i]);
         if (g) g->row = 0;
     }
-    for (f = 0; f < 120; ++f) frame(pr, 1);
+    for (f = 0; f < 60; ++f) frame(pr, 1);
     assert_int_equal(pr->mismatched, 0);
     assert_int_equal(gs_net_peer_stats(pr->net[0], 2, &st), GS_OK);
     bytes = st.bytes_sent;
