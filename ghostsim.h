@@ -1016,6 +1016,18 @@ typedef struct gs_rigid_desc {
                               plane (rolling / radius is the usual
                               coefficient). Without it a ball that rolls
                               off onto the ground rolls for ever. Default 0 */
+    double spin_friction;  /* m, >= 0; torsional friction: at each contact
+                              a torque of up to spin_friction * N against
+                              the body's spin about the contact normal
+                              relative to what it touches. A real contact
+                              is a patch, not a point: Coulomb friction mu
+                              over a disc of radius a under even pressure
+                              resists a spin with (2/3) mu a N, so this is
+                              about (2/3) mu a. Without it nothing opposes a
+                              spin about the normal (rolling resistance
+                              acts about the contact plane's axes) and a
+                              settled ball keeps its yaw rate for ever.
+                              Default 0 (the contacts are points) */
 } gs_rigid_desc;
 
 /* A kinematic body the application moves: nothing pushes it back. */
@@ -1339,7 +1351,13 @@ typedef struct gs_ghost_desc {
                               heartbeats of a rest, so that one loss does
                               not leave a peer a stale state. Default 0:
                               every published state is sent */
-    double heartbeat_rate; /* Hz of wall time while at rest; default 4 */
+    double heartbeat_rate; /* Hz of wall time while at rest; default 4.
+                              Heartbeats go at the multiples of the period
+                              on the net's clock (not each ghost's own
+                              phase), so that a net's resting ghosts of one
+                              rate beat in the same gs_net_update and share
+                              one datagram: a scene at rest sends this many
+                              datagrams a second to each peer */
     double importance;     /* > 0; when a peer's bandwidth budget cannot
                               carry every ghost due, ghosts go by priority:
                               the wall time since each was last sent times
@@ -1644,7 +1662,10 @@ GS_API gs_result gs_world_sync_test(gs_world *w, int frames, int *bad_agent);
        + refused, and zigzag(sequence - the previous entry's, from 0). An
        entry tells the newest snapshot of that object the sender of the
        chunk holds whole (every chunk), or with refused = 1 that it
-       refused a delta of it: the next goes whole.
+       refused a delta of it: the next goes whole. Not every snapshot is
+       acknowledged: a host with nothing else to send holds its
+       acknowledgements a while (see gs_net_update); the sender codes
+       against the newest it heard.
    v1 and v2 datagrams are refused as GS_REJECT_OLD_VERSION.
    A snapshot too big for one datagram is cut into chunks that each stand
    alone: a lost chunk leaves its range unblended, the rest still counts.
@@ -2106,7 +2127,13 @@ GS_API gs_result gs_net_remove_peer(gs_net *net, uint32_t host);
    stepped back goes on sending) and counted: gs_peer_stats.clock_backwards,
    and the health GS_PEER_CLOCK_BACK until the clock is past its old
    reading again. Call it once a frame, after gs_world_advance (see THE
-   FRAME LOOP at the top). GS_ERR_BUSY from the send callback. */
+   FRAME LOOP at the top). GS_ERR_BUSY from the send callback.
+   Acknowledgements of delta snapshots received (see >>wire, kind 3) ride
+   a datagram that goes anyway; when nothing else would go (this host's
+   ghosts at rest) they are held until one has waited its ghost's
+   heartbeat period or 4 (GS_DELTA_RING / 4) snapshots of one ghost wait,
+   which bounds how far behind the peer's delta baseline falls; a refusal
+   goes at once. */
 GS_API gs_result gs_net_update(gs_net *net, double now);
 /* The frame's network call for a transport that needs one (gs_udp; any
    with a poll): the transport's poll delivers what waits (gs_udp in poll
@@ -3903,13 +3930,15 @@ typedef struct gs__run {
     int s0, a0, off, len; /* springs s0.., particles a0.. and a0 + off.. */
 } gs__run;
 
-/* One block of the XPBD pass: four springs, or one (GS__XB_ONE), whose
-   ends lie in the transposed copy as `kind` says (gs__xblk_lane). */
-enum { GS__XB_SPAN, GS__XB_PAIRS, GS__XB_DUOS, GS__XB_ONE, GS__XB_GATHER };
+/* One block of the XPBD pass: four springs, or one (GS__XB_ONE), or the
+   one to three at the end of a segment (GS__XB_TAIL: SPAN's layout, its
+   lanes past `lanes` left out), whose ends lie in the transposed copy as
+   `kind` says (gs__xblk_lane). */
+enum { GS__XB_SPAN, GS__XB_PAIRS, GS__XB_DUOS, GS__XB_ONE, GS__XB_GATHER, GS__XB_TAIL };
 struct gs__xblk {
     int kind, a, b, s; /* first end a, first end b, first k/c/rest in xsp */
     int count;         /* blocks of four in a row, each next to the last */
-    int lanes;         /* springs a block: 4, ONE 1, GATHER 1..4 (its
+    int lanes;         /* springs a block: 4, ONE 1, TAIL 1..3, GATHER 1..4 (its
                           ends in xgi from b: a0 b0 a1 b1 ..) */
     int uni;           /* every lane has the same k, c, rest (a cloth's
                           family): the kernel holds them in registers */
@@ -4198,6 +4227,47 @@ GS__PRIVATE void gs__int_explicit_euler(gs__mesh *m, double h) {
 /* ---- symplectic Euler over runs of springs (see gs__mesh.runs) ---- */
 
 #ifdef GS__MESH_AVX
+/* Inlined whatever the optimizer thinks: out of line, each block's
+   sixteen vectors go through memory (a third of the pass, measured). */
+#define GS__XINLINE __attribute__((target("avx"), always_inline, unused)) static inline
+/* The largest (smallest) of four lanes, as the scalar loop's comparisons
+   take them (a NaN lane is dropped as there). */
+GS__XINLINE double gs__hmax4(__m256d v) {
+    double t[4], r;
+    int q;
+    _mm256_storeu_pd(t, v);
+    for (r = t[0], q = 1; q < 4; ++q) r = t[q] > r ? t[q] : r;
+    return r;
+}
+GS__XINLINE double gs__hmin4(__m256d v) {
+    double t[4], r;
+    int q;
+    _mm256_storeu_pd(t, v);
+    for (r = t[0], q = 1; q < 4; ++q) r = t[q] < r ? t[q] : r;
+    return r;
+}
+
+/* Four particles' x, y, z lanes as 12 doubles x0 y0 z0 x1 .. z3 at p. */
+GS__XINLINE void gs__st_aos4(double *p, __m256d x, __m256d y, __m256d z) {
+    __m256d t0 = _mm256_unpacklo_pd(x, y);          /* x0 y0 | x2 y2 */
+    __m256d u = _mm256_shuffle_pd(z, x, 0xA);       /* z0 x1 | z2 x3 */
+    __m256d w = _mm256_shuffle_pd(y, z, 0xF);       /* y1 z1 | y3 z3 */
+    _mm256_storeu_pd(p, _mm256_permute2f128_pd(t0, u, 0x20));
+    _mm256_storeu_pd(p + 4, _mm256_permute2f128_pd(w, t0, 0x30));
+    _mm256_storeu_pd(p + 8, _mm256_permute2f128_pd(u, w, 0x31));
+}
+
+/* The inverse: 12 doubles at p as four particles' x, y, z lanes. */
+GS__XINLINE void gs__ld_aos4(const double *p, __m256d *x, __m256d *y, __m256d *z) {
+    __m256d m0 = _mm256_loadu_pd(p), m1 = _mm256_loadu_pd(p + 4), m2 = _mm256_loadu_pd(p + 8);
+    __m256d t0 = _mm256_permute2f128_pd(m0, m1, 0x30); /* x0 y0 | x2 y2 */
+    __m256d t1 = _mm256_permute2f128_pd(m0, m2, 0x21); /* z0 x1 | z2 x3 */
+    __m256d t2 = _mm256_permute2f128_pd(m1, m2, 0x30); /* y1 z1 | y3 z3 */
+    *x = _mm256_shuffle_pd(t0, t1, 0xA);
+    *y = _mm256_shuffle_pd(t0, t2, 0x5);
+    *z = _mm256_shuffle_pd(t1, t2, 0xA);
+}
+
 /* gs__run_forces four springs at a time; returns how many it did. */
 __attribute__((target("avx"))) GS__PRIVATE int gs__run_forces4(const gs__mesh *m,
                                                                 const gs__run *r) {
@@ -4312,6 +4382,65 @@ GS__PRIVATE void gs__run_add(int avx, double *acc, const double *f, const double
     for (; j < len; ++j) acc[p0 + j] += f[j] * sign * im[p0 + j];
 }
 
+#ifdef GS__MESH_AVX
+/* gs__int_symplectic_runs's copy in, four particles at a time; returns
+   how many it did. */
+__attribute__((target("avx"))) GS__PRIVATE size_t gs__runs_in4(gs__mesh *m) {
+    size_t n = (size_t)m->n, st = gs__soa_stride(n), i;
+    double *X = m->soa, *Y = X + st, *Z = Y + st, *VX = Z + st, *VY = VX + st, *VZ = VY + st;
+    double *AX = VZ + st, *AY = AX + st, *AZ = AY + st;
+    gs_vec3 g = m->base.world->gravity;
+    __m256d gx = _mm256_set1_pd(g.x), gy = _mm256_set1_pd(g.y), gz = _mm256_set1_pd(g.z);
+    __m256d nair = _mm256_set1_pd(-m->air);
+    for (i = 0; i + 3 < n; i += 4) {
+        __m256d px, py, pz, vx, vy, vz;
+        gs__ld_aos4(&m->x[i].x, &px, &py, &pz);
+        gs__ld_aos4(&m->v[i].x, &vx, &vy, &vz);
+        _mm256_storeu_pd(X + i, px); _mm256_storeu_pd(Y + i, py); _mm256_storeu_pd(Z + i, pz);
+        _mm256_storeu_pd(VX + i, vx); _mm256_storeu_pd(VY + i, vy); _mm256_storeu_pd(VZ + i, vz);
+        _mm256_storeu_pd(AX + i, _mm256_add_pd(gx, _mm256_mul_pd(vx, nair)));
+        _mm256_storeu_pd(AY + i, _mm256_add_pd(gy, _mm256_mul_pd(vy, nair)));
+        _mm256_storeu_pd(AZ + i, _mm256_add_pd(gz, _mm256_mul_pd(vz, nair)));
+    }
+    return i;
+}
+
+/* gs__runs_update's loop four particles at a time; returns how many it
+   did, its largest speed^2, sum and bounds in r (w2, sum, lo xyz, hi
+   xyz), per lane as gs__xpbd_fin4 takes them. */
+__attribute__((target("avx"))) GS__PRIVATE size_t gs__runs_update4(gs__mesh *m, double h, double *r) {
+    size_t n = (size_t)m->n, st = gs__soa_stride(n), i;
+    const double *X = m->soa, *Y = X + st, *Z = Y + st, *VX = Z + st, *VY = VX + st, *VZ = VY + st;
+    const double *AX = VZ + st, *AY = AX + st, *AZ = AY + st;
+    double *xn = &m->xn[0].x, *vn = &m->vn[0].x;
+    __m256d hv = _mm256_set1_pd(h), w2 = _mm256_setzero_pd(), sum = w2, nan = w2;
+    __m256d lx = _mm256_set1_pd(HUGE_VAL), ly = lx, lz = lx, hx = _mm256_set1_pd(-HUGE_VAL), hy = hx, hz = hx;
+    for (i = 0; i + 3 < n; i += 4) {
+        __m256d vx = _mm256_add_pd(_mm256_loadu_pd(VX + i), _mm256_mul_pd(_mm256_loadu_pd(AX + i), hv));
+        __m256d vy = _mm256_add_pd(_mm256_loadu_pd(VY + i), _mm256_mul_pd(_mm256_loadu_pd(AY + i), hv));
+        __m256d vz = _mm256_add_pd(_mm256_loadu_pd(VZ + i), _mm256_mul_pd(_mm256_loadu_pd(AZ + i), hv));
+        __m256d px = _mm256_add_pd(_mm256_loadu_pd(X + i), _mm256_mul_pd(vx, hv));
+        __m256d py = _mm256_add_pd(_mm256_loadu_pd(Y + i), _mm256_mul_pd(vy, hv));
+        __m256d pz = _mm256_add_pd(_mm256_loadu_pd(Z + i), _mm256_mul_pd(vz, hv));
+        __m256d s2 = _mm256_add_pd(_mm256_add_pd(_mm256_mul_pd(vx, vx), _mm256_mul_pd(vy, vy)),
+                                   _mm256_mul_pd(vz, vz));
+        gs__st_aos4(vn + 3 * i, vx, vy, vz);
+        gs__st_aos4(xn + 3 * i, px, py, pz);
+        w2 = _mm256_max_pd(s2, w2);
+        nan = _mm256_or_pd(nan, _mm256_cmp_pd(s2, s2, _CMP_UNORD_Q));
+        sum = _mm256_add_pd(sum, _mm256_add_pd(_mm256_add_pd(px, py), pz));
+        lx = _mm256_min_pd(px, lx); ly = _mm256_min_pd(py, ly); lz = _mm256_min_pd(pz, lz);
+        hx = _mm256_max_pd(px, hx); hy = _mm256_max_pd(py, hy); hz = _mm256_max_pd(pz, hz);
+    }
+    r[0] = _mm256_movemask_pd(nan) ? NAN : gs__hmax4(w2);
+    r[1] = gs__hmax4(sum) + gs__hmin4(sum); /* a NaN or inf lane shows */
+    if (_mm256_movemask_pd(_mm256_cmp_pd(sum, sum, _CMP_UNORD_Q))) r[1] = NAN;
+    r[2] = gs__hmin4(lx); r[3] = gs__hmin4(ly); r[4] = gs__hmin4(lz);
+    r[5] = gs__hmax4(hx); r[6] = gs__hmax4(hy); r[7] = gs__hmax4(hz);
+    return i;
+}
+#endif
+
 /* The update into (xn, vn), with gs__mesh_sane's checks and bounds in the
    same pass (a pinned particle comes out where it was, at rest, as the
    substep's pin pass will set it). */
@@ -4321,7 +4450,15 @@ GS__PRIVATE void gs__runs_update(gs__mesh *m, double h) {
     const double *AX = VZ + st, *AY = AX + st, *AZ = AY + st;
     double vmax2 = m->solver.max_speed * m->solver.max_speed, sum = 0.0, w2 = 0.0;
     double lx = HUGE_VAL, ly = HUGE_VAL, lz = HUGE_VAL, hx = -HUGE_VAL, hy = -HUGE_VAL, hz = -HUGE_VAL;
-    for (i = 0; i < n; ++i) {
+    i = 0;
+#ifdef GS__MESH_AVX
+    if (m->avx) {
+        double r[8];
+        i = gs__runs_update4(m, h, r);
+        w2 = r[0]; sum = r[1]; lx = r[2]; ly = r[3]; lz = r[4]; hx = r[5]; hy = r[6]; hz = r[7];
+    }
+#endif
+    for (; i < n; ++i) {
         double vx = VX[i] + AX[i] * h, vy = VY[i] + AY[i] * h, vz = VZ[i] + AZ[i] * h;
         double px = X[i] + vx * h, py = Y[i] + vy * h, pz = Z[i] + vz * h;
         double s2 = vx * vx + vy * vy + vz * vz;
@@ -4353,7 +4490,11 @@ GS__PRIVATE void gs__int_symplectic_runs(gs__mesh *m, double h) {
     const double *F = m->sp_soa + 3 * ns, *im = m->inv_mass;
     gs_vec3 g = m->base.world->gravity;
     int r;
-    for (i = 0; i < n; ++i) {
+    i = 0;
+#ifdef GS__MESH_AVX
+    if (m->avx) i = gs__runs_in4(m);
+#endif
+    for (; i < n; ++i) {
         X[i] = m->x[i].x; Y[i] = m->x[i].y; Z[i] = m->x[i].z;
         VX[i] = m->v[i].x; VY[i] = m->v[i].y; VZ[i] = m->v[i].z;
         AX[i] = g.x + VX[i] * -m->air;
@@ -4729,12 +4870,11 @@ GS__PRIVATE void gs__xblk_lane(const gs__mesh *m, const struct gs__xblk *k, int 
     }
 }
 
-/* Appends a block whose lanes are springs s[0..3] (one for GS__XB_ONE). */
-GS__PRIVATE void gs__xpbd_block(gs__mesh *m, int kind, int a, int b, const int *s) {
+/* Appends a block whose lanes are springs s[0..lanes - 1]. */
+GS__PRIVATE void gs__xpbd_block(gs__mesh *m, int kind, int a, int b, const int *s, int lanes) {
     size_t ns = gs__soa_stride((size_t)m->ns);
     struct gs__xblk *k = &m->xblk[m->nxblk++];
-    int q, lanes = kind == GS__XB_ONE ? 1 : 4, at = k == m->xblk ? 0 : k[-1].s +
-                                              (k[-1].kind == GS__XB_ONE ? 1 : 4);
+    int q, at = k == m->xblk ? 0 : k[-1].s + k[-1].lanes;
     k->kind = kind; k->a = a; k->b = b; k->s = at; k->count = 1; k->lanes = lanes;
     for (q = 0; q < lanes; ++q) {
         const gs__spring *sp = &m->springs[s[q]];
@@ -4744,18 +4884,18 @@ GS__PRIVATE void gs__xpbd_block(gs__mesh *m, int kind, int a, int b, const int *
     }
 }
 
-/* Springs s0 + j, j = j0, j0 + step.., of run u: in fours with ends
-   contiguous (SPAN, step 1), then the rest one by one. */
+/* Springs s0 + j, j = j0..j1 - 1, of run u: in fours with ends
+   contiguous (SPAN), then the rest as one TAIL block (one by one where
+   the run is serial, j1 = j0 + 1: ONE). */
 GS__PRIVATE void gs__xpbd_span(gs__mesh *m, const gs__run *u, int j0, int j1) {
     int j = j0, s[4], q;
     for (; j + 3 < j1; j += 4) {
         for (q = 0; q < 4; ++q) s[q] = u->s0 + j + q;
-        gs__xpbd_block(m, GS__XB_SPAN, u->a0 + j, u->a0 + u->off + j, s);
+        gs__xpbd_block(m, GS__XB_SPAN, u->a0 + j, u->a0 + u->off + j, s, 4);
     }
-    for (; j < j1; ++j) {
-        s[0] = u->s0 + j;
-        gs__xpbd_block(m, GS__XB_ONE, u->a0 + j, u->a0 + u->off + j, s);
-    }
+    if (j == j1) return;
+    for (q = 0; j + q < j1; ++q) s[q] = u->s0 + j + q;
+    gs__xpbd_block(m, j1 - j0 == 1 ? GS__XB_ONE : GS__XB_TAIL, u->a0 + j, u->a0 + u->off + j, s, q);
 }
 
 /* Offset 1 or 2: the springs of one parity class (cls = 0, 1) of run u. */
@@ -4770,12 +4910,28 @@ GS__PRIVATE void gs__xpbd_parity(gs__mesh *m, const gs__run *u, int cls) {
             gs__xblk_lane(m, &probe, 0, q, &a, &b);
             s[q] = u->s0 + (a - u->a0);
         }
-        gs__xpbd_block(m, probe.kind, probe.a, 0, s);
+        gs__xpbd_block(m, probe.kind, probe.a, 0, s, 4);
+    }
+    if (j < u->len) { /* the rest as one short block where its lanes come first */
+        struct gs__xblk probe;
+        int lanes = 0, more = 0;
+        probe.kind = off == 1 ? GS__XB_PAIRS : GS__XB_DUOS;
+        probe.a = u->a0 + j;
+        probe.b = 0;
+        for (q = 0; q < 4; ++q) {
+            gs__xblk_lane(m, &probe, 0, q, &a, &b);
+            if (a - u->a0 < u->len && q == lanes) s[lanes++] = u->s0 + (a - u->a0);
+            else if (a - u->a0 < u->len) more = 1;
+        }
+        if (!more) {
+            gs__xpbd_block(m, probe.kind, probe.a, 0, s, lanes);
+            return;
+        }
     }
     for (; j < u->len; j += per)
         for (q = 0; q < off && j + q < u->len; ++q) {
             s[0] = u->s0 + j + q;
-            gs__xpbd_block(m, GS__XB_ONE, u->a0 + j + q, u->a0 + j + q + off, s);
+            gs__xpbd_block(m, GS__XB_ONE, u->a0 + j + q, u->a0 + j + q + off, s, 1);
         }
 }
 
@@ -4787,7 +4943,8 @@ GS__PRIVATE void gs__xpbd_merge(gs__mesh *m) {
         struct gs__xblk *p = &m->xblk[o];
         const struct gs__xblk *k = &m->xblk[i];
         int step = k->kind == GS__XB_SPAN ? 4 : 8;
-        if (k->kind != GS__XB_ONE && k->kind == p->kind && k->a == p->a + step * p->count &&
+        if (k->lanes == 4 && p->lanes == 4 && k->kind == p->kind &&
+            k->a == p->a + step * p->count &&
             (k->kind != GS__XB_SPAN || k->b == p->b + 4 * p->count) &&
             k->s == p->s + 4 * p->count)
             p->count++;
@@ -4800,7 +4957,7 @@ GS__PRIVATE void gs__xpbd_merge(gs__mesh *m) {
 /* Lanes i.. of entry k have the same k, c and rest bits. */
 GS__PRIVATE int gs__xpbd_uniform(const gs__mesh *m, const struct gs__xblk *k) {
     size_t ns = gs__soa_stride((size_t)m->ns);
-    int i, n = k->kind == GS__XB_GATHER || k->kind == GS__XB_ONE ? 0 : 4 * k->count;
+    int i, n = k->kind != GS__XB_GATHER && k->lanes == 4 ? 4 * k->count : 0;
     const double *sp = m->xsp + k->s;
     for (i = 1; i < n; ++i)
         if (memcmp(&sp[i], &sp[0], sizeof *sp) || memcmp(&sp[ns + (size_t)i], &sp[ns], sizeof *sp) ||
@@ -4883,9 +5040,6 @@ GS__PRIVATE void gs__xpbd_one(double *X, const double *P, size_t st, const doubl
 }
 
 #ifdef GS__MESH_AVX
-/* Inlined whatever the optimizer thinks: out of line, each block's
-   sixteen vectors go through memory (a third of the pass, measured). */
-#define GS__XINLINE __attribute__((target("avx"), always_inline, unused)) static inline
 /* A block's lanes of array p, and back (gs__xblk_lane's layouts). */
 GS__XINLINE void gs__xld4(const double *p, int kind, int a,
                                                          int b, __m256d *va, __m256d *vb) {
@@ -4966,17 +5120,24 @@ GS__XINLINE void gs__xpbd_core4(gs__x4 *e, const gs__xk4 *q) {
     e->bz = _mm256_add_pd(e->bz, _mm256_mul_pd(sb, dz));
 }
 
+/* A block's ends and their start positions (all of gs__x4 but the
+   inverse masses). */
+GS__XINLINE void gs__xpbd_ld4(const double *X, const double *P, size_t st, int kind, int a, int b,
+                              gs__x4 *e) {
+    gs__xld4(X, kind, a, b, &e->ax, &e->bx);
+    gs__xld4(X + st, kind, a, b, &e->ay, &e->by);
+    gs__xld4(X + 2 * st, kind, a, b, &e->az, &e->bz);
+    gs__xld4(P, kind, a, b, &e->pax, &e->pbx);
+    gs__xld4(P + st, kind, a, b, &e->pay, &e->pby);
+    gs__xld4(P + 2 * st, kind, a, b, &e->paz, &e->pbz);
+}
+
 /* gs__xpbd_one for the four lanes of a block of `kind` (a constant where
    it is inlined). */
 GS__XINLINE void gs__xpbd_four(double *X, const double *P, size_t st, const double *im,
                                int kind, int a, int b, const gs__xk4 *q) {
     gs__x4 e;
-    gs__xld4(X, kind, a, b, &e.ax, &e.bx);
-    gs__xld4(X + st, kind, a, b, &e.ay, &e.by);
-    gs__xld4(X + 2 * st, kind, a, b, &e.az, &e.bz);
-    gs__xld4(P, kind, a, b, &e.pax, &e.pbx);
-    gs__xld4(P + st, kind, a, b, &e.pay, &e.pby);
-    gs__xld4(P + 2 * st, kind, a, b, &e.paz, &e.pbz);
+    gs__xpbd_ld4(X, P, st, kind, a, b, &e);
     gs__xld4(im, kind, a, b, &e.wa, &e.wb);
     gs__xpbd_core4(&e, q);
     gs__xst4(X, kind, a, b, e.ax, e.bx);
@@ -5038,6 +5199,49 @@ GS__XINLINE void gs__xpbd_gather4(double *X, const double *P, size_t st, const d
     }
 }
 
+/* gs__xld4 of an array of n elements: those past n load as zero. */
+GS__XINLINE void gs__xld4n(const double *p, int n, int kind, int a, int b, __m256d *va,
+                           __m256d *vb) {
+    __m256d q = _mm256_set_pd(3.0, 2.0, 1.0, 0.0), lim = _mm256_set1_pd(n);
+    int c = kind == GS__XB_SPAN ? b : a + 4;
+    __m256i ma = _mm256_castpd_si256(_mm256_cmp_pd(_mm256_add_pd(q, _mm256_set1_pd(a)), lim, _CMP_LT_OQ));
+    __m256i mc = _mm256_castpd_si256(_mm256_cmp_pd(_mm256_add_pd(q, _mm256_set1_pd(c)), lim, _CMP_LT_OQ));
+    __m256d v0 = _mm256_maskload_pd(p + a, ma), v1 = _mm256_maskload_pd(p + c, mc);
+    if (kind == GS__XB_SPAN) {
+        *va = v0;
+        *vb = v1;
+    } else if (kind == GS__XB_PAIRS) {
+        *va = _mm256_unpacklo_pd(v0, v1);
+        *vb = _mm256_unpackhi_pd(v0, v1);
+    } else {
+        *va = _mm256_permute2f128_pd(v0, v1, 0x20);
+        *vb = _mm256_permute2f128_pd(v0, v1, 0x31);
+    }
+}
+
+/* A block of `kind` with its first `lanes` lanes only (a TAIL, or the
+   last PAIRS or DUOS block of a parity class): the other lanes load
+   what lies there (a row's padding past n is zeros, the inverse masses
+   past n zero) and are stored back as they were loaded: blended, as
+   masked stores cost four times a block (measured). */
+GS__XINLINE void gs__xpbd_part4(double *X, const double *P, size_t st, const double *im, int n,
+                                const double *sp, size_t ns, int kind, int a, int b, int s,
+                                int lanes, double h) {
+    __m256d keep = _mm256_cmp_pd(_mm256_set_pd(3.0, 2.0, 1.0, 0.0), _mm256_set1_pd(lanes), _CMP_LT_OQ);
+    gs__xk4 kq;
+    gs__x4 e, o;
+    gs__xpbd_ld4(X, P, st, kind, a, b, &e);
+    gs__xld4n(im, n, kind, a, b, &e.wa, &e.wb);
+    kq = gs__xpbd_k4(_mm256_loadu_pd(sp + s), _mm256_loadu_pd(sp + ns + s),
+                     _mm256_loadu_pd(sp + 2 * ns + s), _mm256_set1_pd(h));
+    o = e;
+    gs__xpbd_core4(&e, &kq);
+    gs__xst4(X, kind, a, b, _mm256_blendv_pd(o.ax, e.ax, keep), _mm256_blendv_pd(o.bx, e.bx, keep));
+    gs__xst4(X + st, kind, a, b, _mm256_blendv_pd(o.ay, e.ay, keep), _mm256_blendv_pd(o.by, e.by, keep));
+    gs__xst4(X + 2 * st, kind, a, b, _mm256_blendv_pd(o.az, e.az, keep),
+             _mm256_blendv_pd(o.bz, e.bz, keep));
+}
+
 GS__XINLINE void gs__xpbd_blocks4(gs__mesh *m, double h) {
     size_t st = gs__soa_stride((size_t)m->n), ns = gs__soa_stride((size_t)m->ns);
     double *X = m->soa;
@@ -5051,13 +5255,22 @@ GS__XINLINE void gs__xpbd_blocks4(gs__mesh *m, double h) {
             gs__xpbd_entry4(X, P, st, im, sp, ns, GS__XB_SPAN, k->a, k->b, k->s, k->count, k->uni, h);
             break;
         case GS__XB_PAIRS:
-            gs__xpbd_entry4(X, P, st, im, sp, ns, GS__XB_PAIRS, k->a, 0, k->s, k->count, k->uni, h);
+            if (k->lanes < 4)
+                gs__xpbd_part4(X, P, st, im, m->n, sp, ns, GS__XB_PAIRS, k->a, 0, k->s, k->lanes, h);
+            else
+                gs__xpbd_entry4(X, P, st, im, sp, ns, GS__XB_PAIRS, k->a, 0, k->s, k->count, k->uni, h);
             break;
         case GS__XB_DUOS:
-            gs__xpbd_entry4(X, P, st, im, sp, ns, GS__XB_DUOS, k->a, 0, k->s, k->count, k->uni, h);
+            if (k->lanes < 4)
+                gs__xpbd_part4(X, P, st, im, m->n, sp, ns, GS__XB_DUOS, k->a, 0, k->s, k->lanes, h);
+            else
+                gs__xpbd_entry4(X, P, st, im, sp, ns, GS__XB_DUOS, k->a, 0, k->s, k->count, k->uni, h);
             break;
         case GS__XB_GATHER:
             gs__xpbd_gather4(X, P, st, im, sp, ns, m->xgi + k->b, k->lanes, k->s, h);
+            break;
+        case GS__XB_TAIL:
+            gs__xpbd_part4(X, P, st, im, m->n, sp, ns, GS__XB_SPAN, k->a, k->b, k->s, k->lanes, h);
             break;
         default: gs__xpbd_one(X, P, st, im, sp + k->s, ns, k->a, k->b, h); break;
         }
@@ -5071,7 +5284,9 @@ __attribute__((target("avx"))) GS__PRIVATE void gs__xpbd_blocks_avx(gs__mesh *m,
 /* The same four-wide operations where the CPU has AVX-512VL: its 32
    vector registers hold a block's sixteen vectors and constants, which
    sixteen registers cannot (a fifth of the AVX loop is spills and
-   reloads, measured). */
+   reloads, measured). Eight lanes (zmm) gain nothing: the pass is bound
+   by the square roots and divisions, which cost twice as much at twice
+   the width (docs/performance-notes.md). */
 __attribute__((target("avx512f,avx512vl"))) GS__PRIVATE void gs__xpbd_blocks_avx512(gs__mesh *m,
                                                                                   double h) {
     gs__xpbd_blocks4(m, h);
@@ -5146,7 +5361,10 @@ GS__PRIVATE void gs__xpbd_predict1(gs__mesh *m, size_t i, gs_vec3 x, gs_vec3 v0,
     PX[i] = x.x; PY[i] = x.y; PZ[i] = x.z;
 }
 
-GS__PRIVATE void gs__fin_box(gs__mesh *m, size_t k, const double *lo, const double *hi,
+/* Inlined, so that gs__xpbd_fin4 calls nothing out of line: called from
+   there, an SSE-encoded copy after its AVX loop stalled and took two
+   fifths of the substep's end (measured). */
+GS__PRIVATE_INLINE void gs__fin_box(gs__mesh *m, size_t k, const double *lo, const double *hi,
                              double vm, gs__fin *f) {
     int c;
     m->clo[k] = gs__v3(lo[0], lo[1], lo[2]);
@@ -5188,39 +5406,11 @@ GS__PRIVATE void gs__xpbd_fin1(gs__mesh *m, size_t i, size_t end, size_t k, doub
 }
 
 #ifdef GS__MESH_AVX
-/* The largest (smallest) of four lanes, as the scalar loop's comparisons
-   take them (a NaN lane is dropped as there). */
-__attribute__((target("avx"))) GS__PRIVATE double gs__hmax4(__m256d v) {
-    double t[4], r;
-    int q;
-    _mm256_storeu_pd(t, v);
-    for (r = t[0], q = 1; q < 4; ++q) r = t[q] > r ? t[q] : r;
-    return r;
-}
-__attribute__((target("avx"))) GS__PRIVATE double gs__hmin4(__m256d v) {
-    double t[4], r;
-    int q;
-    _mm256_storeu_pd(t, v);
-    for (r = t[0], q = 1; q < 4; ++q) r = t[q] < r ? t[q] : r;
-    return r;
-}
-
-/* Four particles' x, y, z lanes as 12 doubles x0 y0 z0 x1 .. z3 at p. */
-GS__XINLINE void gs__st_aos4(double *p, __m256d x, __m256d y, __m256d z) {
-    __m256d t0 = _mm256_unpacklo_pd(x, y);          /* x0 y0 | x2 y2 */
-    __m256d u = _mm256_shuffle_pd(z, x, 0xA);       /* z0 x1 | z2 x3 */
-    __m256d w = _mm256_shuffle_pd(y, z, 0xF);       /* y1 z1 | y3 z3 */
-    _mm256_storeu_pd(p, _mm256_permute2f128_pd(t0, u, 0x20));
-    _mm256_storeu_pd(p + 4, _mm256_permute2f128_pd(w, t0, 0x30));
-    _mm256_storeu_pd(p + 8, _mm256_permute2f128_pd(u, w, 0x31));
-}
-
 /* gs__xpbd_fin1 four particles at a time over whole boxes: the same xn,
    vn and boxes; the speed and the sum are per lane, which changes
    neither check's outcome (the sum only asks "finite?", and its terms
    are within GS_MAX_COORD). */
-__attribute__((target("avx"))) GS__PRIVATE void gs__xpbd_fin4(gs__mesh *m, size_t i, size_t k,
-                                                              double ih, gs__fin *f) {
+GS__XINLINE void gs__xpbd_fin4(gs__mesh *m, size_t i, size_t k, double ih, gs__fin *f) {
     size_t st = gs__soa_stride((size_t)m->n), end = i + GS__CHUNK;
     double *X = m->soa, *Y = X + st, *Z = Y + st, *PX = Z + st, *PY = PX + st, *PZ = PY + st;
     __m256d hv = _mm256_set1_pd(ih), sign = _mm256_set1_pd(-0.0), w2 = _mm256_set1_pd(f->w2);
@@ -5270,6 +5460,19 @@ __attribute__((target("avx"))) GS__PRIVATE void gs__xpbd_fin4(gs__mesh *m, size_
     lo[0] = gs__hmin4(lx); lo[1] = gs__hmin4(ly); lo[2] = gs__hmin4(lz);
     hi[0] = gs__hmax4(hx); hi[1] = gs__hmax4(hy); hi[2] = gs__hmax4(hz);
     gs__fin_box(m, k, lo, hi, gs__hmax4(vm), f);
+}
+
+__attribute__((target("avx"))) GS__PRIVATE void gs__xpbd_fin_avx(gs__mesh *m, size_t i, size_t k,
+                                                                 double ih, gs__fin *f) {
+    gs__xpbd_fin4(m, i, k, ih, f);
+}
+
+/* The same where the CPU has AVX-512VL: its 32 registers hold the
+   loop's fourteen accumulators and constants without spills. */
+__attribute__((target("avx512f,avx512vl"))) GS__PRIVATE void gs__xpbd_fin_avx512(gs__mesh *m, size_t i,
+                                                                                size_t k, double ih,
+                                                                                gs__fin *f) {
+    gs__xpbd_fin4(m, i, k, ih, f);
 }
 #endif
 
@@ -5329,7 +5532,10 @@ GS__PRIVATE void gs__int_xpbd_blocks(gs__mesh *m, double h) {
     for (k = 0, i = 0; i < n; ++k, i += GS__CHUNK) { /* box by box (gs__mesh_chunks) */
 #ifdef GS__MESH_AVX
         if (m->avx && i + GS__CHUNK <= n) {
-            gs__xpbd_fin4(m, i, k, ih, &f);
+            if (m->avx > 1)
+                gs__xpbd_fin_avx512(m, i, k, ih, &f);
+            else
+                gs__xpbd_fin_avx(m, i, k, ih, &f);
             continue;
         }
 #endif
@@ -6692,6 +6898,7 @@ typedef struct gs__rigid {
     int continuous;
     double stable_dt;          /* s; contact spring-damper bound */
     double rolling;            /* m; rolling resistance lever arm */
+    double spin_friction;      /* m; torsional friction lever arm */
     double i_min;              /* kg m^2; smallest principal inertia */
     gs_vec3 target;            /* probe */
     gs_quat target_q;
@@ -6787,6 +6994,7 @@ GS__PRIVATE void gs__rigid_check(gs__check *c, const gs_rigid_desc *d,
     gs__check_vec(c, "angular_velocity", d->angular_velocity);
     gs__check_material(c, &d->material);
     gs__check_nonneg(c, "rolling", d->rolling);
+    gs__check_nonneg(c, "spin_friction", d->spin_friction);
     gs__check_solver(c, &d->solver);
     if (c->r == GS_OK && (d->solver.integrator == GS_INTEGRATOR_IMPLICIT_EULER ||
                           d->solver.integrator == GS_INTEGRATOR_XPBD))
@@ -7145,6 +7353,7 @@ GS_API gs_result gs_rigid_create(gs_world *w, const gs_rigid_desc *desc,
     r->reach2 = gs__rigid_reach2(r);
     r->i_min = gs__rigid_i_min(r);
     r->rolling = d.rolling;
+    r->spin_friction = d.spin_friction;
     r->k_sum = r->mat.stiffness;
     r->c_sum = r->mat.damping;
     r->stable_dt = gs__rigid_bound(r);
@@ -8009,15 +8218,23 @@ GS__PRIVATE int gs__world_has_contacts(const gs_world *w) {
    slide (a solid sphere's contact point moves 3.5x as easily as its
    centre, which the friction slope does not count), and at half the limit
    the two locked into a two-step oscillation, a ball crawling at 1 mm/s
-   for ever (measured; at a fifth and below it stops cleanly). */
+   for ever (measured; at a fifth and below it stops cleanly).
+   Torsional friction (spin_friction) is the same about the normal: up to
+   spin_friction * fn against the spin about it, viscous below that at the
+   same fraction of the explicit limit. */
 #define GS__ROLL_K 0.1
+GS__PRIVATE gs_vec3 gs__resist(gs_vec3 w, double lever, double fn, const gs__rigid *r) {
+    double spin = gs__len(w), most;
+    if (!(lever > 0.0) || !(spin > 0.0)) return gs__v3(0.0, 0.0, 0.0);
+    most = fmin(lever * fn, GS__ROLL_K * r->i_min * spin / r->base.dt);
+    return gs__scale(w, -most / spin);
+}
 GS__PRIVATE gs_vec3 gs__rolling_torque(const gs__rigid *r, gs_vec3 normal, double fn,
                                        gs_vec3 w_rel) {
-    gs_vec3 wt = gs__madd(w_rel, normal, -gs__dot(w_rel, normal));
-    double spin = gs__len(wt), most;
-    if (!(r->rolling > 0.0) || !(fn > 0.0) || !(spin > 0.0)) return gs__v3(0.0, 0.0, 0.0);
-    most = fmin(r->rolling * fn, GS__ROLL_K * r->i_min * spin / r->base.dt);
-    return gs__scale(wt, -most / spin);
+    double wn = gs__dot(w_rel, normal);
+    if (!(fn > 0.0)) return gs__v3(0.0, 0.0, 0.0);
+    return gs__add(gs__resist(gs__madd(w_rel, normal, -wn), r->rolling, fn, r),
+                   gs__resist(gs__scale(normal, wn), r->spin_friction, fn, r));
 }
 
 /* Adds a contact's force, times share (the part of the substep it acts
@@ -8606,6 +8823,12 @@ GS__PRIVATE double gs__scene_rand(uint32_t *state) {
    on a 8 cm sphere (a ball on cloth or carpet). A sphere a probe throws
    onto the ground otherwise rolls for ever, and on the cloth the spheres
    creep for tens of seconds before they rest. */
+#ifndef GS__SCENE_SPIN
+/* m: (2/3) mu a for the scene's friction 0.4 over the ~18 mm contact
+   patch of a resting sphere (radius 0.08 m sunk ~2 mm into the cloth:
+   a = sqrt(2 R d)), 4.8 mm, rounded down */
+#define GS__SCENE_SPIN 0.004
+#endif
 #ifndef GS__SCENE_ROLLING
 #define GS__SCENE_ROLLING 0.004
 #endif
@@ -8633,6 +8856,7 @@ GS__PRIVATE gs_result gs__scene_bodies(gs_world *w, gs_scene *sc) {
                              (gs__scene_rand(&rng) - 0.5) * 0.5 * d->cloth_size);
         rd.material = gs__scene_material();
         rd.rolling = GS__SCENE_ROLLING;
+        rd.spin_friction = GS__SCENE_SPIN;
         rd.solver.dt = d->dt;
         r = gs_rigid_create(w, &rd, &sc->spheres[i]);
         if (r == GS_OK) sc->sphere_count++;
@@ -8801,6 +9025,9 @@ struct gs__ghost_peer {
     uint32_t ack_seq;     /* the newest of its snapshots we hold whole, */
     int ack_known;        /* if any, */
     int ack_due, nack_due;/* to tell it: held, or a delta refused */
+    int acks_held;        /* snapshots held whole since our last ack went */
+    int ack_waiting;      /* an ack is held (not sent) since ack_since */
+    double ack_since;     /* s, wall time (the net's update clock) */
 };
 
 struct gs__ghost {
@@ -8838,7 +9065,8 @@ struct gs__ghost {
     int rest_repeats;     /* heartbeats of this rest that carry it again */
     int sent_any;         /* 0: send the state whole next (a first send, a
                              peer added or started again) */
-    double next_heartbeat;/* s, wall time */
+    double next_heartbeat;/* s, wall time, on the beat grid (gs__beat_next) */
+    int at_rest;          /* its last send found it unmoved (send on change) */
     double sent_at;       /* s, wall time it was last sent (priority) */
     size_t wire_bytes;    /* bytes its last snapshot took on the wire */
     gs__base *ring;       /* delta: the last GS_DELTA_RING snapshots sent */
@@ -8971,6 +9199,7 @@ struct gs_net {
     int order_cap;            /* its room: at least the world's ghosts */
     unsigned char buf[GS_WIRE_MAX_DATAGRAM];
     gs__wire_ctx wctx;        /* what buf's next chunk is coded against */
+    int flushes;              /* datagrams with chunks sent this update */
     gs_wire_view view;        /* decode scratch (too big for the stack) */
     gs__net_guard guard;      /* key, nonces, opened datagram (>>net) */
 };
@@ -9066,6 +9295,7 @@ GS__PRIVATE gs_result gs__ghost_add_peer(gs__ghost *g, int slot) {
     if (gp->q) return GS_OK;
     gp->resting = 0;
     gp->acked_known = gp->ack_known = gp->ack_due = gp->nack_due = 0;
+    gp->acks_held = gp->ack_waiting = 0;
     g->sent_any = 0; /* the new peer has none of our states */
     gp->q = gs__snaps_new(w, g);
     gp->taken = gp->q ? gp->q + g->d.queue_size + 1 : NULL;
@@ -13341,6 +13571,7 @@ GS__PRIVATE void gs__datagram_flush(gs_net *net, double now, size_t *size) {
     gs_result r;
     int p;
     if (gs__hdr_chunks(net->buf) == 0) return;
+    net->flushes++;
     for (p = 0; p < GS__MAX_PEERS; ++p) {
         gs__peer *pe = &net->peers[p];
         const unsigned char *d;
@@ -13853,8 +14084,25 @@ GS__PRIVATE void gs__send_ghost(gs_net *net, gs__ghost *g, double now, size_t *s
     }
 }
 
+/* The beat grid: a resting ghost's heartbeats go at the multiples of its
+   heartbeat period on the net's clock, so that every resting ghost of a
+   net (of one heartbeat rate) beats in the same update and their
+   heartbeats share one datagram, which goes to every peer: at rest a net
+   sends heartbeat_rate datagrams a second, not one per ghost's own phase.
+   Returns the first grid instant after now; GS__BEAT_SLACK (of a period)
+   takes an instant a rounding short of a grid point for that point. */
+#define GS__BEAT_SLACK 1e-6
+GS__PRIVATE double gs__beat_next(double now, double hb) {
+    return hb * (floor(now / hb + GS__BEAT_SLACK) + 1.0);
+}
+GS__PRIVATE int gs__beat_due(const gs__ghost *g, double now) {
+    double hb = 1.0 / g->d.heartbeat_rate;
+    /* a next beat more than a period ahead: the clock went back */
+    return now >= g->next_heartbeat - GS__BEAT_SLACK * hb || g->next_heartbeat - now > hb;
+}
+
 /* Sends a due ghost: its state, or while it rests (send on change) a
-   heartbeat at the heartbeat rate, the first two of a rest with the state
+   heartbeat on the beat grid, the first two of a rest with the state
    again. */
 GS__PRIVATE void gs__send_due(gs_net *net, gs__ghost *g, double now, size_t *size) {
     double hb = 1.0 / g->d.heartbeat_rate;
@@ -13862,9 +14110,10 @@ GS__PRIVATE void gs__send_due(gs_net *net, gs__ghost *g, double now, size_t *siz
     int moved = !on_change ? 1
               : predict ? !gs__ghost_predict(g) || gs__ghost_moved(g, g->pred)
                         : gs__ghost_moved(g, g->sent);
+    g->at_rest = !moved;
     if (!moved) {
-        if (now < g->next_heartbeat && g->next_heartbeat - now <= hb) return;
-        g->next_heartbeat = now + hb;
+        if (!gs__beat_due(g, now)) return;
+        g->next_heartbeat = gs__beat_next(now, hb);
         if (g->rest_repeats > 0 && predict) {
             /* the prediction itself, at B's time: a peer that missed the
                snapshot it comes from then predicts as we do from here */
@@ -13884,7 +14133,7 @@ GS__PRIVATE void gs__send_due(gs_net *net, gs__ghost *g, double now, size_t *siz
     else memcpy(g->sent, g->B, g->n * sizeof(double));
     g->sent_any = 1;
     g->rest_repeats = 2;
-    g->next_heartbeat = now + hb;
+    g->next_heartbeat = gs__beat_next(now, hb);
 }
 
 /* Has a ghost a new B to send at wall time now? Its next send further
@@ -13897,17 +14146,51 @@ GS__PRIVATE void gs__send_due(gs_net *net, gs__ghost *g, double now, size_t *siz
 GS__PRIVATE int gs__ghost_due(const gs__ghost *g, double now) {
     double period = 1.0 / g->d.send_rate;
     if (g->stands_at - now > 0.0 && g->stands_at - now <= GS__SYNC_FRAME_MAX) return 0;
-    return g->b_seq != g->sent_seq && (now >= g->next_send || g->next_send - now > period);
+    if (g->b_seq == g->sent_seq) return 0;
+    /* a resting ghost's beat goes in its update, whatever its send phase */
+    return now >= g->next_send || g->next_send - now > period || (g->at_rest && gs__beat_due(g, now));
+}
+
+/* Whether the acknowledgements due go in this update. They are held while
+   nothing else would go (at rest, a datagram per received snapshot would
+   cost its 52 bytes of header and CRC every frame) and go when a datagram
+   goes anyway (the one being built holds a chunk, or one went this
+   update), a delta was refused (the peer's deltas are of no use until it
+   hears), an ack has waited one heartbeat period of its ghost, or
+   GS__ACK_HOLD snapshots of one ghost are held: the peer codes against the
+   newest snapshot we acknowledged, so a held ack ages its baseline by up
+   to that many snapshots (and a round trip), within the GS_DELTA_RING it
+   keeps, past which it would send whole. */
+#define GS__ACK_HOLD (GS_DELTA_RING / 4)
+GS__PRIVATE int gs__acks_go(gs_net *net, double now) {
+    gs_world *w = net->world;
+    int p, i, go = gs__hdr_chunks(net->buf) > 0 || net->flushes > 0;
+    for (i = 0; i < w->agent_count; ++i) {
+        gs__ghost *g = gs__ghost_of(w->agents[i]);
+        for (p = 0; g && p < GS__MAX_PEERS; ++p) {
+            struct gs__ghost_peer *gp = &g->gp[p];
+            if (!net->peers[p].used || !(gp->ack_due || gp->nack_due)) continue;
+            if (!gp->ack_waiting) {
+                gp->ack_waiting = 1;
+                gp->ack_since = now;
+            }
+            go |= gp->nack_due || gp->acks_held >= GS__ACK_HOLD || now < gp->ack_since ||
+                  now - gp->ack_since >= (1.0 - GS__BEAT_SLACK) / g->d.heartbeat_rate;
+        }
+    }
+    return go;
 }
 
 /* Acknowledgements to every peer of what we hold whole of its delta
-   ghosts' snapshots, or refused, since the last ones: one entry per
-   object that has news, in the datagram every peer gets (the chunk names
-   the one it is for). A lost one is made good by the next snapshot's. */
+   ghosts' snapshots, or refused, since the last ones (when gs__acks_go):
+   one entry per object that has news, in the datagram every peer gets
+   (the chunk names the one it is for). A lost one is made good by the
+   next snapshot's. */
 GS__PRIVATE void gs__send_acks(gs_net *net, double now, size_t *size) {
     gs_wire_ack acks[GS_WIRE_MAX_ACKS];
     gs_world *w = net->world;
     int p, i, n, k;
+    if (!gs__acks_go(net, now)) return;
     for (p = 0; p < GS__MAX_PEERS; ++p) {
         if (!net->peers[p].used) continue;
         for (i = 0, n = 0; i <= w->agent_count; ++i) {
@@ -13917,6 +14200,7 @@ GS__PRIVATE void gs__send_acks(gs_net *net, double now, size_t *size) {
                 acks[n].sequence = g->gp[p].ack_seq;
                 acks[n].refused = g->gp[p].nack_due;
                 g->gp[p].ack_due = g->gp[p].nack_due = 0;
+                g->gp[p].acks_held = g->gp[p].ack_waiting = 0;
                 ++n;
             }
             if (n == GS_WIRE_MAX_ACKS || (n && i == w->agent_count)) {
@@ -14012,6 +14296,7 @@ GS_API gs_result gs_net_update(gs_net *net, double now) {
     net->updated = 1;
     net->update_now = now;
     net->unsent_world = 0.0;
+    net->flushes = 0;
     for (p = 0; p < GS__MAX_PEERS; ++p) peers += net->peers[p].used;
     if (peers) gs__datagram_begin(net, now, &size);
     for (i = 0; i < w->agent_count && n < net->order_cap; ++i) {
@@ -14102,6 +14387,7 @@ GS__PRIVATE int gs__peer_run(gs_net *net, int p, uint32_t run) {
             if (g) { /* its sequences start again: no baseline of before */
                 g->gp[p].resting = 0;
                 g->gp[p].ack_known = g->gp[p].ack_due = g->gp[p].nack_due = 0;
+                g->gp[p].acks_held = g->gp[p].ack_waiting = 0;
                 for (k = 0; g->gp[p].ring && k < GS_DELTA_RING; ++k) g->gp[p].ring[k].used = 0;
             }
             for (k = 0; g && g->gp[p].q && k <= g->d.queue_size; ++k) {
@@ -14299,6 +14585,7 @@ GS__PRIVATE void gs__ring_keep(gs__ghost *g, int p, const gs_wire_chunk *c, cons
         gp->ack_seq = e->seq;
         gp->ack_known = 1;
         gp->ack_due = 1;
+        gp->acks_held++;
     }
 }
 

@@ -42,7 +42,10 @@ static void test_delta_chain_lossy(void **state) {
         assert_true(pr->matched > 500);
         assert_true(pr->deltas > 300);
         assert_true(pr->keys > 0);
-        assert_true(pr->acks > 50);
+        /* the receiver sends nothing else, so it holds its acks until
+           GS__ACK_HOLD snapshots wait (240 / 4 = 60 datagrams in 240
+           frames); 15% are lost and the first frames have none: 30 */
+        assert_true(pr->acks > 240 / GS__ACK_HOLD / 2);
         pair_free(pr);
         free(pr);
     }
