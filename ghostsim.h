@@ -14001,9 +14001,15 @@ GS__PRIVATE void gs__send_due(gs_net *net, gs__ghost *g, double now, size_t *siz
             /* the prediction itself, at B's time: a peer that missed the
                snapshot it comes from then predicts as we do from here */
             g->rest_repeats--;
+            net->beat_went = 1;
             gs__send_ghost(net, g, now, size, 0, g->pred);
             gs__ghost_decoded(g, g->pred, g->sent);
-        } else if (g->rest_repeats > 0 || net->beat_states) {
+        } else if (g->rest_repeats > 0 || (net->beat_states && !predict)) {
+            /* after any state went, a beat sends every resting ghost's
+               state: the receiver then holds one instant's scene, not
+               each object as its own last send left it (a sphere from
+               one, the cloth under it from another: they push each other
+               apart). A prediction goes on as it is. */
             if (g->rest_repeats > 0) g->rest_repeats--;
             net->beat_went = 1;
             gs__send_ghost(net, g, now, size, 0, g->B);
