@@ -345,7 +345,9 @@
                            acknowledged baselines (gs_ghost_desc.delta,
                            GS_REJECT_BASELINE); compact chunk headers coded
                            against the chunk before, lengths implied, a
-                           Rice coding of deltas.
+                           Rice coding of deltas, and a spatial one (a
+                           cloth's differences less the median edge
+                           prediction from its neighbours in the chunk).
                            One way to make a net: gs_net_create on a
                            gs_transport (gs_simnet_transport,
                            gs_udp_create + gs_udp_transport, or yours);
@@ -1607,7 +1609,23 @@ GS_API gs_result gs_world_sync_test(gs_world *w, int frames, int *bad_agent);
            q = z >> k: if q < 16, q 0 bits, a 1 bit and z's k low bits;
            else 16 0 bits and z in 32 bits (only then); packed as above,
            the run padded with 0 bits to a whole byte.
-       Predicted (GS_WIRE_CHUNK_PREDICT, Rice only): the differences are
+         coding 3 (spatial Rice; k and bit 5 as coding 2): the row R u8
+           (1..GS_WIRE_SPATIAL_ROW), the restart r u8 (0..element count -
+           1), then coding 2's run of the residuals e_i = difference i -
+           P_i, each within [-2^31, 2^31 - 1]. P_i comes from the chunk's
+           differences before i (decoded first, in order; all in int64):
+           with lo = r if r > 0 and i >= r, else 0, P_i = 0 if i - 3 < lo,
+           else L = d[i-3] (the same coordinate of the particle before)
+           if i - 3R - 3 < lo, else the median edge predictor of L, U =
+           d[i-3R] (a row up) and D = d[i-3R-3]: min(L, U) if D >= max(L,
+           U), max(L, U) if D <= min(L, U), else L + U - D. A cloth's
+           neighbouring particles move alike: its chunks' differences
+           (x, y, z per particle, positions then velocities, r where the
+           velocities start) are about a bit smaller a value so. A
+           receiver refuses as below a difference decoded past +-(2^31 -
+           1). (Coding 3 is new in this revision of v3: a ghostsim
+           before it refuses its datagram as GS_REJECT_LAYOUT.)
+       Predicted (GS_WIRE_CHUNK_PREDICT, codings 2 and 3): the differences are
        from the baseline carried along its own velocities, so that a body
        moving steadily costs what its velocity changed, not what it moved.
        A position integer p (a mesh particle's coordinate, a rigid body's
@@ -1704,6 +1722,8 @@ GS_API gs_result gs_world_sync_test(gs_world *w, int frames, int *bad_agent);
 /* Values a quantized chunk holds at most: at most 32 bits a value and the
    segments' own bytes (1 + 4 x 21) always fit in GS_WIRE_CHUNK_ROOM. */
 #define GS_WIRE_QUANT_CHUNK 240
+/* The longest row the spatial delta coding (3) names: a chunk's triples */
+#define GS_WIRE_SPATIAL_ROW (GS_WIRE_QUANT_CHUNK / 3)
 
 /* One run of a quantized chunk's values (GS_ENCODING_QUANT). To encode, the
    caller sets kind, count and step (scalar) or bits (quaternion); decode
@@ -1743,7 +1763,15 @@ typedef struct gs_wire_chunk {
     uint32_t baseline;            /* GS_WIRE_CHUNK_DELTA: the sequence of
                                      the snapshot it is coded against */
     int delta_coding, delta_width;/* decode: GS_WIRE_CHUNK_DELTA's coding
-                                     (0 packed, 1 bitmap) and width */
+                                     (0 packed, 1 bitmap, 2 Rice, 3
+                                     spatial) and width */
+    int delta_row;                /* delta, encode: 1..GS_WIRE_SPATIAL_ROW
+                                     tries the spatial coding (3) with
+                                     rows of that many (x, y, z) triples,
+                                     anything else does not; decode: its
+                                     row (coding 3), else 0 */
+    int delta_restart;            /* decode, coding 3: where its
+                                     neighbours start again (0: nowhere) */
     uint16_t payload_bytes;       /* decode: the payload's length */
 } gs_wire_chunk;
 
@@ -1839,8 +1867,11 @@ GS_API gs_result gs_wire_decode(const unsigned char *buf, size_t size,
    c->baseline the baseline's sequence, older than c->sequence by 1..2^31)
    of c->elements (1..GS_WIRE_QUANT_CHUNK, a quantized chunk's most)
    integer differences from the baseline (see >>wire; each within
-   +-2^31); c->segments are not used. The coding is whichever is
-   smaller (Rice when predicted). Errors as gs_wire_add's; GS_ERR_INVALID_ARG for a difference
+   +-2^31). c->delta_row in 1..GS_WIRE_SPATIAL_ROW tries the spatial
+   coding (3) too, its neighbours starting again at the second of
+   c->segment_count segments (c->segments' kinds and counts; none else
+   read). The coding is whichever is smaller (Rice or spatial when
+   predicted). Errors as gs_wire_add's; GS_ERR_INVALID_ARG for a difference
    out of range. */
 GS_API gs_result gs_wire_add_delta(unsigned char *buf, size_t cap, size_t *size,
                                    const gs_wire_chunk *c, const int64_t *diff);
@@ -1849,7 +1880,9 @@ GS_API gs_result gs_wire_add_delta(unsigned char *buf, size_t cap, size_t *size,
 GS_API gs_result gs_wire_add_ack(unsigned char *buf, size_t cap, size_t *size, uint32_t to,
                                  const gs_wire_ack *acks, int n);
 /* The differences of a decoded delta chunk (c->elements), in steps (from
-   the prediction if c->flags has GS_WIRE_CHUNK_PREDICT). */
+   the prediction if c->flags has GS_WIRE_CHUNK_PREDICT), the spatial
+   coding's already added up (a hostile one may leave +-2^31: a receiver
+   refuses it). */
 GS_API void gs_wire_deltas(const gs_wire_chunk *c, int64_t *out);
 /* The entries of a decoded acknowledgement chunk into out (room for max);
    returns how many were written. */
@@ -3916,6 +3949,7 @@ struct gs__xblk {
 typedef struct gs__mesh {
     gs_agent base;
     int n, ns, npins;
+    int row;          /* a cloth: particles per grid row (nx); 0 else */
     gs_vec3 *x, *v;   /* the state */
     gs_vec3 *xn, *vn; /* the next state */
     gs_vec3 *x0, *v0; /* the state before a substepped step, to undo it */
@@ -5937,6 +5971,7 @@ GS__PRIVATE gs_result gs__mesh_new(gs_world *w, const gs__kind *kind, int n,
     cv.used = (sizeof(gs__mesh) + 15) & ~(size_t)15;
     gs__mesh_layout(m, &cv);
     memset(cv.base + sizeof(gs__mesh), 0, cv.used - sizeof(gs__mesh));
+    m->row = 0;
     r = gs__agent_init(w, &m->base, kind, solver->dt);
     if (r != GS_OK) {
         gs__free(w, m);
@@ -6364,6 +6399,7 @@ GS_API gs_result gs_cloth_create(gs_world *w, const gs_cloth_desc *desc,
                             d.nx * (corner & 2 ? d.ny - 1 : 0);
     /* corners first, then the user's pins; duplicates merge */
     gs__mesh_finish(m, pins, npins);
+    m->row = d.nx;
     if (d.pin_count > 0) {
         int i;
         for (i = 0; i < d.pin_count; ++i)
@@ -6378,6 +6414,13 @@ GS_API gs_result gs_cloth_create(gs_world *w, const gs_cloth_desc *desc,
 }
 
 /* ---- accessors ---- */
+/* Particles per row of a cloth's grid (consecutive particles are
+   neighbours, and so are i and i + row), 1 for any other mesh (only
+   consecutive ones taken as neighbours), 0 for another agent. */
+GS__PRIVATE int gs__mesh_row(const gs_agent *a) {
+    const gs__mesh *m = gs__as_mesh(a);
+    return !m ? 0 : m->row > 0 ? m->row : 1;
+}
 GS_API int gs_mesh_particle_count(const gs_agent *a) {
     const gs__mesh *m = gs__as_mesh(a);
     return m ? m->n : 0;
@@ -9038,6 +9081,8 @@ struct gs__ghost {
     int64_t *kbuf;        /* delta (or quantized rest_extrapolate): one
                              chunk's integers or differences, then (delta)
                              one chunk's prediction (gs__delta_pred) */
+    int row;              /* delta: the spatial coding's row (a chunk's
+                             gs_wire_chunk.delta_row), 0: not tried */
     struct gs__ghost_peer gp[GS__MAX_PEERS];
 };
 typedef struct gs__ghost gs__ghost;
@@ -9443,6 +9488,9 @@ GS_API gs_result gs_ghost_attach(gs_agent *a, const gs_ghost_desc *desc) {
     if (r == GS_OK && (d.delta || (d.rest_extrapolate && d.encoding == GS_ENCODING_QUANT))) {
         g->ring = d.delta ? gs__ring_new(w, g) : NULL;
         g->kbuf = (int64_t *)gs__alloc(w, 2 * (size_t)g->per_chunk * sizeof(int64_t));
+        /* a row past a chunk's triples never has one above in the chunk */
+        g->row = gs__mesh_row(a);
+        if (g->row > GS_WIRE_SPATIAL_ROW) g->row = 1;
         if ((d.delta && !g->ring) || !g->kbuf)
             r = gs__fail(w, GS_ERR_NO_MEMORY, "gs_ghost_attach: out of memory for the "
                          "delta baselines");
@@ -11893,7 +11941,46 @@ GS__PRIVATE double gs__rice_cost(const int *hist, int k) {
     return bits;
 }
 
-/* Reads a delta chunk's differences in order. */
+/* Rice's best k is near the median's bit length (the mean would follow
+   the few large values, which escape anyway): the four about it are
+   tried, a cost each of 33 bit lengths, not one per value. The bits of
+   the best, its k in *k. */
+GS__PRIVATE double gs__rice_pick(const int *hist, int n, int *k) {
+    int k0, j, below = 0;
+    double best = HUGE_VAL;
+    for (k0 = 0; k0 < 32 && 2 * (below + hist[k0]) < n; ++k0) below += hist[k0];
+    *k = 0;
+    for (j = k0 > 2 ? k0 - 2 : 0; j <= k0 + 1 && j <= GS__RICE_MAX_K; ++j) {
+        double b = gs__rice_cost(hist, j);
+        if (b < best) { best = b; *k = j; }
+    }
+    return best;
+}
+
+/* GS_WIRE_CHUNK_DELTA's spatial coding (coding 3, see >>wire): what
+   difference i is predicted as from the differences d before it, with
+   rows of `row` triples and the neighbours starting again at `restart`.
+   The result lies between two earlier differences, so that decoded
+   differences grow at most by a residual each (no overflow in int64). */
+GS__PRIVATE_INLINE int64_t gs__spatial_pred(const int64_t *d, int i, int row, int restart) {
+    int lo = restart > 0 && i >= restart ? restart : 0, u = i - 3 * row;
+    int64_t l, up, dg;
+    if (i - 3 < lo) return 0;
+    l = d[i - 3];
+    if (u - 3 < lo) return l;
+    up = d[u];
+    dg = d[u - 3];
+    if (dg >= (l > up ? l : up)) return l < up ? l : up;
+    if (dg <= (l < up ? l : up)) return l > up ? l : up;
+    return l + up - dg;
+}
+/* Where a chunk's spatial neighbours start again: at its second segment
+   (a chunk's positions, then its velocities), 0 if one. */
+GS__PRIVATE int gs__spatial_restart(const gs_wire_chunk *c) {
+    return c->segment_count >= 2 && c->segments[0].count < c->elements ? c->segments[0].count : 0;
+}
+
+/* Reads a delta chunk's differences in order (codings 0 to 2). */
 typedef struct gs__dread {
     gs__bitr map, val;
     gs__rice rice;
@@ -11934,13 +12021,20 @@ GS__PRIVATE size_t gs__delta_parse(gs_wire_chunk *c, const unsigned char *p, siz
         return 0;
     c->delta_coding = *q >> 6;
     /* Rice's k is at most 24: its bit 5 says predicted */
-    c->delta_width = *q & (c->delta_coding == 2 ? 0x1f : 0x3f);
-    if (c->delta_coding == 2 && (*q & 0x20)) c->flags |= GS_WIRE_CHUNK_PREDICT;
-    if (c->delta_coding == 3 || c->delta_width > (c->delta_coding == 2 ? GS__RICE_MAX_K : 32))
-        return 0;
+    c->delta_width = *q & (c->delta_coding >= 2 ? 0x1f : 0x3f);
+    if (c->delta_coding >= 2 && (*q & 0x20)) c->flags |= GS_WIRE_CHUNK_PREDICT;
+    if (c->delta_width > (c->delta_coding >= 2 ? GS__RICE_MAX_K : 32)) return 0;
     ++q;
+    c->delta_row = c->delta_restart = 0;
+    if (c->delta_coding == 3) {
+        if (end - q < 2 || q[0] < 1 || q[0] > GS_WIRE_SPATIAL_ROW || q[1] >= c->elements)
+            return 0;
+        c->delta_row = q[0];
+        c->delta_restart = q[1];
+        q += 2;
+    }
     c->baseline = c->sequence - (uint32_t)dist;
-    if (c->delta_coding == 2) { /* walked: its length is where it ends */
+    if (c->delta_coding >= 2) { /* walked: its length is where it ends */
         gs__rice r;
         int esc;
         gs__rice_init(&r, q, end);
@@ -12036,11 +12130,15 @@ GS_API void gs_wire_deltas(const gs_wire_chunk *c, int64_t *out) {
     q++;
     w = c->delta_width;
     mask = ((uint64_t)1 << w) - 1;
-    if (c->delta_coding == 2) {
+    if (c->delta_coding >= 2) {
         gs__rice r;
         int esc;
+        if (c->delta_coding == 3) q += 2; /* the row and restart: in c already */
         gs__rice_init(&r, q, end);
         for (i = 0; i < c->elements; ++i) out[i] = gs__unzigzag(gs__rice_get(&r, w, &esc));
+        if (c->delta_coding == 3) /* in order: each from the ones before it */
+            for (i = 0; i < c->elements; ++i)
+                out[i] += gs__spatial_pred(out, i, c->delta_row, c->delta_restart);
         return;
     }
     if (c->delta_coding) {
@@ -12066,16 +12164,22 @@ GS__PRIVATE int gs__clz64(uint64_t v) {
 }
 
 /* A delta payload in the Rice coding of parameter k at p (room bytes,
-   the head of hn bytes first): its size, or 0 if it does not fit. */
+   the head of hn bytes first): coding 2, or with row > 0 coding 3 (d
+   then the residuals). Its size, or 0 if it does not fit. */
 GS__PRIVATE size_t gs__delta_put_rice(unsigned char *p, size_t room, const gs_wire_chunk *c,
                                       const int64_t *d, const unsigned char *head, size_t hn,
-                                      int k) {
+                                      int k, int row, int restart) {
     gs__bitw w;
     int i;
-    if (hn + 1 > room) return 0;
+    size_t at = hn + 1 + (row ? 2 : 0);
+    if (at > room) return 0;
     memcpy(p, head, hn);
-    p[hn] = (unsigned char)(k | (c->flags & GS_WIRE_CHUNK_PREDICT ? 0x20 : 0) | 2 << 6);
-    w.p = p + hn + 1; w.end = p + room; w.acc = 0; w.n = 0; w.over = 0;
+    p[hn] = (unsigned char)(k | (c->flags & GS_WIRE_CHUNK_PREDICT ? 0x20 : 0) | (row ? 3 : 2) << 6);
+    if (row) {
+        p[hn + 1] = (unsigned char)row;
+        p[hn + 2] = (unsigned char)restart;
+    }
+    w.p = p + at; w.end = p + room; w.acc = 0; w.n = 0; w.over = 0;
     for (i = 0; i < c->elements; ++i) {
         uint64_t z = gs__zigzag(d[i]), q = z >> k;
         if (q < GS__RICE_ESCAPE) {
@@ -12090,6 +12194,18 @@ GS__PRIVATE size_t gs__delta_put_rice(unsigned char *p, size_t room, const gs_wi
     return w.over ? 0 : (size_t)(w.p - p);
 }
 
+/* The residuals of the spatial coding (3) of n differences d into e; 0 if
+   one is past a Rice escape's 32 bits. */
+GS__PRIVATE int gs__spatial_residuals(const int64_t *d, int n, int row, int restart,
+                                      int64_t *e) {
+    int i;
+    for (i = 0; i < n; ++i) {
+        e[i] = d[i] - gs__spatial_pred(d, i, row, restart);
+        if (e[i] < -2147483648LL || e[i] > 2147483647LL) return 0;
+    }
+    return 1;
+}
+
 /* Writes a delta payload at p (room bytes): its size, or 0 if it does not
    fit. The differences are within +-2^31 (checked by the caller). */
 GS__PRIVATE size_t gs__delta_put(unsigned char *p, size_t room, const gs_wire_chunk *c,
@@ -12098,30 +12214,40 @@ GS__PRIVATE size_t gs__delta_put(unsigned char *p, size_t room, const gs_wire_ch
     size_t hn = gs__varint_put(head, (uint64_t)(uint32_t)(c->sequence - c->baseline));
     size_t need0, need1, need;
     uint64_t m0 = 0, m1 = 0;
-    int i, nz = 0, w0 = 0, w1 = 0, coding, wd, hist[33], k, k0 = 0, rk = 0, below = 0;
-    double rbits = HUGE_VAL;
+    int i, nz = 0, w0 = 0, w1 = 0, coding, wd, hist[33], rk = 0;
+    double rbits;
     memset(hist, 0, sizeof hist);
     for (i = 0; i < c->elements; ++i) {
         uint64_t z = gs__zigzag(d[i]);
         m0 |= z;
         if (z) { nz++; m1 |= z - 1; hist[64 - gs__clz64(z)]++; } else hist[0]++;
     }
-    /* Rice's best k is near the median's bit length (the mean would follow
-       the few large values, which escape anyway): the four about it are
-       tried, a cost each of 33 bit lengths, not one per value */
-    for (k0 = 0; k0 < 32 && 2 * (below + hist[k0]) < c->elements; ++k0) below += hist[k0];
     while (w0 < 32 && m0 >> w0) ++w0;
     while (w1 < 32 && m1 >> w1) ++w1;
     need0 = ((size_t)c->elements * (size_t)w0 + 7) / 8;
     need1 = ((size_t)c->elements + 7) / 8 + ((size_t)nz * (size_t)w1 + 7) / 8;
     coding = need1 < need0;
     wd = coding ? w1 : w0;
-    for (k = k0 > 2 ? k0 - 2 : 0; k <= k0 + 1 && k <= GS__RICE_MAX_K; ++k) {
-        double b = gs__rice_cost(hist, k);
-        if (b < rbits) { rbits = b; rk = k; }
+    rbits = gs__rice_pick(hist, c->elements, &rk);
+    if (c->delta_row >= 1 && c->delta_row <= GS_WIRE_SPATIAL_ROW) {
+        /* spatial, when its residuals cost 2 bytes fewer than the rest */
+        int64_t e[GS_WIRE_QUANT_CHUNK];
+        int restart = gs__spatial_restart(c), sk, sh[33];
+        memset(sh, 0, sizeof sh);
+        if (gs__spatial_residuals(d, c->elements, c->delta_row, restart, e)) {
+            double sbits;
+            for (i = 0; i < c->elements; ++i) {
+                uint64_t z = gs__zigzag(e[i]);
+                sh[z ? 64 - gs__clz64(z) : 0]++;
+            }
+            sbits = gs__rice_pick(sh, c->elements, &sk);
+            if (sbits / 8.0 + 2.0 < (double)(coding ? need1 : need0) &&
+                sbits / 8.0 + 2.0 < rbits / 8.0)
+                return gs__delta_put_rice(p, room, c, e, head, hn, sk, c->delta_row, restart);
+        }
     }
     if ((c->flags & GS_WIRE_CHUNK_PREDICT) || rbits / 8.0 + 1.0 < (double)(coding ? need1 : need0))
-        return gs__delta_put_rice(p, room, c, d, head, hn, rk);
+        return gs__delta_put_rice(p, room, c, d, head, hn, rk, 0, 0);
     need = hn + 1 + (coding ? need1 : need0);
     if (need > room) return 0;
     memcpy(p, head, hn);
@@ -12458,6 +12584,11 @@ GS_API size_t gs_wire_end(unsigned char *buf, size_t size) {
 
 GS_API double gs_wire_value(const gs_wire_chunk *c, int i) {
     if (c->flags & GS_WIRE_CHUNK_ACK) return 0.0;
+    if ((c->flags & GS_WIRE_CHUNK_DELTA) && c->delta_coding == 3) {
+        int64_t d[GS_WIRE_QUANT_CHUNK];
+        gs_wire_deltas(c, d);
+        return (double)d[i];
+    }
     if (c->flags & GS_WIRE_CHUNK_DELTA) {
         gs__dread d;
         int64_t v = 0;
@@ -12504,6 +12635,12 @@ GS__PRIVATE int gs__wire_values_finite(const gs_wire_chunk *c) {
 GS__PRIVATE void gs__wire_get_values(const gs_wire_chunk *c, double *out) {
     const unsigned char *p = c->payload;
     int i;
+    if ((c->flags & GS_WIRE_CHUNK_DELTA) && c->delta_coding == 3) {
+        int64_t d[GS_WIRE_QUANT_CHUNK];
+        gs_wire_deltas(c, d);
+        for (i = 0; i < c->elements; ++i) out[i] = (double)d[i];
+        return;
+    }
     if (c->flags & (GS_WIRE_CHUNK_DELTA | GS_WIRE_CHUNK_ACK)) {
         gs__dread d;
         if (c->flags & GS_WIRE_CHUNK_DELTA) gs__dread_init(c, &d);
@@ -13818,15 +13955,21 @@ GS__PRIVATE int gs__delta_pred(const gs__ghost *g, const gs__base *b,
 }
 
 /* The sum of the bit lengths of n differences' zigzags: what a Rice run
-   of them costs, near enough to choose between two. */
-GS__PRIVATE long gs__delta_bits(const int64_t *d, int n) {
-    long bits = 0;
-    int i;
+   of them costs, near enough to choose between two; the smaller of that
+   and its spatial coding's (ch->delta_row, see >>wire) when that is
+   tried. */
+GS__PRIVATE long gs__delta_bits(const int64_t *d, int n, const gs_wire_chunk *ch) {
+    long bits = 0, sp = 0;
+    int i, restart = gs__spatial_restart(ch), row = ch->delta_row;
     for (i = 0; i < n; ++i) {
         uint64_t z = gs__zigzag(d[i]);
         bits += z ? 64 - gs__clz64(z) : 0;
+        if (row) {
+            z = gs__zigzag(d[i] - gs__spatial_pred(d, i, row, restart));
+            sp += z ? 64 - gs__clz64(z) : 0;
+        }
     }
-    return bits;
+    return row && sp < bits ? sp : bits;
 }
 
 /* The baseline of a delta ghost's next snapshot: the newest every peer
@@ -13890,10 +14033,11 @@ GS__PRIVATE void gs__send_delta_chunk(gs_net *net, gs__ghost *g, double now, siz
            from the prediction by what its velocity changed) */
         int64_t *pr = g->kbuf + g->per_chunk;
         ch->flags = GS_WIRE_CHUNK_DELTA;
+        ch->delta_row = g->row;
         if (gs__delta_pred(g, base, ts, nseg, first, ch->elements, ch->time - base->time, pr) > 0) {
-            long plain = gs__delta_bits(d, ch->elements), pred;
+            long plain = gs__delta_bits(d, ch->elements, ch), pred;
             for (j = 0; j < ch->elements; ++j) pr[j] = d[j] - pr[j];
-            pred = gs__delta_bits(pr, ch->elements);
+            pred = gs__delta_bits(pr, ch->elements, ch);
             for (j = 0; j < ch->elements && pred < plain; ++j)
                 if (pr[j] < -2147483647LL || pr[j] > 2147483647LL) pred = plain;
             if (pred < plain) {
@@ -13945,6 +14089,7 @@ GS__PRIVATE void gs__send_ghost(gs_net *net, gs__ghost *g, double now, size_t *s
         ch.segment_count = 0;
         ch.payload = NULL;
         ch.baseline = 0;
+        ch.delta_row = 0;
         if (ch.encoding == GS_ENCODING_QUANT && !rest) gs__ghost_segments(g, first, cnt, &ch);
         before = *size;
         if (to) {
@@ -14449,6 +14594,9 @@ GS__PRIVATE int gs__delta_take(gs_net *net, gs__ghost *g, int p, const gs_wire_c
         memcpy(seg, b->seg + (size_t)c->index * GS_WIRE_MAX_SEGMENTS,
                (size_t)*nseg * sizeof *seg);
         gs_wire_deltas(c, g->kbuf);
+        /* one meaning: a spatial coding's differences as the others' */
+        for (i = 0; i < c->elements && c->delta_coding == 3; ++i)
+            ok = ok && g->kbuf[i] >= -2147483647LL && g->kbuf[i] <= 2147483647LL;
         for (i = 0; i < c->elements; ++i) g->kbuf[i] += b->k[c->first + (uint32_t)i];
         if (c->flags & GS_WIRE_CHUNK_PREDICT) { /* one meaning: it must carry something */
             int64_t *pr = g->kbuf + g->per_chunk;

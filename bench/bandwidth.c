@@ -29,9 +29,11 @@
    over 1 s, and times f64, quant and quant+delta only (the cloth64 and
    spheres900 rows take minutes: a 64x64 cloth settles 3 s at creation on
    each host, and 900 ghosts are looked up linearly per chunk); their rows
-   are then null. --scene NAME runs that scene alone (every encoding,
-   --quick's aside) and leaves the CPU timing out: the others' rows and the
-   CPU figures are then null.
+   are then null.
+   --scene NAME and --encoding NAME (each may be given more than once) run
+   only the scenes and encodings named (the others' rows are null; f64's
+   row is what the divergence targets compare against); a --scene, or
+   --no-cpu, leaves the CPU timing out (its figures are then null).
 
    Figures: kbit/s that host 1 sent to host 2 (its gs_peer_stats
    bytes_sent, datagram bytes, no UDP/IP headers) over the measured span;
@@ -334,24 +336,32 @@ static void cpu_times(int enc, double *enc_us, double *dec_us, double *bytes) {
     free(c);
 }
 
-/* Takes --scene NAME out of argv (bu_parse_args knows the common flags
-   only): the scene's index, SC_COUNT for all, -1 for a name unknown. */
-static int scene_arg(int *argc, char **argv) {
-    int i, k, s;
-    for (i = 1; i + 1 < *argc; ++i) {
-        if (strcmp(argv[i], "--scene") != 0) continue;
-        const char *name = argv[i + 1];
-        for (s = 0; s < SC_COUNT && strcmp(name, sc_name[s]) != 0; ++s) {}
-        if (s == SC_COUNT) {
-            fprintf(stderr, "bandwidth: unknown scene '%s' (paper-push, paper-rest, "
-                    "cloth64-push, spheres900)\n", name);
+/* Takes --scene, --encoding and --no-cpu out of argv (the rest goes to
+   bu_parse_args): *sc and *en get a bit per name chosen (0: all). */
+static int pick_args(int *argc, char **argv, unsigned *sc, unsigned *en, int *no_cpu) {
+    int i, o = 1, k;
+    *sc = *en = 0;
+    *no_cpu = 0;
+    for (i = 1; i < *argc; ++i) {
+        int is_sc = strcmp(argv[i], "--scene") == 0, is_en = strcmp(argv[i], "--encoding") == 0;
+        if (strcmp(argv[i], "--no-cpu") == 0) { *no_cpu = 1; continue; }
+        if (!is_sc && !is_en) { argv[o++] = argv[i]; continue; }
+        if (i + 1 >= *argc) break;
+        ++i;
+        for (k = 0; k < (is_sc ? SC_COUNT : ENC_COUNT); ++k)
+            if (strcmp(argv[i], is_sc ? sc_name[k] : enc_name[k]) == 0) break;
+        if (k == (is_sc ? SC_COUNT : ENC_COUNT)) {
+            fprintf(stderr, "bandwidth: unknown %s '%s'\n", is_sc ? "scene" : "encoding", argv[i]);
             return -1;
         }
-        for (k = i; k + 2 < *argc; ++k) argv[k] = argv[k + 2];
-        *argc -= 2;
-        return s;
+        *(is_sc ? sc : en) |= 1u << k;
     }
-    return SC_COUNT;
+    if (i < *argc) {
+        fprintf(stderr, "bandwidth: %s needs a name\n", argv[i]);
+        return -1;
+    }
+    *argc = o;
+    return 0;
 }
 
 int main(int argc, char **argv) {
@@ -359,17 +369,19 @@ int main(int argc, char **argv) {
     bu_json *j;
     result r[SC_COUNT][ENC_COUNT];
     double eu[ENC_COUNT], du[ENC_COUNT], by[ENC_COUNT];
-    int only = scene_arg(&argc, argv), s, e, rc;
-    if (only < 0) return 2;
+    unsigned pick_sc, pick_en;
+    int no_cpu, s, e, rc;
+    if (pick_args(&argc, argv, &pick_sc, &pick_en, &no_cpu) != 0) return 2;
+    if (pick_sc) no_cpu = 1;
     rc = bu_parse_args(argc, argv, "bandwidth", &args);
     if (rc) return rc < 0 ? 2 : 0;
     fprintf(stderr, "%-13s %-11s %12s %12s %11s %11s %12s %10s\n", "scene", "encoding",
             "kbit/s/host", "kbit/s/obj", "div@t mean", "div@t p95", "div-vs-snap", "target");
     for (s = 0; s < SC_COUNT; ++s)
         for (e = 0; e < ENC_COUNT; ++e) {
-            if ((only != SC_COUNT && s != only) ||
-                (args.quick && (s == SC_CLOTH64 || s == SC_SPHERES || e == ENC_F32 ||
-                                e == ENC_QUANT || e == ENC_DELTA_REST || e == ENC_PREDICT))) {
+            if ((args.quick && (s == SC_CLOTH64 || s == SC_SPHERES || e == ENC_F32 ||
+                                e == ENC_QUANT || e == ENC_DELTA_REST || e == ENC_PREDICT)) ||
+                (pick_sc && !(pick_sc >> s & 1u)) || (pick_en && !(pick_en >> e & 1u))) {
                 memset(&r[s][e], 0, sizeof r[s][e]);
                 continue;
             }
@@ -379,11 +391,13 @@ int main(int argc, char **argv) {
                     r[s][e].eq_p95, r[s][e].divergence, sc_target[s],
                     r[s][e].kbps <= sc_target[s] ? "met" : "missed");
         }
-    fprintf(stderr, "\npaper scene, one full snapshot (all 6 objects), median of 200:\n");
-    fprintf(stderr, "%-11s %10s %10s %10s\n", "encoding", "bytes", "encode us", "decode us");
+    if (!no_cpu) {
+        fprintf(stderr, "\npaper scene, one full snapshot (all 6 objects), median of 200:\n");
+        fprintf(stderr, "%-11s %10s %10s %10s\n", "encoding", "bytes", "encode us", "decode us");
+    }
     for (e = 0; e < ENC_COUNT; ++e) {
         if ((args.quick && e == ENC_F32) || e == ENC_QUANT_REST || e == ENC_DELTA_REST ||
-            e == ENC_PREDICT || only != SC_COUNT) {
+            e == ENC_PREDICT || no_cpu || (pick_en && !(pick_en >> e & 1u))) {
             eu[e] = du[e] = by[e] = 0.0; /* send on change: the same encoders */
             continue;
         }
