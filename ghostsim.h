@@ -1349,8 +1349,15 @@ typedef struct gs_ghost_desc {
                               snapshot sent, only a heartbeat goes; the
                               last snapshot goes again with the first two
                               heartbeats of a rest, so that one loss does
-                              not leave a peer a stale state. Default 0:
-                              every published state is sent */
+                              not leave a peer a stale state. With delta,
+                              the beat after any ghost of the net sent its
+                              state sends every resting ghost's state, so
+                              that peers hold one instant's scene; a peer
+                              whose copy follows this host alone (weight 0
+                              of its own) holds it at a heartbeat's state
+                              (it sleeps after its next step, not under
+                              rest_extrapolate). Default 0: every
+                              published state is sent */
     double heartbeat_rate; /* Hz of wall time while at rest; default 4.
                               Heartbeats go at the multiples of the period
                               on the net's clock (not each ghost's own
