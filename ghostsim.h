@@ -1349,8 +1349,15 @@ typedef struct gs_ghost_desc {
                               snapshot sent, only a heartbeat goes; the
                               last snapshot goes again with the first two
                               heartbeats of a rest, so that one loss does
-                              not leave a peer a stale state. Default 0:
-                              every published state is sent */
+                              not leave a peer a stale state. With delta,
+                              the beat after any ghost of the net sent its
+                              state sends every resting ghost's state, so
+                              that peers hold one instant's scene; a peer
+                              whose copy follows this host alone (weight 0
+                              of its own) holds it at a heartbeat's state
+                              (it sleeps after its next step, not under
+                              rest_extrapolate). Default 0: every
+                              published state is sent */
     double heartbeat_rate; /* Hz of wall time while at rest; default 4.
                               Heartbeats go at the multiples of the period
                               on the net's clock (not each ghost's own
@@ -2689,6 +2696,8 @@ struct gs_agent {
     int sleeping;        /* 1: not stepped, time follows the world */
     double rest;         /* s it has been at rest (a probe: since it
                             last moved) */
+    int hold;            /* 1: sleeps after its next step if slow (a
+                            ghost held at a resting leader's state) */
 };
 
 /* The two calls the world makes into the layer above it, the sync layer
@@ -5702,8 +5711,10 @@ GS__PRIVATE void gs__mesh_park(gs__mesh *m, const gs_vec3 *x_start) {
 GS__PRIVATE void gs__mesh_rest(gs__mesh *m, double dt) {
     const gs_world *w = m->base.world;
     double s2 = w->sleep_speed * w->sleep_speed;
-    int i, still = w->sleep_time >= 0.0 && !m->probe_touch && !m->base.ghost;
+    int i, still = w->sleep_time >= 0.0 && !m->probe_touch && (!m->base.ghost || m->base.hold);
     if (!w->busy) return;
+    if (m->base.hold) m->base.rest = w->sleep_time;
+    m->base.hold = 0;
     for (i = 0; still && i < m->n; ++i) still = gs__dot(m->v[i], m->v[i]) < s2;
     if (!still) {
         m->base.rest = 0.0;
@@ -7144,7 +7155,11 @@ GS__PRIVATE double gs__rigid_speed(const gs__rigid *r) {
 GS__PRIVATE void gs__rigid_rest(gs__rigid *r, double dt) {
     const gs_world *w = r->base.world;
     if (!w->busy) return;
-    if (w->sleep_time < 0.0 || r->probe_touch || r->base.ghost ||
+    if (r->base.hold && w->sleep_time >= 0.0 && !r->probe_touch &&
+        gs__rigid_speed(r) < w->sleep_speed) {
+        r->base.hold = 0;
+        r->base.rest = w->sleep_time;
+    } else if (w->sleep_time < 0.0 || r->probe_touch || r->base.ghost ||
         !(gs__rigid_speed(r) < w->sleep_speed)) {
         r->base.rest = 0.0;
         return;
@@ -9197,6 +9212,10 @@ struct gs_net {
     gs__detail detail;        /* what the refusal being made did not match */
     struct gs__ghost **order; /* the due ghosts of an update, by priority */
     int order_cap;            /* its room: at least the world's ghosts */
+    int beat_states;          /* a ghost's state went since the last beat
+                                 (2: in this update): the next beat sends
+                                 every resting ghost's state (gs__send_due) */
+    int beat_went;            /* this update sent a beat's state */
     unsigned char buf[GS_WIRE_MAX_DATAGRAM];
     gs__wire_ctx wctx;        /* what buf's next chunk is coded against */
     int flushes;              /* datagrams with chunks sent this update */
@@ -10120,6 +10139,23 @@ GS__PRIVATE int gs__blend_apply(gs__ghost *g, double t_i) {
     return 1;
 }
 
+/* Was the state just blended wholly a resting leader's (every snapshot
+   taken a heartbeat's, the local state of weight 0)? Then the agent is
+   held there: it sleeps after its next step (gs__rigid_rest,
+   gs__mesh_rest). Stepped on its own from a state that is not its own
+   (quantized, each object from its own send), a copy resting in contact
+   is off its equilibrium by up to a quantization step or the rest
+   threshold, and its contacts throw it off between heartbeats (mm to cm
+   at 4 Hz in the paper scene at rest; docs/sync-notes.md). A sleeper
+   still wakes on what wakes any (a probe, a faster body, a snapshot).
+   Not under rest_extrapolate: there a heartbeat stands for a state
+   carried along its velocity, which a sleeper would not follow. */
+GS__PRIVATE int gs__ghost_held(const gs__ghost *g, const gs__pass *ps) {
+    int j, held = ps->w0 == 0.0 && g->nsrc > 0 && !g->d.rest_extrapolate;
+    for (j = 0; held && j < g->nsrc; ++j) held = g->gp[g->src[j].peer].resting;
+    return held;
+}
+
 /* The paper's ghost update: blend every taken snapshot once with the
    local state (gs__ghost_take took them from the queues). One pass over
    the state after the agent's get_state, then its set_state. No lock is
@@ -10160,6 +10196,7 @@ GS__PRIVATE uint32_t gs__ghost_blend(gs__ghost *g, gs__blend_net *bn, int *appli
             g->stats.snapshots_blended += (uint64_t)used;
             g->stats.last_correction = n > 1 ? sqrt(c2 / (double)(n - 1)) : 0.0;
             *applied = 1;
+            g->agent->hold = gs__ghost_held(g, &ps);
         }
     }
     gs__ghost_clear(g);
@@ -14222,10 +14259,20 @@ GS__PRIVATE void gs__send_due(gs_net *net, gs__ghost *g, double now, size_t *siz
             /* the prediction itself, at B's time: a peer that missed the
                snapshot it comes from then predicts as we do from here */
             g->rest_repeats--;
+            net->beat_went = 1;
             gs__send_ghost(net, g, now, size, 0, g->pred);
             gs__ghost_decoded(g, g->pred, g->sent);
-        } else if (g->rest_repeats > 0) {
-            g->rest_repeats--;
+        } else if (g->rest_repeats > 0 || (net->beat_states && !predict && g->d.delta)) {
+            /* after any state went, a beat sends every resting ghost's
+               state: the receiver then holds one instant's scene, not
+               each object as its own last send left it (a sphere from
+               one, the cloth under it from another: they push each other
+               apart). Delta ghosts only: against the baseline the peer
+               acknowledged a resting state costs a few bytes, whole it
+               costs all its values (quant + send on change at rest from
+               13.6 to 21.4 kbit/s). A prediction goes on as it is. */
+            if (g->rest_repeats > 0) g->rest_repeats--;
+            net->beat_went = 1;
             gs__send_ghost(net, g, now, size, 0, g->B);
         } else {
             gs__send_ghost(net, g, now, size, 1, g->B);
@@ -14235,6 +14282,7 @@ GS__PRIVATE void gs__send_due(gs_net *net, gs__ghost *g, double now, size_t *siz
     gs__send_ghost(net, g, now, size, 0, g->B);
     if (predict) gs__ghost_decoded(g, g->B, g->sent);
     else memcpy(g->sent, g->B, g->n * sizeof(double));
+    if (on_change) net->beat_states = 2;
     g->sent_any = 1;
     g->rest_repeats = 2;
     g->next_heartbeat = gs__beat_next(now, hb);
@@ -14424,6 +14472,11 @@ GS_API gs_result gs_net_update(gs_net *net, double now) {
         g->next_send = now + 1.0 / g->d.send_rate;
         g->sent_at = now;
     }
+    /* a beat's states went: what moved before it is in them; what moved
+       in this update is owed to the next beat */
+    if (net->beat_went) net->beat_states = net->beat_states == 2;
+    else if (net->beat_states == 2) net->beat_states = 1;
+    net->beat_went = 0;
     if (peers) {
         gs__send_acks(net, now, &size);
         gs__datagram_flush(net, now, &size);
