@@ -10244,8 +10244,8 @@ GS__PRIVATE int gs__ghost_pending(const gs__ghost *g) {
 #define GS__SYNC_STEP 0.05  /* s; a local clock that moved this much more or
                                less than the seconds advanced was stepped */
 #define GS__SYNC_AGENT 11   /* doubles per agent before its state: steps,
-                               t_offset, priority, 6 counters, sleeping,
-                               rest */
+                               t_offset, priority, 6 counters, sleeping
+                               + 2 hold, rest */
 #define GS__SYNC_LEAD 15    /* doubles in a gs__lead */
 #define GS__SYNC_RIGID (13 + GS__SYNC_LEAD) /* a_own, 3 spare, target,
                                target_q, lead */
@@ -10465,7 +10465,7 @@ GS__PRIVATE double *gs__sync_save_agent(const gs_agent *a, double *p) {
     p[1] = a->t_offset;
     p[2] = (double)a->priority;
     for (i = 0; i < 6; ++i) p[3 + i] = gs__u2d(st[i]);
-    p[9] = (double)a->sleeping;
+    p[9] = (double)(a->sleeping + 2 * a->hold); /* a held copy replays as held */
     p[10] = a->rest;
     p += GS__SYNC_AGENT;
     if (r) {
@@ -10494,7 +10494,8 @@ GS__PRIVATE const double *gs__sync_load_agent(gs_agent *a, const double *p) {
     a->t_offset = p[1];
     a->priority = (int)p[2];
     for (i = 0; i < 6; ++i) st[i] = gs__d2u(p[3 + i]);
-    a->sleeping = p[9] != 0.0;
+    a->sleeping = ((int)p[9] & 1) != 0;
+    a->hold = ((int)p[9] & 2) != 0;
     a->rest = p[10];
     if (r) {
         const double *x = p + GS__SYNC_AGENT;
