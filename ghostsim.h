@@ -8839,10 +8839,14 @@ GS__PRIVATE double gs__scene_rand(uint32_t *state) {
    onto the ground otherwise rolls for ever, and on the cloth the spheres
    creep for tens of seconds before they rest. */
 #ifndef GS__SCENE_SPIN
-/* m: (2/3) mu a for the scene's friction 0.4 over the ~18 mm contact
-   patch of a resting sphere (radius 0.08 m sunk ~2 mm into the cloth:
-   a = sqrt(2 R d)), 4.8 mm, rounded down */
-#define GS__SCENE_SPIN 0.004
+/* m; 0: the scene's spheres have no torsional friction. The patch's
+   (2/3) mu a would be ~4 mm (friction 0.4, a ~18 mm contact patch), and
+   at 4 mm the scene rests (bench/bandwidth paper-rest), but between
+   ghostpeer processes in present mode its hosts then met 10-50 times
+   less closely after a fault (faults.py cut: final 0.2-0.5 mm against
+   0.004-0.01 mm, three runs each), not yet understood; build with
+   -DGS__SCENE_SPIN=0.004 to measure the scene at rest */
+#define GS__SCENE_SPIN 0.0
 #endif
 #ifndef GS__SCENE_ROLLING
 #define GS__SCENE_ROLLING 0.004
