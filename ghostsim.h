@@ -11475,7 +11475,7 @@ GS__PRIVATE uint32_t gs__get32(const unsigned char *p) {
 GS__PRIVATE uint16_t gs__get16(const unsigned char *p) {
     return (uint16_t)(p[0] | p[1] << 8);
 }
-GS__PRIVATE uint64_t gs__get64(const unsigned char *p) {
+GS__PRIVATE_INLINE uint64_t gs__get64(const unsigned char *p) {
     return (uint64_t)gs__get32(p) | (uint64_t)gs__get32(p + 4) << 32;
 }
 GS__PRIVATE void gs__putf64(unsigned char *p, double v) {
@@ -11996,17 +11996,19 @@ GS__PRIVATE double gs__rice_pick(const int *hist, int n, int *k) {
    rows of `row` triples and the neighbours starting again at `restart`.
    The result lies between two earlier differences, so that decoded
    differences grow at most by a residual each (no overflow in int64). */
+/* The median of l, up and l + up - dg (LOCO-I's MED: the smaller of l
+   and up when dg is at least both, the larger when at most both, else
+   l + up - dg), as l + up - dg held between the two: no branch on the
+   data, and the same value (|l|, |up|, |dg| < 2^40 here: no overflow). */
+GS__PRIVATE_INLINE int64_t gs__med3(int64_t l, int64_t up, int64_t dg) {
+    int64_t mn = l < up ? l : up, mx = l < up ? up : l, c = l + up - dg;
+    return c < mn ? mn : c > mx ? mx : c;
+}
 GS__PRIVATE_INLINE int64_t gs__spatial_pred(const int64_t *d, int i, int row, int restart) {
     int lo = restart > 0 && i >= restart ? restart : 0, u = i - 3 * row;
-    int64_t l, up, dg;
     if (i - 3 < lo) return 0;
-    l = d[i - 3];
-    if (u - 3 < lo) return l;
-    up = d[u];
-    dg = d[u - 3];
-    if (dg >= (l > up ? l : up)) return l < up ? l : up;
-    if (dg <= (l < up ? l : up)) return l > up ? l : up;
-    return l + up - dg;
+    if (u - 3 < lo) return d[i - 3];
+    return gs__med3(d[i - 3], d[u], d[u - 3]);
 }
 /* Where a chunk's spatial neighbours start again: at its second segment
    (a chunk's positions, then its velocities), 0 if one. */
@@ -12158,8 +12160,9 @@ GS_API int gs_wire_acks(const gs_wire_chunk *c, gs_wire_ack *out, int max) {
 
 /* A delta chunk's differences added to a baseline's integers bk, into
    out, in one pass, the readers in locals (as gs__quant_get): the
-   receiving side's inner loop. */
-GS__PRIVATE void gs__delta_sum(const gs_wire_chunk *c, const int64_t *bk, int64_t *out) {
+   receiving side's inner loop. 0 if a spatial coding's difference is
+   past +-(2^31 - 1) (out is then all the same filled). */
+GS__PRIVATE int gs__delta_sum(const gs_wire_chunk *c, const int64_t *bk, int64_t *out) {
     const unsigned char *q = c->payload, *end = q + c->payload_bytes, *map = NULL;
     uint64_t dist = 0, acc = 0, mask, z;
     int i, n = 0, w;
@@ -12175,14 +12178,28 @@ GS__PRIVATE void gs__delta_sum(const gs_wire_chunk *c, const int64_t *bk, int64_
         if (c->delta_coding == 2) {
             for (i = 0; i < c->elements; ++i)
                 out[i] = bk[i] + gs__unzigzag(gs__rice_get(&r, w, &esc));
-            return;
+            return 1;
         }
-        for (i = 0; i < c->elements; ++i) out[i] = gs__unzigzag(gs__rice_get(&r, w, &esc));
-        /* in order: each from the differences before it, then the baseline */
-        for (i = 0; i < c->elements; ++i)
-            out[i] += gs__spatial_pred(out, i, c->delta_row, c->delta_restart);
-        for (i = 0; i < c->elements; ++i) out[i] += bk[i];
-        return;
+        {
+            /* in order, each difference from the residual and the
+               differences before it (held in dd), checked, then the
+               baseline: one pass. A section's first triple is predicted
+               0, its first row (and one) from the left, the rest by the
+               median (gs__spatial_pred's cases, without its tests) */
+            int64_t dd[GS_WIRE_QUANT_CHUNK], x;
+            int row3 = 3 * c->delta_row, lo = 0, bad = 0;
+            for (i = 0; i < c->elements; ++i) {
+                x = gs__unzigzag(gs__rice_get(&r, w, &esc));
+                if (i == c->delta_restart && i) lo = i;
+                if (i >= lo + row3 + 3) x += gs__med3(dd[i - 3], dd[i - row3], dd[i - row3 - 3]);
+                else if (i >= lo + 3) x += dd[i - 3];
+                dd[i] = x;
+                /* one meaning: a spatial coding's differences as the others' */
+                bad |= (uint64_t)(x + 2147483647LL) > 4294967294u;
+                out[i] = bk[i] + x;
+            }
+            return !bad;
+        }
     }
     if (c->delta_coding) {
         map = q;
@@ -12193,6 +12210,7 @@ GS__PRIVATE void gs__delta_sum(const gs_wire_chunk *c, const int64_t *bk, int64_
         GS__UNPACK(z, q, end, acc, n, w, mask);
         out[i] = bk[i] + gs__unzigzag(z + (map != NULL));
     }
+    return 1;
 }
 
 /* A baseline of 0s: gs_wire_deltas's differences are gs__delta_sum's
@@ -12202,7 +12220,7 @@ GS_API void gs_wire_deltas(const gs_wire_chunk *c, int64_t *out) {
     if (!c || !out || !(c->flags & GS_WIRE_CHUNK_DELTA) || !c->payload ||
         c->elements > GS_WIRE_QUANT_CHUNK)
         return;
-    gs__delta_sum(c, gs__zero_k, out);
+    (void)gs__delta_sum(c, gs__zero_k, out);
 }
 
 /* The index of the highest set bit of v (v != 0), from the top. */
@@ -12218,6 +12236,59 @@ GS__PRIVATE int gs__clz64(uint64_t v) {
 /* The bit length of v < 2^63 (0 for 0): the top bit of 2v + 1, one bit
    scan and no test for 0. */
 GS__PRIVATE_INLINE int gs__bitlen64(uint64_t v) { return 63 - gs__clz64(v << 1 | 1u); }
+
+/* What the coding choice (gs__delta_put) reads of n differences, made
+   where the differences are (gs__qk_diff, the prediction's pass), not
+   again: hist[L], the differences whose zigzag has L bits (33: 33 bits or
+   more, past +-2^31); m0 and m1 the OR of the zigzags and of the nonzero
+   ones less 1 (the packed codings' widths); nz the nonzero ones; and, for
+   the spatial coding, its residuals e (NULL: not tried) and their sh. */
+typedef struct gs__dstat {
+    int hist[34], sh[34], nz;
+    uint64_t m0, m1;
+    const int64_t *e;
+} gs__dstat;
+GS__PRIVATE_INLINE void gs__dstat_add(gs__dstat *st, int64_t d) {
+    uint64_t z = gs__zigzag(d), nz1 = z != 0;
+    int L = gs__bitlen64(z);
+    st->m0 |= z;
+    st->nz += (int)nz1;
+    st->m1 |= z - nz1;
+    st->hist[L < 33 ? L : 33]++;
+}
+/* The sum of the bit lengths a histogram counts: what a Rice run of the
+   values costs, near enough to choose between two (33: at least). */
+GS__PRIVATE long gs__hist_bits(const int *hist) {
+    long b = 0;
+    int L;
+    for (L = 1; L < 34; ++L) b += (long)L * hist[L];
+    return b;
+}
+/* The spatial coding's (3) residuals of n differences d into e and their
+   bit lengths into sh (as gs__dstat's hist): rows of `row` triples, the
+   neighbours starting again at `restart` (gs__spatial_pred's cases, a
+   section's first triple, its first row and the rest, in loops of their
+   own without its tests). The sum of their bit lengths. */
+GS__PRIVATE long gs__spatial_stat(const int64_t *d, int n, int row, int restart, int64_t *e,
+                                  int *sh) {
+    int s, i, lo, hi, a, b, r3 = 3 * row;
+    memset(sh, 0, 34 * sizeof *sh);
+    for (s = 0; s < 2; ++s) {
+        lo = s ? restart : 0;
+        hi = !s && restart > 0 ? restart : n;
+        if (s && restart <= 0) break;
+        a = lo + 3 < hi ? lo + 3 : hi;
+        b = lo + r3 + 3 < hi ? lo + r3 + 3 : hi;
+        for (i = lo; i < a; ++i) e[i] = d[i];
+        for (; i < b; ++i) e[i] = d[i] - d[i - 3];
+        for (; i < hi; ++i) e[i] = d[i] - gs__med3(d[i - 3], d[i - r3], d[i - r3 - 3]);
+    }
+    for (i = 0; i < n; ++i) {
+        int L = gs__bitlen64(gs__zigzag(e[i]));
+        sh[L < 33 ? L : 33]++;
+    }
+    return gs__hist_bits(sh);
+}
 
 /* A delta payload in the Rice coding of parameter k at p (room bytes,
    the head of hn bytes first): coding 2, or with row > 0 coding 3 (d
@@ -12272,59 +12343,43 @@ GS__PRIVATE size_t gs__delta_put_rice(unsigned char *p, size_t room, const gs_wi
     return w.over ? 0 : (size_t)(w.p - p);
 }
 
-/* The residuals of the spatial coding (3) of n differences d into e; 0 if
-   one is past a Rice escape's 32 bits. */
-GS__PRIVATE int gs__spatial_residuals(const int64_t *d, int n, int row, int restart,
-                                      int64_t *e) {
-    int i;
-    for (i = 0; i < n; ++i) {
-        e[i] = d[i] - gs__spatial_pred(d, i, row, restart);
-        if (e[i] < -2147483648LL || e[i] > 2147483647LL) return 0;
-    }
-    return 1;
-}
-
 /* Writes a delta payload at p (room bytes): its size, or 0 if it does not
-   fit. The differences are within +-2^31 (checked by the caller). */
+   fit. The differences are within +-2^31 (checked by the caller); st:
+   what the choice reads of them (gs__dstat), NULL to make it here. */
 GS__PRIVATE size_t gs__delta_put(unsigned char *p, size_t room, const gs_wire_chunk *c,
-                                 const int64_t *d) {
+                                 const int64_t *d, const gs__dstat *st) {
     unsigned char head[6];
     size_t hn = gs__varint_put(head, (uint64_t)(uint32_t)(c->sequence - c->baseline));
     size_t need0, need1, need;
-    uint64_t m0 = 0, m1 = 0;
-    int i, nz = 0, w0 = 0, w1 = 0, coding, wd, hist[33], rk = 0;
+    int i, w0 = 0, w1 = 0, coding, wd, rk = 0, row = c->delta_row;
     double rbits;
-    memset(hist, 0, sizeof hist);
-    for (i = 0; i < c->elements; ++i) { /* branch-free: z is often 0 and often not */
-        uint64_t z = gs__zigzag(d[i]), nz1 = z != 0;
-        m0 |= z;
-        nz += (int)nz1;
-        m1 |= z - nz1;
-        hist[gs__bitlen64(z)]++;
+    int64_t e[GS_WIRE_QUANT_CHUNK];
+    gs__dstat own;
+    if (row < 1 || row > GS_WIRE_SPATIAL_ROW) row = 0;
+    if (!st) {
+        memset(&own, 0, sizeof own);
+        for (i = 0; i < c->elements; ++i) gs__dstat_add(&own, d[i]);
+        if (row) {
+            gs__spatial_stat(d, c->elements, row, gs__spatial_restart(c), e, own.sh);
+            own.e = e;
+        }
+        st = &own;
     }
-    while (w0 < 32 && m0 >> w0) ++w0;
-    while (w1 < 32 && m1 >> w1) ++w1;
+    while (w0 < 32 && st->m0 >> w0) ++w0;
+    while (w1 < 32 && st->m1 >> w1) ++w1;
     need0 = ((size_t)c->elements * (size_t)w0 + 7) / 8;
-    need1 = ((size_t)c->elements + 7) / 8 + ((size_t)nz * (size_t)w1 + 7) / 8;
+    need1 = ((size_t)c->elements + 7) / 8 + ((size_t)st->nz * (size_t)w1 + 7) / 8;
     coding = need1 < need0;
     wd = coding ? w1 : w0;
-    rbits = gs__rice_pick(hist, c->elements, &rk);
-    if (c->delta_row >= 1 && c->delta_row <= GS_WIRE_SPATIAL_ROW) {
-        /* spatial, when its residuals cost 2 bytes fewer than the rest */
-        int64_t e[GS_WIRE_QUANT_CHUNK];
-        int restart = gs__spatial_restart(c), sk, sh[33];
-        memset(sh, 0, sizeof sh);
-        if (gs__spatial_residuals(d, c->elements, c->delta_row, restart, e)) {
-            double sbits;
-            for (i = 0; i < c->elements; ++i) {
-                uint64_t z = gs__zigzag(e[i]);
-                sh[z ? 64 - gs__clz64(z) : 0]++;
-            }
-            sbits = gs__rice_pick(sh, c->elements, &sk);
-            if (sbits / 8.0 + 2.0 < (double)(coding ? need1 : need0) &&
-                sbits / 8.0 + 2.0 < rbits / 8.0)
-                return gs__delta_put_rice(p, room, c, e, head, hn, sk, c->delta_row, restart);
-        }
+    rbits = gs__rice_pick(st->hist, c->elements, &rk);
+    /* spatial, when its residuals (none past a Rice escape's 32 bits)
+       cost 2 bytes fewer than the rest */
+    if (row && st->e && !st->sh[33]) {
+        int sk;
+        double sbits = gs__rice_pick(st->sh, c->elements, &sk);
+        if (sbits / 8.0 + 2.0 < (double)(coding ? need1 : need0) && sbits / 8.0 + 2.0 < rbits / 8.0)
+            return gs__delta_put_rice(p, room, c, st->e, head, hn, sk, row,
+                                      gs__spatial_restart(c));
     }
     if ((c->flags & GS_WIRE_CHUNK_PREDICT) || rbits / 8.0 + 1.0 < (double)(coding ? need1 : need0))
         return gs__delta_put_rice(p, room, c, d, head, hn, rk, 0, 0);
@@ -12580,10 +12635,11 @@ GS_API gs_result gs_wire_add(unsigned char *buf, size_t cap, size_t *size,
 }
 
 /* gs_wire_add_delta with the context known and the differences checked
-   within [-2^31, 2^31 - 1] (the net's are, as it makes them). */
+   within [-2^31, 2^31 - 1] (the net's are, as it makes them); st: what
+   the coding choice reads of them, or NULL (gs__delta_put). */
 GS__PRIVATE gs_result gs__wire_add_delta_in(unsigned char *buf, size_t cap, size_t *size,
                                             gs__wire_ctx *x, const gs_wire_chunk *c,
-                                            const int64_t *diff) {
+                                            const int64_t *diff, const gs__dstat *st) {
     unsigned char head[GS_WIRE_CHUNK_HEADER];
     size_t vs, room, hn;
     uint32_t dist;
@@ -12599,7 +12655,7 @@ GS__PRIVATE gs_result gs__wire_add_delta_in(unsigned char *buf, size_t cap, size
     hn = gs__chunk_head(head, x, c);
     r = gs__wire_room(buf, cap, size, hn, &room);
     if (r != GS_OK) return r;
-    vs = gs__delta_put(buf + *size + hn, room, c, diff);
+    vs = gs__delta_put(buf + *size + hn, room, c, diff, st);
     if (!vs) return GS_ERR_CAPACITY;
     gs__wire_put_head(buf, size, x, c, head, hn, vs);
     return GS_OK;
@@ -12613,7 +12669,7 @@ GS_API gs_result gs_wire_add_delta(unsigned char *buf, size_t cap, size_t *size,
     if (!gs__wire_scan(buf, cap, *size, &x)) return GS_ERR_INVALID_ARG;
     for (i = 0; i < c->elements && i < GS_WIRE_QUANT_CHUNK; ++i)
         if (diff[i] < -2147483648LL || diff[i] > 2147483647LL) return GS_ERR_INVALID_ARG;
-    return gs__wire_add_delta_in(buf, cap, size, &x, c, diff);
+    return gs__wire_add_delta_in(buf, cap, size, &x, c, diff, NULL);
 }
 
 /* gs_wire_add_ack with the context known. */
@@ -13869,15 +13925,15 @@ GS__PRIVATE int gs__qk_make(gs_wire_segment *seg, int nseg, const double *v, int
 
 /* gs__qk_make's integers of values v in a baseline's layout seg (its
    steps kept) into k, and in the same pass their differences from the
-   baseline's integers bk into d, and (bits not NULL) the sum of the
-   differences' zigzag bit lengths into *bits. 0 if an integer
+   baseline's integers bk into d, and (st not NULL) what the coding choice
+   reads of them into *st (gs__dstat, its spatial part left 0). 0 if an integer
    leaves the decoder's range, a quaternion is 0 or a difference is past
    +-(2^31 - 1): the chunk then goes whole. */
 GS__PRIVATE int gs__qk_diff(gs_wire_segment *seg, int nseg, const double *v, int64_t *k,
-                            const int64_t *bk, int64_t *d, long *bits) {
+                            const int64_t *bk, int64_t *d, gs__dstat *st) {
     int s, i, n;
     uint64_t bad = 0;
-    long b = 0;
+    if (st) memset(st, 0, sizeof *st);
     for (s = 0; s < nseg; ++s, v += n, k += n, bk += n, d += n) {
         n = seg[s].count;
         if (seg[s].kind == GS_WIRE_SCALAR) {
@@ -13894,10 +13950,9 @@ GS__PRIVATE int gs__qk_diff(gs_wire_segment *seg, int nseg, const double *v, int
             d[i] = k[i] - bk[i];
             /* |d| <= 2^31 - 1: d + 2^31 - 1 in [0, 2^32 - 2] */
             bad |= (uint64_t)(d[i] + 2147483647LL) > 4294967294u;
-            if (bits) b += gs__bitlen64(gs__zigzag(d[i]));
+            if (st) gs__dstat_add(st, d[i]);
         }
     }
-    if (bits) *bits = b;
     return !bad;
 }
 
@@ -14074,24 +14129,6 @@ GS__PRIVATE int gs__delta_pred(const gs__ghost *g, const gs__base *b,
     return any;
 }
 
-/* The sum of the bit lengths of n differences' zigzags: what a Rice run
-   of them costs, near enough to choose between two; the smaller of that
-   and its spatial coding's (ch->delta_row, see >>wire) when that is
-   tried. */
-GS__PRIVATE long gs__delta_bits(const int64_t *d, int n, const gs_wire_chunk *ch) {
-    long bits = 0, sp = 0;
-    int i, restart = gs__spatial_restart(ch), row = ch->delta_row;
-    for (i = 0; i < n; ++i) {
-        uint64_t z = gs__zigzag(d[i]);
-        bits += z ? 64 - gs__clz64(z) : 0;
-        if (row) {
-            z = gs__zigzag(d[i] - gs__spatial_pred(d, i, row, restart));
-            sp += z ? 64 - gs__clz64(z) : 0;
-        }
-    }
-    return row && sp < bits ? sp : bits;
-}
-
 /* The baseline of a delta ghost's next snapshot: the newest every peer
    acknowledged, which is the oldest of their acknowledgements (the chunks
    are encoded once for all peers), if the ring still holds it. NULL: the
@@ -14112,15 +14149,16 @@ GS__PRIVATE gs__base *gs__delta_base(const gs_net *net, gs__ghost *g) {
     return gs__ring_find(g->ring, oldest);
 }
 
-/* Adds a chunk (values, or differences d for a delta) to the datagram,
-   sending it first when full. */
+/* Adds a chunk (values, or differences d for a delta, st what the coding
+   choice reads of them) to the datagram, sending it first when full. */
 GS__PRIVATE gs_result gs__put_chunk(gs_net *net, double now, size_t *size,
-                                    const gs_wire_chunk *ch, const double *v, const int64_t *d) {
+                                    const gs_wire_chunk *ch, const double *v, const int64_t *d,
+                                    const gs__dstat *st) {
     int k;
     gs_result r = GS_ERR_CAPACITY;
     for (k = 0; k < 2 && r == GS_ERR_CAPACITY; ++k) {
         if (k) gs__datagram_flush(net, now, size);
-        r = d ? gs__wire_add_delta_in(net->buf, gs__net_cap(net), size, &net->wctx, ch, d)
+        r = d ? gs__wire_add_delta_in(net->buf, gs__net_cap(net), size, &net->wctx, ch, d, st)
               : gs__wire_add_in(net->buf, gs__net_cap(net), size, &net->wctx, ch, v);
     }
     return r;
@@ -14132,42 +14170,65 @@ GS__PRIVATE gs_result gs__put_chunk(gs_net *net, double now, size_t *size,
 GS__PRIVATE void gs__send_delta_chunk(gs_net *net, gs__ghost *g, double now, size_t *size,
                                       gs_wire_chunk *ch, const gs__base *base, gs__base *to,
                                       const double *S) {
-    int c = ch->index, nseg = ch->segment_count, delta = 0, usable, j;
+    int c = ch->index, nseg = ch->segment_count, delta = 0, usable, j, row = g->row;
     size_t first = ch->first;
     const double *v = S + 1 + first;
-    int64_t *k = to->k + first, *d = g->kbuf;
+    int64_t *k = to->k + first, *d = g->kbuf, e[2][GS_WIRE_QUANT_CHUNK];
     gs_wire_segment *ts = to->seg + (size_t)c * GS_WIRE_MAX_SEGMENTS;
     const gs_wire_segment *bs = base ? base->seg + (size_t)c * GS_WIRE_MAX_SEGMENTS : NULL;
+    gs__dstat st[2], *use = &st[0];
     gs_result r;
     if (base && base->got[c] && gs__seg_same(bs, base->nseg[c], ch->segments, nseg)) {
         memcpy(ts, bs, (size_t)nseg * sizeof *ts);
-        delta = gs__qk_diff(ts, nseg, v, k, base->k + first, d, NULL);
+        delta = gs__qk_diff(ts, nseg, v, k, base->k + first, d, &st[0]);
     }
     if (delta) {
         /* against the baseline carried along its velocities when that is
            smaller (a drifting or swinging body: its positions then differ
-           from the prediction by what its velocity changed) */
+           from the prediction by what its velocity changed); each
+           candidate's bits (and its spatial residuals') made once, for
+           this choice and gs__delta_put's */
         int64_t *pr = g->kbuf + g->per_chunk;
+        int restart = gs__spatial_restart(ch);
+        long plain = gs__hist_bits(st[0].hist), sp;
+        if (row < 1 || row > GS_WIRE_SPATIAL_ROW) row = 0;
         ch->flags = GS_WIRE_CHUNK_DELTA;
         ch->delta_row = g->row;
+        if (row) {
+            sp = gs__spatial_stat(d, ch->elements, row, restart, e[0], st[0].sh);
+            st[0].e = e[0];
+            if (sp < plain) plain = sp;
+        }
         if (gs__delta_pred(g, base, ts, nseg, first, ch->elements, ch->time - base->time, pr) > 0) {
-            long plain = gs__delta_bits(d, ch->elements, ch), pred;
-            for (j = 0; j < ch->elements; ++j) pr[j] = d[j] - pr[j];
-            pred = gs__delta_bits(pr, ch->elements, ch);
-            for (j = 0; j < ch->elements && pred < plain; ++j)
-                if (pr[j] < -2147483647LL || pr[j] > 2147483647LL) pred = plain;
-            if (pred < plain) {
-                memcpy(d, pr, (size_t)ch->elements * sizeof *d);
-                ch->flags |= GS_WIRE_CHUNK_PREDICT;
+            uint64_t bad = 0;
+            long pred;
+            memset(&st[1], 0, sizeof st[1]);
+            for (j = 0; j < ch->elements; ++j) {
+                pr[j] = d[j] - pr[j];
+                bad |= (uint64_t)(pr[j] + 2147483647LL) > 4294967294u;
+                gs__dstat_add(&st[1], pr[j]);
+            }
+            if (!bad) { /* else the differences from the baseline go */
+                pred = gs__hist_bits(st[1].hist);
+                if (row) {
+                    sp = gs__spatial_stat(pr, ch->elements, row, restart, e[1], st[1].sh);
+                    st[1].e = e[1];
+                    if (sp < pred) pred = sp;
+                }
+                if (pred < plain) {
+                    d = pr;
+                    use = &st[1];
+                    ch->flags |= GS_WIRE_CHUNK_PREDICT;
+                }
             }
         }
         ch->baseline = base->seq;
-        r = gs__put_chunk(net, now, size, ch, NULL, d);
+        r = gs__put_chunk(net, now, size, ch, NULL, d, use);
         usable = 1;
     } else {
         memcpy(ts, ch->segments, (size_t)nseg * sizeof *ts);
         usable = gs__qk_make(ts, nseg, v, k, 1);
-        r = gs__put_chunk(net, now, size, ch, v, NULL);
+        r = gs__put_chunk(net, now, size, ch, v, NULL, NULL);
     }
     to->nseg[c] = (unsigned char)nseg;
     to->got[c] = r == GS_OK && usable;
@@ -14709,15 +14770,7 @@ GS__PRIVATE int gs__delta_take(gs_net *net, gs__ghost *g, int p, const gs_wire_c
         *nseg = b->nseg[c->index];
         memcpy(seg, b->seg + (size_t)c->index * GS_WIRE_MAX_SEGMENTS,
                (size_t)*nseg * sizeof *seg);
-        if (c->delta_coding == 3) {
-            gs_wire_deltas(c, g->kbuf);
-            /* one meaning: a spatial coding's differences as the others' */
-            for (i = 0; i < c->elements; ++i)
-                ok = ok && g->kbuf[i] >= -2147483647LL && g->kbuf[i] <= 2147483647LL;
-            for (i = 0; i < c->elements; ++i) g->kbuf[i] += b->k[c->first + (uint32_t)i];
-        } else { /* one pass */
-            gs__delta_sum(c, b->k + c->first, g->kbuf);
-        }
+        ok = gs__delta_sum(c, b->k + c->first, g->kbuf); /* one pass, checked */
         if (c->flags & GS_WIRE_CHUNK_PREDICT) { /* one meaning: it must carry something */
             int64_t *pr = g->kbuf + g->per_chunk;
             ok = gs__delta_pred(g, b, seg, *nseg, c->first, c->elements, c->time - b->time,

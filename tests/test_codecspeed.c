@@ -7,7 +7,7 @@
    up to and past 32 bits, and escapes at +-2^31; the reader gives the
    differences back (gs_wire_deltas, and gs_wire_value one at a time) and
    the parse takes the run's length from its own bit count; gs__qk_diff
-   (integers, differences, their range and bit lengths in one pass) agrees
+   (integers, differences, their range and bit-length histogram in one pass) agrees
    with gs__qk_make and the differences taken one by one, and refuses as
    they do at +-(2^31 - 1) and at the decoder's 2^51 - 2^32. The reference
    writer here is the definition, bit by bit. No tolerance: integers and
@@ -164,6 +164,7 @@ static void test_qk_diff(void **state) {
         double v[40];
         int64_t bk[40], k1[40], k2[40], d[40], ref_d[40];
         long bits = -1, ref_bits = 0;
+        gs__dstat st;
         int i, ok1, ok2, n = 40, edge = (int)(rng_next(&s) % 4);
         double step = 5e-5;
         memset(seg, 0, sizeof seg);
@@ -196,7 +197,7 @@ static void test_qk_diff(void **state) {
             bk[i] = 3; bk[i + 1] = 30000; bk[i + 2] = 40000; bk[i + 3] = 20000;
         }
         memcpy(seg2, seg, sizeof seg);
-        ok1 = gs__qk_diff(seg, 3, v, k1, bk, d, &bits);
+        ok1 = gs__qk_diff(seg, 3, v, k1, bk, d, &st);
         ok2 = gs__qk_make(seg2, 3, v, k2, 0);
         for (i = 0; i < n && ok2; ++i) {
             uint64_t z;
@@ -210,6 +211,7 @@ static void test_qk_diff(void **state) {
         ++taken;
         assert_memory_equal(k1, k2, sizeof k1);
         assert_memory_equal(d, ref_d, sizeof d);
+        bits = gs__hist_bits(st.hist);
         assert_int_equal(bits, ref_bits);
     }
     assert_true(refused > 100);
