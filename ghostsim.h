@@ -9082,6 +9082,9 @@ struct gs__ghost {
                              (rest_extrapolate: as the peers decode them) */
     double *pred;         /* rest_extrapolate: sent carried to B's time */
     int rest_repeats;     /* heartbeats of this rest that carry it again */
+    int still;            /* delta: every state sent since `sent` had its
+                             values (gs__ghost_still) */
+    uint32_t still_seq;   /* delta: the snapshot `sent` went as */
     int sent_any;         /* 0: send the state whole next (a first send, a
                              peer added or started again) */
     double next_heartbeat;/* s, wall time, on the beat grid (gs__beat_next) */
@@ -14247,9 +14250,29 @@ GS__PRIVATE int gs__beat_due(const gs__ghost *g, double now) {
     return now >= g->next_heartbeat - GS__BEAT_SLACK * hb || g->next_heartbeat - now > hb;
 }
 
+/* A resting delta ghost whose state is, value for value, the one it
+   last sent (every state sent since had those values too), and every peer
+   acknowledged that one or a later: each peer holds it whole, so a beat's
+   state or a repeat would tell them nothing a heartbeat does not (and
+   costs its chunk and an acknowledgement back: 810 resting spheres at 4
+   Hz, bench/bandwidth spheres900). The acknowledgement counts however old
+   (not gs__delta_base's ring): a peer's last state of the object stays
+   until a newer one comes, and every newer one had these values. */
+GS__PRIVATE int gs__ghost_still(const gs_net *net, const gs__ghost *g) {
+    int p, any = 0;
+    if (!g->still || memcmp(g->B + 1, g->sent + 1, (g->n - 1) * sizeof(double)) != 0) return 0;
+    for (p = 0; p < GS__MAX_PEERS; ++p) {
+        const struct gs__ghost_peer *gp = &g->gp[p];
+        if (!net->peers[p].used) continue;
+        if (!gp->acked_known || gs__seq_newer(g->still_seq, gp->acked)) return 0;
+        any = 1;
+    }
+    return any;
+}
+
 /* Sends a due ghost: its state, or while it rests (send on change) a
    heartbeat on the beat grid, the first two of a rest with the state
-   again. */
+   again (a delta ghost's beat: gs__ghost_still). */
 GS__PRIVATE void gs__send_due(gs_net *net, gs__ghost *g, double now, size_t *size) {
     double hb = 1.0 / g->d.heartbeat_rate;
     int on_change = g->d.rest_threshold > 0.0, predict = on_change && g->d.rest_extrapolate;
@@ -14267,6 +14290,10 @@ GS__PRIVATE void gs__send_due(gs_net *net, gs__ghost *g, double now, size_t *siz
             net->beat_went = 1;
             gs__send_ghost(net, g, now, size, 0, g->pred);
             gs__ghost_decoded(g, g->pred, g->sent);
+        } else if (g->d.delta && !predict && gs__ghost_still(net, g)) {
+            if (g->rest_repeats > 0) g->rest_repeats--;
+            if (net->beat_states) net->beat_went = 1;
+            gs__send_ghost(net, g, now, size, 1, g->B);
         } else if (g->rest_repeats > 0 || (net->beat_states && !predict && g->d.delta)) {
             /* after any state went, a beat sends every resting ghost's
                state: the receiver then holds one instant's scene, not
@@ -14278,6 +14305,7 @@ GS__PRIVATE void gs__send_due(gs_net *net, gs__ghost *g, double now, size_t *siz
                13.6 to 21.4 kbit/s). A prediction goes on as it is. */
             if (g->rest_repeats > 0) g->rest_repeats--;
             net->beat_went = 1;
+            if (memcmp(g->B + 1, g->sent + 1, (g->n - 1) * sizeof(double)) != 0) g->still = 0;
             gs__send_ghost(net, g, now, size, 0, g->B);
         } else {
             gs__send_ghost(net, g, now, size, 1, g->B);
@@ -14287,6 +14315,8 @@ GS__PRIVATE void gs__send_due(gs_net *net, gs__ghost *g, double now, size_t *siz
     gs__send_ghost(net, g, now, size, 0, g->B);
     if (predict) gs__ghost_decoded(g, g->B, g->sent);
     else memcpy(g->sent, g->B, g->n * sizeof(double));
+    g->still = 1;
+    g->still_seq = g->b_seq;
     if (on_change) net->beat_states = 2;
     g->sent_any = 1;
     g->rest_repeats = 2;
