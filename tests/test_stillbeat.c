@@ -39,58 +39,59 @@ typedef struct pair {
     gs_agent *ball[2][BODIES];
 } pair;
 
-/* back_loss: the probability a datagram from host 2 to host 1 is lost. */
-static void pair_open(pair *pr, double back_loss) {
-    gs_link_desc link = gs_link_desc_default();
-    int h, i;
-    memset(pr, 0, sizeof *pr);
-    assert_int_equal(gs_simnet_create(NULL, &pr->sim), GS_OK);
-    for (h = 0; h < 2; ++h) {
-        gs_world_desc wd = gs_world_desc_default();
-        wd.host_id = (uint32_t)h + 1;
-        assert_int_equal(gs_world_create(&wd, &pr->w[h]), GS_OK);
-        gs_world_set_gravity(pr->w[h], v3(0.0, 0.0, 0.0));
-        for (i = 0; i < BODIES; ++i) {
-            gs_rigid_desc rd = gs_rigid_desc_default();
-            gs_ghost_desc gd = gs_ghost_desc_default();
-            rd.shape.type = GS_SHAPE_SPHERE;
-            rd.shape.radius = 0.1;
-            rd.position = v3((double)i, 0.0, 0.0);
-            if (i == 0) rd.velocity = v3(0.0, 0.0, 0.2);
-            rd.solver.dt = 0.01;
-            assert_int_equal(gs_rigid_create(pr->w[h], &rd, &pr->ball[h][i]), GS_OK);
-            gd.object_id = 1000u + (uint32_t)i;
-            gd.encoding = GS_ENCODING_QUANT;
-            gd.delta = 1;
-            gd.rest_threshold = 1e-4; /* 0.1 mm, as bench/bandwidth's */
-            gd.heartbeat_rate = HB;
-            assert_int_equal(gs_ghost_attach(pr->ball[h][i], &gd), GS_OK);
-        }
-        assert_int_equal(test_join(pr->sim, pr->w[h], NULL, &pr->net[h]), GS_OK);
+/* Host h + 1's world: the bodies, each under a delta ghost. */
+static void host_open(pair *pr, int h) {
+    gs_world_desc wd = gs_world_desc_default();
+    int i;
+    wd.host_id = (uint32_t)h + 1;
+    assert_int_equal(gs_world_create(&wd, &pr->w[h]), GS_OK);
+    gs_world_set_gravity(pr->w[h], v3(0.0, 0.0, 0.0));
+    for (i = 0; i < BODIES; ++i) {
+        gs_rigid_desc rd = gs_rigid_desc_default();
+        gs_ghost_desc gd = gs_ghost_desc_default();
+        rd.shape.type = GS_SHAPE_SPHERE;
+        rd.shape.radius = 0.1;
+        rd.position = v3((double)i, 0.0, 0.0);
+        if (i == 0) rd.velocity = v3(0.0, 0.0, 0.2);
+        rd.solver.dt = 0.01;
+        assert_int_equal(gs_rigid_create(pr->w[h], &rd, &pr->ball[h][i]), GS_OK);
+        gd.object_id = 1000u + (uint32_t)i;
+        gd.encoding = GS_ENCODING_QUANT;
+        gd.delta = 1;
+        gd.rest_threshold = 1e-4; /* 0.1 mm, as bench/bandwidth's */
+        gd.heartbeat_rate = HB;
+        assert_int_equal(gs_ghost_attach(pr->ball[h][i], &gd), GS_OK);
     }
+    assert_int_equal(test_join(pr->sim, pr->w[h], NULL, &pr->net[h]), GS_OK);
+}
+
+/* back_loss: the probability a datagram from host 2 to host 1 is lost. */
+static pair *pair_open(double back_loss) {
+    pair *pr = (pair *)calloc(1, sizeof *pr);
+    gs_link_desc link = gs_link_desc_default();
+    assert_non_null(pr);
+    assert_int_equal(gs_simnet_create(NULL, &pr->sim), GS_OK);
+    host_open(pr, 0);
+    host_open(pr, 1);
     link.loss = back_loss;
     assert_int_equal(gs_simnet_link(pr->sim, 2, 1, &link), GS_OK);
+    return pr;
 }
 
 static void pair_close(pair *pr) {
-    gs_world_destroy(pr->w[0]);
-    gs_world_destroy(pr->w[1]);
+    int h;
+    for (h = 0; h < 2; ++h) gs_world_destroy(pr->w[h]);
     gs_simnet_destroy(pr->sim);
-}
-
-static gs_peer_stats stats(const pair *pr, int h) {
-    gs_peer_stats st;
-    assert_int_equal(gs_net_peer_stats(pr->net[h], (uint32_t)(2 - h), &st), GS_OK);
-    return st;
+    free(pr);
 }
 
 /* Host 1's snapshots and heartbeats over SPAN after a 1 s start. */
 static void measure(pair *pr, uint64_t *snaps, uint64_t *beats) {
     gs_peer_stats a, b;
     assert_int_equal(gs_simnet_run(pr->sim, 1.0, FRAME), GS_OK);
-    a = stats(pr, 0);
+    assert_int_equal(gs_net_peer_stats(pr->net[0], 2, &a), GS_OK);
     assert_int_equal(gs_simnet_run(pr->sim, SPAN, FRAME), GS_OK);
-    b = stats(pr, 0);
+    assert_int_equal(gs_net_peer_stats(pr->net[0], 2, &b), GS_OK);
     *snaps = b.snapshots_sent - a.snapshots_sent;
     *beats = b.heartbeats_sent - a.heartbeats_sent;
     print_message("host 1: %llu snapshots, %llu heartbeats in %.0f s\n",
@@ -101,12 +102,10 @@ static void measure(pair *pr, uint64_t *snaps, uint64_t *beats) {
    one's (60 a second) and the heartbeats the others' (HB a second each).
    Tolerances: one beat and one frame more or less at the window's edges. */
 static void test_still_beats(void **state) {
-    pair *pr = (pair *)calloc(1, sizeof *pr);
+    pair *pr = pair_open(0.0);
     uint64_t snaps, beats, rest_beats = (uint64_t)(HB * SPAN) * (BODIES - 1);
     int i, k;
     (void)state;
-    assert_non_null(pr);
-    pair_open(pr, 0.0);
     measure(pr, &snaps, &beats);
     assert_true(snaps <= (uint64_t)(SPAN * 60.0) + 2);
     assert_true(beats + (BODIES - 1) >= rest_beats);
@@ -124,17 +123,14 @@ static void test_still_beats(void **state) {
         assert_true(fabs(v.z - 0.2) < 1e-3); /* 1 mm/s: the velocity step */
     }
     pair_close(pr);
-    free(pr);
 }
 
 /* No acknowledgement comes back: each beat sends the resting states (the
    heartbeat would stand for a state the peer may not hold). */
 static void test_unacked_beats_send_states(void **state) {
-    pair *pr = (pair *)calloc(1, sizeof *pr);
+    pair *pr = pair_open(1.0);
     uint64_t snaps, beats, rest_states = (uint64_t)(HB * SPAN) * (BODIES - 1);
     (void)state;
-    assert_non_null(pr);
-    pair_open(pr, 1.0);
     measure(pr, &snaps, &beats);
     assert_true(beats == 0);
     /* every beat's resting states (one beat less at the window's edges)
@@ -142,7 +138,6 @@ static void test_unacked_beats_send_states(void **state) {
        most one a frame, 60; test_still_beats's count is all its own) */
     assert_true(snaps + (BODIES - 1) >= (uint64_t)(SPAN * 30.0) + rest_states);
     pair_close(pr);
-    free(pr);
 }
 
 int main(void) {
