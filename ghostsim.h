@@ -5031,33 +5031,19 @@ GS__PRIVATE void gs__xpbd_schedule(gs__mesh *m) {
 }
 
 /* One spring of the transposed copy (X = the substep's positions so far,
-   P = its start, stride st), as gs__xpbd_spring does it but with the
-   correction's factor s in float: the ends' differences are taken in
-   double (no position loses bits) and rounded, so float's 24 bits act on
-   a spring's length, not on a coordinate. The rounding moves C = l - rest
-   by at most about 1e-7 l (num's cancellation of kr l against kc l2):
-   1e-9 m on a cm spring, a thousandth of the wire's quantization and far
-   under the physics tests' tolerances; the step s d is applied in double.
-   In float the vector pass does eight springs per division and square
-   root where it did four (the pass's floor, docs/performance-notes.md).
-   The four-wide kernels do these float operations in this order (no
-   contraction: see GS__XPBD_NOFMA), so the bits stay those of plain C. */
+   P = its start, stride st), as gs__xpbd_spring does it. */
 GS__PRIVATE void gs__xpbd_one(double *X, const double *P, size_t st, const double *im,
                               const double *sp, size_t ns, int a, int b, double h) {
     double *Y = X + st, *Z = Y + st;
     const double *PY = P + st, *PZ = PY + st;
     double dx = X[b] - X[a], dy = Y[b] - Y[a], dz = Z[b] - Z[a];
+    double l2 = dx * dx + dy * dy + dz * dz, l = sqrt(l2);
     double kh = sp[0] * h * h, ch = sp[ns] * h, kc = kh + ch, kr = kh * sp[2 * ns];
-    double wa = im[a], wb = im[b], sa, sb;
-    float fx = (float)dx, fy = (float)dy, fz = (float)dz;
-    float ex = (float)(P[b] - P[a]), ey = (float)(PY[b] - PY[a]), ez = (float)(PZ[b] - PZ[a]);
-    float fkc = (float)kc, fkr = (float)kr, fch = (float)ch;
-    float l2 = (fx * fx + fy * fy) + fz * fz, l = sqrtf(l2);
-    float num = (fkr * l + fch * ((fx * ex + fy * ey) + fz * ez)) - fkc * l2;
-    float den = l2 * (fkc * ((float)wa + (float)wb) + 1.0f);
-    float s = den > 0.0f ? num / den : 0.0f;
-    sa = wa * (double)s;
-    sb = wb * (double)s;
+    double wa = im[a], wb = im[b];
+    double ex = P[b] - P[a], ey = PY[b] - PY[a], ez = PZ[b] - PZ[a];
+    double num = (kr * l + ch * ((dx * ex + dy * ey) + dz * ez)) - kc * l2;
+    double den = l2 * (kc * (wa + wb) + 1.0);
+    double s = den > 0.0 ? num / den : 0.0, sa = wa * s, sb = wb * s;
     X[a] -= sa * dx; Y[a] -= sa * dy; Z[a] -= sa * dz;
     X[b] += sb * dx; Y[b] += sb * dy; Z[b] += sb * dz;
 }
@@ -5119,53 +5105,28 @@ GS__XINLINE gs__xk4 gs__xpbd_k4(__m256d k, __m256d c, __m256d rest, __m256d h) {
     return q;
 }
 
-/* Four doubles and four more as eight floats (round to nearest, as C's
-   conversion). */
-GS__XINLINE __m256 gs__f8(__m256d lo, __m256d hi) {
-    return _mm256_insertf128_ps(_mm256_castps128_ps256(_mm256_cvtpd_ps(lo)), _mm256_cvtpd_ps(hi), 1);
-}
-
-/* The double lanes of e moved by s d (s four floats from the core). */
-GS__XINLINE void gs__xpbd_move4(gs__x4 *e, __m128 s4) {
-    __m256d s = _mm256_cvtps_pd(s4), sa = _mm256_mul_pd(e->wa, s), sb = _mm256_mul_pd(e->wb, s);
-    __m256d dx = _mm256_sub_pd(e->bx, e->ax), dy = _mm256_sub_pd(e->by, e->ay);
-    __m256d dz = _mm256_sub_pd(e->bz, e->az);
+GS__XINLINE void gs__xpbd_core4(gs__x4 *e, const gs__xk4 *q) {
+    __m256d dx, dy, dz, l2, l, de, num, den, s, sa, sb;
+    dx = _mm256_sub_pd(e->bx, e->ax); dy = _mm256_sub_pd(e->by, e->ay); dz = _mm256_sub_pd(e->bz, e->az);
+    l2 = _mm256_add_pd(_mm256_add_pd(_mm256_mul_pd(dx, dx), _mm256_mul_pd(dy, dy)),
+                       _mm256_mul_pd(dz, dz));
+    l = _mm256_sqrt_pd(l2);
+    de = _mm256_add_pd(_mm256_add_pd(_mm256_mul_pd(dx, _mm256_sub_pd(e->pbx, e->pax)),
+                                     _mm256_mul_pd(dy, _mm256_sub_pd(e->pby, e->pay))),
+                       _mm256_mul_pd(dz, _mm256_sub_pd(e->pbz, e->paz)));
+    num = _mm256_sub_pd(_mm256_add_pd(_mm256_mul_pd(q->kr, l), _mm256_mul_pd(q->ch, de)),
+                        _mm256_mul_pd(q->kc, l2));
+    den = _mm256_mul_pd(l2, _mm256_add_pd(_mm256_mul_pd(q->kc, _mm256_add_pd(e->wa, e->wb)),
+                                          _mm256_set1_pd(1.0)));
+    s = _mm256_and_pd(_mm256_cmp_pd(den, _mm256_setzero_pd(), _CMP_GT_OQ), _mm256_div_pd(num, den));
+    sa = _mm256_mul_pd(e->wa, s);
+    sb = _mm256_mul_pd(e->wb, s);
     e->ax = _mm256_sub_pd(e->ax, _mm256_mul_pd(sa, dx));
     e->ay = _mm256_sub_pd(e->ay, _mm256_mul_pd(sa, dy));
     e->az = _mm256_sub_pd(e->az, _mm256_mul_pd(sa, dz));
     e->bx = _mm256_add_pd(e->bx, _mm256_mul_pd(sb, dx));
     e->by = _mm256_add_pd(e->by, _mm256_mul_pd(sb, dy));
     e->bz = _mm256_add_pd(e->bz, _mm256_mul_pd(sb, dz));
-}
-
-/* gs__xpbd_one's arithmetic on two blocks at once (eight float lanes:
-   e0's four, then e1's), springs that share no particle (one entry's
-   blocks, or a block and a copy of it whose result is dropped). */
-GS__XINLINE void gs__xpbd_core8(gs__x4 *e0, gs__x4 *e1, const gs__xk4 *q0, const gs__xk4 *q1) {
-    __m256 dx, dy, dz, ex, ey, ez, l2, l, de, num, den, s, kc, kr, ch;
-    dx = gs__f8(_mm256_sub_pd(e0->bx, e0->ax), _mm256_sub_pd(e1->bx, e1->ax));
-    dy = gs__f8(_mm256_sub_pd(e0->by, e0->ay), _mm256_sub_pd(e1->by, e1->ay));
-    dz = gs__f8(_mm256_sub_pd(e0->bz, e0->az), _mm256_sub_pd(e1->bz, e1->az));
-    ex = gs__f8(_mm256_sub_pd(e0->pbx, e0->pax), _mm256_sub_pd(e1->pbx, e1->pax));
-    ey = gs__f8(_mm256_sub_pd(e0->pby, e0->pay), _mm256_sub_pd(e1->pby, e1->pay));
-    ez = gs__f8(_mm256_sub_pd(e0->pbz, e0->paz), _mm256_sub_pd(e1->pbz, e1->paz));
-    kc = gs__f8(q0->kc, q1->kc); kr = gs__f8(q0->kr, q1->kr); ch = gs__f8(q0->ch, q1->ch);
-    l2 = _mm256_add_ps(_mm256_add_ps(_mm256_mul_ps(dx, dx), _mm256_mul_ps(dy, dy)), _mm256_mul_ps(dz, dz));
-    l = _mm256_sqrt_ps(l2);
-    de = _mm256_add_ps(_mm256_add_ps(_mm256_mul_ps(dx, ex), _mm256_mul_ps(dy, ey)), _mm256_mul_ps(dz, ez));
-    num = _mm256_sub_ps(_mm256_add_ps(_mm256_mul_ps(kr, l), _mm256_mul_ps(ch, de)), _mm256_mul_ps(kc, l2));
-    den = _mm256_mul_ps(l2, _mm256_add_ps(_mm256_mul_ps(kc, _mm256_add_ps(gs__f8(e0->wa, e1->wa),
-                                                                          gs__f8(e0->wb, e1->wb))),
-                                          _mm256_set1_ps(1.0f)));
-    s = _mm256_and_ps(_mm256_cmp_ps(den, _mm256_setzero_ps(), _CMP_GT_OQ), _mm256_div_ps(num, den));
-    gs__xpbd_move4(e0, _mm256_castps256_ps128(s));
-    gs__xpbd_move4(e1, _mm256_extractf128_ps(s, 1));
-}
-
-/* One block alone: its lanes twice, the copy's result dropped. */
-GS__XINLINE void gs__xpbd_core4(gs__x4 *e, const gs__xk4 *q) {
-    gs__x4 c = *e;
-    gs__xpbd_core8(e, &c, q, q);
 }
 
 /* A block's ends and their start positions (all of gs__x4 but the
@@ -5193,27 +5154,8 @@ GS__XINLINE void gs__xpbd_four(double *X, const double *P, size_t st, const doub
     gs__xst4(X + 2 * st, kind, a, b, e.az, e.bz);
 }
 
-/* Blocks t and t + 1 of an entry of `kind` (a constant where inlined). */
-GS__XINLINE void gs__xpbd_two(double *X, const double *P, size_t st, const double *im,
-                              int kind, int a, int b, const gs__xk4 *q0, const gs__xk4 *q1) {
-    int step = kind == GS__XB_SPAN ? 4 : 8;
-    gs__x4 e0, e1;
-    gs__xpbd_ld4(X, P, st, kind, a, b, &e0);
-    gs__xld4(im, kind, a, b, &e0.wa, &e0.wb);
-    gs__xpbd_ld4(X, P, st, kind, a + step, b + 4, &e1);
-    gs__xld4(im, kind, a + step, b + 4, &e1.wa, &e1.wb);
-    gs__xpbd_core8(&e0, &e1, q0, q1);
-    gs__xst4(X, kind, a, b, e0.ax, e0.bx);
-    gs__xst4(X + st, kind, a, b, e0.ay, e0.by);
-    gs__xst4(X + 2 * st, kind, a, b, e0.az, e0.bz);
-    gs__xst4(X, kind, a + step, b + 4, e1.ax, e1.bx);
-    gs__xst4(X + st, kind, a + step, b + 4, e1.ay, e1.by);
-    gs__xst4(X + 2 * st, kind, a + step, b + 4, e1.az, e1.bz);
-}
-
 /* The `count` blocks of an entry of `kind`, their k, c, rest from xsp at
-   s (one value for all when uni), two at a time: an entry's blocks share
-   no particle, so any grouping gives plain C's bits. */
+   s (one value for all when uni). */
 GS__XINLINE void gs__xpbd_entry4(double *X, const double *P, size_t st, const double *im,
                                  const double *sp, size_t ns, int kind, int a, int b, int s,
                                  int count, int uni, double h) {
@@ -5222,20 +5164,11 @@ GS__XINLINE void gs__xpbd_entry4(double *X, const double *P, size_t st, const do
     if (uni) {
         gs__xk4 kq = gs__xpbd_k4(_mm256_set1_pd(sp[s]), _mm256_set1_pd(sp[ns + (size_t)s]),
                                  _mm256_set1_pd(sp[2 * ns + (size_t)s]), hv);
-        for (t = 0; t + 1 < count; t += 2)
-            gs__xpbd_two(X, P, st, im, kind, a + step * t, b + 4 * t, &kq, &kq);
-        if (t < count) gs__xpbd_four(X, P, st, im, kind, a + step * t, b + 4 * t, &kq);
+        for (t = 0; t < count; ++t)
+            gs__xpbd_four(X, P, st, im, kind, a + step * t, b + 4 * t, &kq);
         return;
     }
-    for (t = 0; t + 1 < count; t += 2) {
-        const double *q = sp + s + 4 * t;
-        gs__xk4 k0 = gs__xpbd_k4(_mm256_loadu_pd(q), _mm256_loadu_pd(q + ns),
-                                 _mm256_loadu_pd(q + 2 * ns), hv);
-        gs__xk4 k1 = gs__xpbd_k4(_mm256_loadu_pd(q + 4), _mm256_loadu_pd(q + ns + 4),
-                                 _mm256_loadu_pd(q + 2 * ns + 4), hv);
-        gs__xpbd_two(X, P, st, im, kind, a + step * t, b + 4 * t, &k0, &k1);
-    }
-    if (t < count) {
+    for (t = 0; t < count; ++t) {
         const double *q = sp + s + 4 * t;
         gs__xk4 kq = gs__xpbd_k4(_mm256_loadu_pd(q), _mm256_loadu_pd(q + ns),
                                  _mm256_loadu_pd(q + 2 * ns), hv);
