@@ -4236,6 +4236,17 @@ GS__PRIVATE void gs__int_explicit_euler(gs__mesh *m, double h) {
 /* ---- symplectic Euler over runs of springs (see gs__mesh.runs) ---- */
 
 #ifdef GS__MESH_AVX
+/* The AVX-512VL copies give plain C's bits only if no product is fused
+   into a sum: GCC fuses them wherever the target has FMA (AVX-512 has)
+   unless -ffp-contract=off, and its default is "fast" in C++ and GNU C
+   (g++ -std=c++11 and gcc -std=gnu99 put 141 FMAs into them: a host with
+   AVX-512 drifted from one without; tests/test_kernel17.c builds so).
+   Clang fuses only within one expression, which intrinsics never are. */
+#if defined(__GNUC__) && !defined(__clang__)
+#define GS__NOFUSE __attribute__((optimize("fp-contract=off")))
+#else
+#define GS__NOFUSE
+#endif
 /* Inlined whatever the optimizer thinks: out of line, each block's
    sixteen vectors go through memory (a third of the pass, measured). */
 #define GS__XINLINE __attribute__((target("avx"), always_inline, unused)) static inline
@@ -5296,7 +5307,7 @@ __attribute__((target("avx"))) GS__PRIVATE void gs__xpbd_blocks_avx(gs__mesh *m,
    reloads, measured). Eight lanes (zmm) gain nothing: the pass is bound
    by the square roots and divisions, which cost twice as much at twice
    the width (docs/performance-notes.md). */
-__attribute__((target("avx512f,avx512vl"))) GS__PRIVATE void gs__xpbd_blocks_avx512(gs__mesh *m,
+__attribute__((target("avx512f,avx512vl"))) GS__NOFUSE GS__PRIVATE void gs__xpbd_blocks_avx512(gs__mesh *m,
                                                                                   double h) {
     gs__xpbd_blocks4(m, h);
 }
@@ -5478,7 +5489,7 @@ __attribute__((target("avx"))) GS__PRIVATE void gs__xpbd_fin_avx(gs__mesh *m, si
 
 /* The same where the CPU has AVX-512VL: its 32 registers hold the
    loop's fourteen accumulators and constants without spills. */
-__attribute__((target("avx512f,avx512vl"))) GS__PRIVATE void gs__xpbd_fin_avx512(gs__mesh *m, size_t i,
+__attribute__((target("avx512f,avx512vl"))) GS__NOFUSE GS__PRIVATE void gs__xpbd_fin_avx512(gs__mesh *m, size_t i,
                                                                                 size_t k, double ih,
                                                                                 gs__fin *f) {
     gs__xpbd_fin4(m, i, k, ih, f);
