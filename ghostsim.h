@@ -534,7 +534,7 @@ typedef struct gs_sync_desc {
 } gs_sync_desc;
 
 /* m; the default gs_sync_desc.replay_tolerance (see docs/sync-notes.md) */
-#define GS_REPLAY_TOLERANCE -1.0
+#define GS_REPLAY_TOLERANCE 1e-4
 /* replays skipped in a row by replay_tolerance before one runs */
 #define GS_REPLAY_NEAR_SKIPS 2
 
@@ -10311,6 +10311,14 @@ GS__PRIVATE int gs__ghost_pending(const gs__ghost *g) {
 typedef char gs__lead_is_doubles[sizeof(gs__lead) == GS__SYNC_LEAD * sizeof(double) ? 1 : -1];
 #define GS__LEAD_AHEAD 0.1  /* s; how far past its last snapshot a peer's
                                probe is carried (gs__sync_carry) */
+#define GS__NEAR_SPAN 0.05  /* s; a replay within replay_tolerance is skipped
+                               only if it re-runs at most this: a peer's
+                               probe is carried on from its last snapshot
+                               blended (a skipped one is not), at most
+                               GS__LEAD_AHEAD, which two skips in a row and
+                               a longer span would pass (then it stops
+                               short: 7.4 frames' moves behind at 150 ms
+                               each way against 4.9, test_replayprobe) */
 #define GS__LEAD_GAIN 0.125 /* of a new spacing in the owner's period: the
                                paper scene's 16, 16, 18 ms give 16.7 +-0.2 */
 #define GS__SYNC_NONE UINT64_MAX /* a log entry applied before the advance */
@@ -10378,6 +10386,7 @@ typedef struct gs__sync {
     int stopped;         /* the re-run stopped at a blend that changed none */
     int near;            /* ... that moved states within replay_tolerance */
     int near_skips;      /* replays stopped so, in a row */
+    int near_ok;         /* the replay probed may stop so (GS__NEAR_SPAN) */
     double stopped_at;   /* s; that blend's time */
 } gs__sync;
 
@@ -10745,7 +10754,8 @@ GS__PRIVATE void gs__sync_blend(gs_world *w, double t, int keep_waiting) {
     memset(&bn, 0, sizeof bn);
     bn.fixed_time = gs__sync_session(w) || gs__sync_replay(w);
     bn.skip_equal = gs__sync_replay(w);
-    if (sy->probing && sy->replaying == GS__RERUN_BLEND && sy->near_skips < GS_REPLAY_NEAR_SKIPS)
+    if (sy->probing && sy->near_ok && sy->replaying == GS__RERUN_BLEND &&
+        sy->near_skips < GS_REPLAY_NEAR_SKIPS)
         bn.near = sy->d.replay_tolerance;
     if (!gs__sync_take_all(w, t, keep_waiting, &bn)) return;
     for (i = 0; i < w->agent_count; ++i) {
@@ -11367,6 +11377,7 @@ GS__PRIVATE void gs__sync_replay_from(gs_world *w, double half, double target) {
         if (!gs__sync_frame_of(sy, sy->fresh[k], half, &j) || j < from) j = from;
         sy->probing = 1;
         sy->stopped = 0;
+        sy->near_ok = target - sy->fresh[k] <= GS__NEAR_SPAN;
         sy->st.replay_steps += gs__sync_rerun(w, j, GS__RERUN_BLEND);
         if (!sy->stopped) break;
         while (k + 1 < sy->nfresh && sy->fresh[k + 1] <= sy->stopped_at) k++;
