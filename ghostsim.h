@@ -539,7 +539,8 @@ typedef struct gs_sync_desc {
 #define GS_REPLAY_NEAR_SKIPS 2
 
 /* Mode present, local clock, the world's clock, 16 frames of history, a
-   replay budget of 4096 steps, no frame grid. */
+   replay budget of 4096 steps, no frame grid, a replay tolerance of
+   GS_REPLAY_TOLERANCE. */
 GS_API gs_sync_desc gs_sync_desc_default(void);
 
 typedef struct gs_world_desc {
