@@ -11191,7 +11191,16 @@ GS__PRIVATE gs_result gs__sync_split_run(gs_world *w, gs__hframe *f, double budg
         w->target = f->split[i];
         r = gs__sync_run_part(w, left, rep);
         if (first == GS_OK) first = r;
-        if (sy->replaying) gs__sync_apply_log(w, sy->replay_seq, GS__SYNC_SPLIT, f->split[i]);
+        if (sy->replaying) {
+            int k;
+            gs__sync_apply_log(w, sy->replay_seq, GS__SYNC_SPLIT, f->split[i]);
+            /* as the blend there did (gs__sync_blend_to): a peer's probe
+               takes the input its new path gives at once; left to its next
+               step, a re-run of a frame an earlier replay blended into was
+               not the run (gs_world_sync_test, tests/test_replaynear.c) */
+            if (sy->replaying == GS__RERUN_TEST || !gs__sync_is_fresh(sy, f->split[i]))
+                for (k = 0; k < w->agent_count; ++k) gs__sync_carry(w->agents[k]);
+        }
         if (sy->replaying != GS__RERUN_TEST && gs__sync_is_fresh(sy, f->split[i])) {
             gs__sync_blend_to(w, f->split[i]);
             if (sy->probing && !sy->changed) { /* see gs__sync_replay_from */

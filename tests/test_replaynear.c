@@ -7,7 +7,9 @@
    Two hosts of a small paper scene (6x6 cloth, two spheres, a probe each)
    under the client/server rule, replay mode on the session clock, 25 ms
    each way with 2% loss: host 1's probe pushes for 1.3 s, then parks; the
-   run goes on 1.7 s. The follower (host 2) is the one that replays. */
+   run goes on 1.7 s. The follower (host 2) is the one that replays.
+   Every 15 frames the follower's last 4 frames, and at the end each
+   world's last 8, re-run bitwise (gs_world_sync_test). */
 #include <setjmp.h>
 #include <stdarg.h>
 #include <stddef.h>
@@ -73,6 +75,11 @@ static void run(double tol, near_run *out) {
         if (t >= PUSH) p.y = 0.4;
         assert_int_equal(gs_probe_set_target(sc[0].probes[0], p, id), GS_OK);
         assert_int_equal(gs_simnet_run(sim, FRAME, FRAME), GS_OK);
+        if (f >= 30 && f % 15 == 0) { /* while it pushes and after */
+            int bad = 0;
+            assert_int_equal(gs_world_sync_test(w[1], 4, &bad), GS_OK);
+            assert_int_equal(bad, -1);
+        }
     }
     out->gap = fabs(gs_agent_time(sc[0].cloth) - gs_agent_time(sc[1].cloth));
     for (i = 0; i < gs_mesh_particle_count(sc[0].cloth); ++i)
@@ -82,6 +89,13 @@ static void run(double tol, near_run *out) {
         out->apart = fmax(out->apart, dist(gs_rigid_position(sc[0].spheres[i]),
                                            gs_rigid_position(sc[1].spheres[i])));
     assert_int_equal(gs_world_sync_stats(w[1], &out->st), GS_OK);
+    /* the follower's history, skips and all, re-runs bit for bit: a skip
+       leaves the present as it ran and logs nothing */
+    for (k = 0; k < 2; ++k) {
+        int bad = 0;
+        assert_int_equal(gs_world_sync_test(w[k], 8, &bad), GS_OK);
+        assert_int_equal(bad, -1);
+    }
     for (k = 0; k < 2; ++k) gs_world_destroy(w[k]);
     gs_simnet_destroy(sim);
 }
