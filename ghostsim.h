@@ -10245,13 +10245,15 @@ GS__PRIVATE uint32_t gs__ghost_blend(gs__ghost *g, gs__blend_net *bn, int *appli
             g->stats.last_correction = 0.0;
         } else if (ps.finite) {
             double c2 = (ps.corr2[0] + ps.corr2[1]) + (ps.corr2[2] + ps.corr2[3]);
-            g->stats.blends++;
-            g->stats.snapshots_blended += (uint64_t)used;
             g->held_corr = n > 1 ? sqrt(c2 / (double)(n - 1)) : 0.0;
             if (bn->near > 0.0 && gs__ghost_near(g, bn->near)) {
                 g->held_back = 1 + gs__ghost_held(g, &ps); /* see gs__sync_blend */
+                g->stats.blends++;
+                g->stats.snapshots_blended += (uint64_t)used;
                 g->stats.last_correction = 0.0;
             } else if (gs__blend_apply(g, t_i)) {
+                g->stats.blends++;
+                g->stats.snapshots_blended += (uint64_t)used;
                 g->stats.last_correction = g->held_corr;
                 *applied = 1;
                 g->agent->hold = gs__ghost_held(g, &ps);
