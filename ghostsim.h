@@ -521,10 +521,26 @@ typedef struct gs_sync_desc {
                               to the same time; default 0: off (the
                               target is the session time itself); at most
                               0.05 */
+    double replay_tolerance; /* m; replay mode: a replay whose first blend
+                              moves no ghost's state by more than this (a
+                              position or quaternion component; a velocity
+                              by what it moves in a send period) is not
+                              run: the present stands, as for a blend that
+                              changes no bit. At most GS_REPLAY_NEAR_SKIPS
+                              in a row: the next one runs (so that copies
+                              at rest still end bitwise equal). Default 0:
+                              GS_REPLAY_TOLERANCE; negative: off (every
+                              blend that changes a bit replays) */
 } gs_sync_desc;
 
+/* m; the default gs_sync_desc.replay_tolerance (see docs/sync-notes.md) */
+#define GS_REPLAY_TOLERANCE 1e-4
+/* replays skipped in a row by replay_tolerance before one runs */
+#define GS_REPLAY_NEAR_SKIPS 2
+
 /* Mode present, local clock, the world's clock, 16 frames of history, a
-   replay budget of 4096 steps, no frame grid. */
+   replay budget of 4096 steps, no frame grid, a replay tolerance of
+   GS_REPLAY_TOLERANCE. */
 GS_API gs_sync_desc gs_sync_desc_default(void);
 
 typedef struct gs_world_desc {
@@ -1344,15 +1360,19 @@ typedef struct gs_ghost_desc {
                               default 16 */
     /* Send on change, in every encoding: */
     double rest_threshold; /* m; while no position moved more than this
-                              (nor a quaternion component, nor a velocity
-                              by this over one send period) since the last
+                              (nor a quaternion component, a rigid body's
+                              by this over twice its bounding radius: how
+                              far its surface turned; nor a velocity by
+                              this over one send period) since the last
                               snapshot sent, only a heartbeat goes; the
                               last snapshot goes again with the first two
                               heartbeats of a rest, so that one loss does
                               not leave a peer a stale state. With delta,
                               the beat after any ghost of the net sent its
-                              state sends every resting ghost's state, so
-                              that peers hold one instant's scene; a peer
+                              state sends every resting ghost's state (a
+                              heartbeat where the state is the very one
+                              every peer acknowledged), so that peers hold
+                              one instant's scene; a peer
                               whose copy follows this host alone (weight 0
                               of its own) holds it at a heartbeat's state
                               (it sleeps after its next step, not under
@@ -1486,6 +1506,8 @@ typedef struct gs_sync_stats {
                               blended at the present */
     uint64_t incomplete;   /* snapshots dropped in replay mode: superseded
                               by a newer whole set before theirs was whole */
+    uint64_t replays_near; /* of replays_skipped: those whose blends moved
+                              states, each within replay_tolerance */
 } gs_sync_stats;
 
 /* The sync layer's counters. Returns GS_ERR_INVALID_ARG for NULL. */
@@ -2850,6 +2872,7 @@ GS_API gs_sync_desc gs_sync_desc_default(void) {
     d.mode = GS_SYNC_PRESENT;
     d.history_frames = 16;
     d.replay_budget = 4096;
+    d.replay_tolerance = GS_REPLAY_TOLERANCE;
     return d;
 }
 
@@ -2881,6 +2904,7 @@ GS__PRIVATE gs_world_desc gs__world_defaults(const gs_world_desc *in) {
     if (d.sync.mode == GS_SYNC_DEFAULT) d.sync.mode = def.sync.mode;
     if (d.sync.replay_budget == 0) d.sync.replay_budget = def.sync.replay_budget;
     if (d.sync.history_frames == 0) d.sync.history_frames = def.sync.history_frames;
+    if (d.sync.replay_tolerance == 0.0) d.sync.replay_tolerance = def.sync.replay_tolerance;
     if (d.max_steps == 0) d.max_steps = def.max_steps;
     if (d.sleep_time == 0.0) d.sleep_time = def.sleep_time;
     if (d.sleep_speed == 0.0) d.sleep_speed = def.sleep_speed;
@@ -2907,6 +2931,7 @@ GS__PRIVATE gs_result gs__world_check(const gs_world_desc *d) {
     if (d->sync.history_frames != -1)
         gs__check_int(&c, "sync.history_frames", d->sync.history_frames, 1, 1024);
     gs__check_finite(&c, "sync.frame", d->sync.frame);
+    gs__check_finite(&c, "sync.replay_tolerance", d->sync.replay_tolerance);
     if (!(d->sync.frame >= 0.0 && d->sync.frame <= GS__SYNC_FRAME_MAX))
         gs__check_fail(&c, GS_ERR_INVALID_ARG, "sync.frame is %g s, must be in [0, %g]",
                        d->sync.frame, GS__SYNC_FRAME_MAX);
@@ -4236,6 +4261,17 @@ GS__PRIVATE void gs__int_explicit_euler(gs__mesh *m, double h) {
 /* ---- symplectic Euler over runs of springs (see gs__mesh.runs) ---- */
 
 #ifdef GS__MESH_AVX
+/* The AVX-512VL copies give plain C's bits only if no product is fused
+   into a sum: GCC fuses them wherever the target has FMA (AVX-512 has)
+   unless -ffp-contract=off, and its default is "fast" in C++ and GNU C
+   (g++ -std=c++11 and gcc -std=gnu99 put 141 FMAs into them: a host with
+   AVX-512 drifted from one without; tests/test_kernel17.c builds so).
+   Clang fuses only within one expression, which intrinsics never are. */
+#if defined(__GNUC__) && !defined(__clang__)
+#define GS__NOFUSE __attribute__((optimize("fp-contract=off")))
+#else
+#define GS__NOFUSE
+#endif
 /* Inlined whatever the optimizer thinks: out of line, each block's
    sixteen vectors go through memory (a third of the pass, measured). */
 #define GS__XINLINE __attribute__((target("avx"), always_inline, unused)) static inline
@@ -5296,7 +5332,7 @@ __attribute__((target("avx"))) GS__PRIVATE void gs__xpbd_blocks_avx(gs__mesh *m,
    reloads, measured). Eight lanes (zmm) gain nothing: the pass is bound
    by the square roots and divisions, which cost twice as much at twice
    the width (docs/performance-notes.md). */
-__attribute__((target("avx512f,avx512vl"))) GS__PRIVATE void gs__xpbd_blocks_avx512(gs__mesh *m,
+__attribute__((target("avx512f,avx512vl"))) GS__NOFUSE GS__PRIVATE void gs__xpbd_blocks_avx512(gs__mesh *m,
                                                                                   double h) {
     gs__xpbd_blocks4(m, h);
 }
@@ -5478,7 +5514,7 @@ __attribute__((target("avx"))) GS__PRIVATE void gs__xpbd_fin_avx(gs__mesh *m, si
 
 /* The same where the CPU has AVX-512VL: its 32 registers hold the
    loop's fourteen accumulators and constants without spills. */
-__attribute__((target("avx512f,avx512vl"))) GS__PRIVATE void gs__xpbd_fin_avx512(gs__mesh *m, size_t i,
+__attribute__((target("avx512f,avx512vl"))) GS__NOFUSE GS__PRIVATE void gs__xpbd_fin_avx512(gs__mesh *m, size_t i,
                                                                                 size_t k, double ih,
                                                                                 gs__fin *f) {
     gs__xpbd_fin4(m, i, k, ih, f);
@@ -6859,7 +6895,10 @@ typedef struct gs__lead {
     gs_vec3 x, d, dd;  /* m: the last snapshot's position, the path's step
                           per frame of the owner's before it, and that
                           step's change per frame */
-    double t, per;     /* s: the last snapshot's time; the owner's frame */
+    double t, per;     /* s: the last snapshot's time; the owner's frame
+                          (smoothed over the snapshots' spacings) */
+    double f;          /* s: the end of the owner's frame that snapshot
+                          was taken at (estimated: gs__sync_sighted) */
     double next;       /* s: when the owner's next input is due */
     double j;          /* the owner's frames carried since the last
                           snapshot */
@@ -9076,12 +9115,19 @@ struct gs__ghost {
                              world's epoch moved_epoch (one advance) */
     uint64_t moved_epoch;
     double pulled;        /* s; how far back its last blend took the time */
+    int held_back;        /* its blended state (scratch) is held back: within
+                             the replay tolerance (gs__blend_net.near); 2:
+                             held (gs__ghost_held) when applied */
+    double held_corr;     /* its last_correction, when applied */
     gs_ghost_stats stats;
     /* send on change */
     double *sent;         /* the values of the last snapshot sent whole
                              (rest_extrapolate: as the peers decode them) */
     double *pred;         /* rest_extrapolate: sent carried to B's time */
     int rest_repeats;     /* heartbeats of this rest that carry it again */
+    int still;            /* delta: every state sent since `sent` had its
+                             values (gs__ghost_still) */
+    uint32_t still_seq;   /* delta: the snapshot `sent` went as */
     int sent_any;         /* 0: send the state whole next (a first send, a
                              peer added or started again) */
     double next_heartbeat;/* s, wall time, on the beat grid (gs__beat_next) */
@@ -9701,6 +9747,10 @@ typedef struct gs__blend_net {
                                      blend of weight 0 would change the
                                      run, and a replay could never find it
                                      changed nothing */
+    double near;                  /* m; > 0: a replay's first blend, whose
+                                     states within this of the local ones
+                                     are held back (gs__ghost_blend) */
+    int over;                     /* a ghost's state was beyond `near` */
 } gs__blend_net;
 
 /* Notes, for each peer with a snapshot in this blend, that it was heard
@@ -10160,6 +10210,23 @@ GS__PRIVATE int gs__ghost_held(const gs__ghost *g, const gs__pass *ps) {
     return held;
 }
 
+GS__PRIVATE int gs__ghost_runs(const gs__ghost *g, size_t end[3], int cls[3]);
+
+/* Is the blended state (scratch) within `tol` of the local one: every
+   position and quaternion component within tol, every velocity within
+   what tol is over a send period (gs__ghost_moved's measure)? */
+GS__PRIVATE int gs__ghost_near(const gs__ghost *g, double tol) {
+    size_t end[3], lo = 0, i;
+    int cls[3], r, nr = gs__ghost_runs(g, end, cls);
+    if (g->scratch[0] != g->local[0]) return 0;
+    for (r = 0; r < nr; lo = end[r++]) {
+        double lim = cls[r] == 2 ? tol * g->d.send_rate : tol;
+        for (i = lo; i < end[r]; ++i)
+            if (!(fabs(g->scratch[1 + i] - g->local[1 + i]) <= lim)) return 0;
+    }
+    return 1;
+}
+
 /* The paper's ghost update: blend every taken snapshot once with the
    local state (gs__ghost_take took them from the queues). One pass over
    the state after the agent's get_state, then its set_state. No lock is
@@ -10194,13 +10261,22 @@ GS__PRIVATE uint32_t gs__ghost_blend(gs__ghost *g, gs__blend_net *bn, int *appli
             g->stats.blends++;
             g->stats.snapshots_blended += (uint64_t)used;
             g->stats.last_correction = 0.0;
-        } else if (ps.finite && gs__blend_apply(g, t_i)) {
+        } else if (ps.finite) {
             double c2 = (ps.corr2[0] + ps.corr2[1]) + (ps.corr2[2] + ps.corr2[3]);
-            g->stats.blends++;
-            g->stats.snapshots_blended += (uint64_t)used;
-            g->stats.last_correction = n > 1 ? sqrt(c2 / (double)(n - 1)) : 0.0;
-            *applied = 1;
-            g->agent->hold = gs__ghost_held(g, &ps);
+            g->held_corr = n > 1 ? sqrt(c2 / (double)(n - 1)) : 0.0;
+            if (bn->near > 0.0 && gs__ghost_near(g, bn->near)) {
+                g->held_back = 1 + gs__ghost_held(g, &ps); /* see gs__sync_blend */
+                g->stats.blends++;
+                g->stats.snapshots_blended += (uint64_t)used;
+                g->stats.last_correction = 0.0;
+            } else if (gs__blend_apply(g, t_i)) {
+                g->stats.blends++;
+                g->stats.snapshots_blended += (uint64_t)used;
+                g->stats.last_correction = g->held_corr;
+                *applied = 1;
+                g->agent->hold = gs__ghost_held(g, &ps);
+                bn->over = 1;
+            }
         }
     }
     gs__ghost_clear(g);
@@ -10250,12 +10326,22 @@ GS__PRIVATE int gs__ghost_pending(const gs__ghost *g) {
 #define GS__SYNC_AGENT 11   /* doubles per agent before its state: steps,
                                t_offset, priority, 6 counters, sleeping
                                + 2 hold, rest */
-#define GS__SYNC_LEAD 15    /* doubles in a gs__lead */
+#define GS__SYNC_LEAD 16    /* doubles in a gs__lead */
 #define GS__SYNC_RIGID (13 + GS__SYNC_LEAD) /* a_own, 3 spare, target,
                                target_q, lead */
 typedef char gs__lead_is_doubles[sizeof(gs__lead) == GS__SYNC_LEAD * sizeof(double) ? 1 : -1];
 #define GS__LEAD_AHEAD 0.1  /* s; how far past its last snapshot a peer's
                                probe is carried (gs__sync_carry) */
+#define GS__NEAR_SPAN 0.05  /* s; a replay within replay_tolerance is skipped
+                               only if it re-runs at most this: a peer's
+                               probe is carried on from its last snapshot
+                               blended (a skipped one is not), at most
+                               GS__LEAD_AHEAD, which two skips in a row and
+                               a longer span would pass (then it stops
+                               short: 7.4 frames' moves behind at 150 ms
+                               each way against 4.9, test_replayprobe) */
+#define GS__LEAD_GAIN 0.125 /* of a new spacing in the owner's period: the
+                               paper scene's 16, 16, 18 ms give 16.7 +-0.2 */
 #define GS__SYNC_NONE UINT64_MAX /* a log entry applied before the advance */
 #define GS__SYNC_SPLIT (UINT64_MAX - 1) /* one applied at a blend time */
 #define GS__LOG_HEAD 5      /* doubles before an input log entry's values */
@@ -10319,6 +10405,9 @@ typedef struct gs__sync {
     int probing;         /* no blend of this re-run changed a state yet */
     int changed;         /* the last world blend changed an agent's state */
     int stopped;         /* the re-run stopped at a blend that changed none */
+    int near;            /* ... that moved states within replay_tolerance */
+    int near_skips;      /* replays stopped so, in a row */
+    int near_ok;         /* the replay probed may stop so (GS__NEAR_SPAN) */
     double stopped_at;   /* s; that blend's time */
 } gs__sync;
 
@@ -10686,11 +10775,15 @@ GS__PRIVATE void gs__sync_blend(gs_world *w, double t, int keep_waiting) {
     memset(&bn, 0, sizeof bn);
     bn.fixed_time = gs__sync_session(w) || gs__sync_replay(w);
     bn.skip_equal = gs__sync_replay(w);
+    if (sy->probing && sy->near_ok && sy->replaying == GS__RERUN_BLEND &&
+        sy->near_skips < GS_REPLAY_NEAR_SKIPS)
+        bn.near = sy->d.replay_tolerance;
     if (!gs__sync_take_all(w, t, keep_waiting, &bn)) return;
     for (i = 0; i < w->agent_count; ++i) {
         gs__ghost *g = gs__ghost_of(w->agents[i]);
         if (!g || g->ntaken == 0) continue;
         g->pulled = 0.0;
+        g->held_back = 0;
         seen |= gs__ghost_blend(g, &bn, &applied);
         if (applied) { /* in replay mode only a state that differs is set */
             sy->changed = 1;
@@ -10700,6 +10793,28 @@ GS__PRIVATE void gs__sync_blend(gs_world *w, double t, int keep_waiting) {
             back++;
             pull = fmin(pull, g->pulled);
         }
+    }
+    /* States held back within the tolerance: all of them stay so if every
+       ghost's did (the replay then stops at this blend, as for one that
+       changed no bit), else they are applied too, in the agents' order:
+       a set is blended whole or not at all. */
+    for (i = 0; i < w->agent_count; ++i) {
+        gs__ghost *g = gs__ghost_of(w->agents[i]);
+        if (!g || !g->held_back) continue;
+        if (bn.over && gs__blend_apply(g, g->local[0])) {
+            g->stats.last_correction = g->held_corr;
+            g->agent->hold = g->held_back == 2;
+            sy->changed = 1;
+            gs__sync_log_blend(g->agent, g->scratch);
+            if (g->pulled > 0.0) {
+                back++;
+                pull = fmin(pull, g->pulled);
+            }
+        } else if (!bn.over && !sy->near) {
+            sy->near = 1;
+            sy->near_skips++;
+        }
+        g->held_back = 0;
     }
     if (2 * back > w->agent_count && pull < HUGE_VAL)
         w->target = w->target - pull > 0.0 ? w->target - pull : 0.0;
@@ -10885,32 +11000,48 @@ GS__PRIVATE void gs__sync_target(gs_world *w, double seconds, double before) {
    target once a frame and the probe goes there in a step, so that its
    snapshots, taken at the ends of the owner's frames, hold each frame's
    target: the path is sampled once a frame, and read per frame, not per
-   second (a snapshot's time is the probe's step after the frame's end,
-   a step later in one frame than in the next). Frames between snapshots
-   are counted by the period: a snapshot lost makes one interval two
-   frames. */
+   second. A snapshot's time is the probe's step nearest the frame's end,
+   so the spacing of two is a step more in one frame than in the next
+   (the paper scene: 16 or 18 ms for 16.7): the period is smoothed over
+   the spacings, and the frame's end is carried on by it from the last
+   one, kept within the half step about the snapshot's time that it must
+   lie in (gs__agent_done). With the last spacing for the period and the
+   snapshot's time for the frame's end, the copy took the owner's next
+   input a step early or late in one frame of three (a frame's move of
+   the path off, 8 mm at 0.5 m/s). Frames between snapshots are counted
+   by the period: a snapshot lost makes one interval two frames. */
 GS__PRIVATE void gs__sync_sighted(gs_agent *a) {
     gs__rigid *r = gs__as_rigid(a);
     gs__lead *l;
-    double t, k;
+    double t, k, f, per;
     gs_vec3 d;
     if (!r || !r->probe || r->owner == a->world->host_id || a->world->sync->d.mode != GS_SYNC_REPLAY)
         return;
     l = &r->lead;
     t = gs__agent_time(a);
     if (l->n > 0.0 && !(t > l->t)) return; /* an older one: the path stands */
+    f = t;
     if (l->n > 0.0) {
         k = l->n > 1.0 ? fmax(1.0, floor((t - l->t) / l->per + 0.5)) : 1.0;
         d = gs__scale(gs__sub(r->x, l->x), 1.0 / k);
         l->dd = l->n > 1.0 ? gs__scale(gs__sub(d, l->d), 2.0 / (k + l->k)) : gs__v3(0.0, 0.0, 0.0);
         l->d = d;
-        l->per = (t - l->t) / k;
+        per = (t - l->t) / k;
+        /* smoothed while the spacings agree within the step they differ
+           by (and half a step of room: the first period is one spacing);
+           a spacing off by more is a change of the owner's pace (or a
+           frame counted wrong across a loss), taken as it is: smoothed
+           through those too, the harsh link's p95 went 7.4 -> 12 mm
+           (bench/sync_modes) */
+        l->per = l->n > 1.0 && fabs(per - l->per) <= 1.5 * a->dt ? l->per + GS__LEAD_GAIN * (per - l->per) : per;
         l->k = k;
+        f = fmin(fmax(l->f + k * l->per, t - 0.5 * a->dt), t + 0.5 * a->dt);
     }
     l->n = l->n < 3.0 ? l->n + 1.0 : 3.0;
     l->x = r->x;
     l->t = t;
-    l->next = t;
+    l->f = f;
+    l->next = f;
     l->j = 0.0;
 }
 
@@ -11080,7 +11211,16 @@ GS__PRIVATE gs_result gs__sync_split_run(gs_world *w, gs__hframe *f, double budg
         w->target = f->split[i];
         r = gs__sync_run_part(w, left, rep);
         if (first == GS_OK) first = r;
-        if (sy->replaying) gs__sync_apply_log(w, sy->replay_seq, GS__SYNC_SPLIT, f->split[i]);
+        if (sy->replaying) {
+            int k;
+            gs__sync_apply_log(w, sy->replay_seq, GS__SYNC_SPLIT, f->split[i]);
+            /* as the blend there did (gs__sync_blend_to): a peer's probe
+               takes the input its new path gives at once; left to its next
+               step, a re-run of a frame an earlier replay blended into was
+               not the run (gs_world_sync_test, tests/test_replaynear.c) */
+            if (sy->replaying == GS__RERUN_TEST || !gs__sync_is_fresh(sy, f->split[i]))
+                for (k = 0; k < w->agent_count; ++k) gs__sync_carry(w->agents[k]);
+        }
         if (sy->replaying != GS__RERUN_TEST && gs__sync_is_fresh(sy, f->split[i])) {
             gs__sync_blend_to(w, f->split[i]);
             if (sy->probing && !sy->changed) { /* see gs__sync_replay_from */
@@ -11274,6 +11414,7 @@ GS__PRIVATE void gs__sync_replay_from(gs_world *w, double half, double target) {
         if (!gs__sync_frame_of(sy, sy->fresh[k], half, &j) || j < from) j = from;
         sy->probing = 1;
         sy->stopped = 0;
+        sy->near_ok = target - sy->fresh[k] <= GS__NEAR_SPAN;
         sy->st.replay_steps += gs__sync_rerun(w, j, GS__RERUN_BLEND);
         if (!sy->stopped) break;
         while (k + 1 < sy->nfresh && sy->fresh[k + 1] <= sy->stopped_at) k++;
@@ -11316,14 +11457,17 @@ GS__PRIVATE void gs__sync_take(gs_world *w) {
     }
     present = sy->ring + (size_t)sy->cap * sy->stride;
     gs__sync_save(w, present);
+    sy->near = 0;
     gs__sync_replay_from(w, half, target);
     if (sy->stopped) { /* no blend changed a state: the present stands */
         sy->stopped = 0;
         gs__sync_load(w, present);
         w->target = target;
         sy->st.replays_skipped++;
+        if (sy->near) sy->st.replays_near++;
     } else {
         sy->st.replays++;
+        sy->near_skips = 0;
     }
     gs__sync_load_targets(w, present);
     gs__sync_apply_log(w, sy->seq, GS__SYNC_NONE, 0.0);
@@ -13810,14 +13954,20 @@ GS__PRIVATE void gs__qk_values(const gs_wire_segment *seg, int nseg, const int64
 
 /* Has the state moved past the rest threshold from ref (the last snapshot
    sent whole, or what a peer predicts of it)? A velocity counts by what it
-   moves over one send period. */
+   moves over one send period; a rigid body's orientation by how far it
+   moves the body's bounding sphere's surface (a quaternion component off
+   by d turns it by about 2d radians): compared as metres, a sphere of 8 cm
+   spinning slowly about the vertical on the paper scene's cloth (its
+   surface 0.02 mm a send apart) sent its state 14 times a second. */
 GS__PRIVATE int gs__ghost_moved(const gs__ghost *g, const double *ref) {
     size_t end[3], lo = 0, i;
     int cls[3], r, nr = gs__ghost_runs(g, end, cls);
-    double thr = g->d.rest_threshold;
+    double thr = g->d.rest_threshold, turn = thr;
     if (!g->sent_any) return 1;
+    if (g->agent->kind == &gs__rigid_kind && ((const gs__rigid *)g->agent)->shape.bound > 0.0)
+        turn = thr / (2.0 * ((const gs__rigid *)g->agent)->shape.bound);
     for (r = 0; r < nr; lo = end[r++]) {
-        double lim = cls[r] == 2 ? thr * g->d.send_rate : thr;
+        double lim = cls[r] == 2 ? thr * g->d.send_rate : cls[r] == 1 ? turn : thr;
         for (i = lo; i < end[r]; ++i)
             if (!(fabs(g->B[1 + i] - ref[1 + i]) <= lim)) return 1;
     }
@@ -14308,9 +14458,29 @@ GS__PRIVATE int gs__beat_due(const gs__ghost *g, double now) {
     return now >= g->next_heartbeat - GS__BEAT_SLACK * hb || g->next_heartbeat - now > hb;
 }
 
+/* A resting delta ghost whose state is, value for value, the one it
+   last sent (every state sent since had those values too), and every peer
+   acknowledged that one or a later: each peer holds it whole, so a beat's
+   state or a repeat would tell them nothing a heartbeat does not (and
+   costs its chunk and an acknowledgement back: 810 resting spheres at 4
+   Hz, bench/bandwidth spheres900). The acknowledgement counts however old
+   (not gs__delta_base's ring): a peer's last state of the object stays
+   until a newer one comes, and every newer one had these values. */
+GS__PRIVATE int gs__ghost_still(const gs_net *net, const gs__ghost *g) {
+    int p, any = 0;
+    if (!g->still || memcmp(g->B + 1, g->sent + 1, (g->n - 1) * sizeof(double)) != 0) return 0;
+    for (p = 0; p < GS__MAX_PEERS; ++p) {
+        const struct gs__ghost_peer *gp = &g->gp[p];
+        if (!net->peers[p].used) continue;
+        if (!gp->acked_known || gs__seq_newer(g->still_seq, gp->acked)) return 0;
+        any = 1;
+    }
+    return any;
+}
+
 /* Sends a due ghost: its state, or while it rests (send on change) a
    heartbeat on the beat grid, the first two of a rest with the state
-   again. */
+   again (a delta ghost's beat: gs__ghost_still). */
 GS__PRIVATE void gs__send_due(gs_net *net, gs__ghost *g, double now, size_t *size) {
     double hb = 1.0 / g->d.heartbeat_rate;
     int on_change = g->d.rest_threshold > 0.0, predict = on_change && g->d.rest_extrapolate;
@@ -14328,6 +14498,10 @@ GS__PRIVATE void gs__send_due(gs_net *net, gs__ghost *g, double now, size_t *siz
             net->beat_went = 1;
             gs__send_ghost(net, g, now, size, 0, g->pred);
             gs__ghost_decoded(g, g->pred, g->sent);
+        } else if (g->d.delta && !predict && gs__ghost_still(net, g)) {
+            if (g->rest_repeats > 0) g->rest_repeats--;
+            if (net->beat_states) net->beat_went = 1;
+            gs__send_ghost(net, g, now, size, 1, g->B);
         } else if (g->rest_repeats > 0 || (net->beat_states && !predict && g->d.delta)) {
             /* after any state went, a beat sends every resting ghost's
                state: the receiver then holds one instant's scene, not
@@ -14339,6 +14513,7 @@ GS__PRIVATE void gs__send_due(gs_net *net, gs__ghost *g, double now, size_t *siz
                13.6 to 21.4 kbit/s). A prediction goes on as it is. */
             if (g->rest_repeats > 0) g->rest_repeats--;
             net->beat_went = 1;
+            if (memcmp(g->B + 1, g->sent + 1, (g->n - 1) * sizeof(double)) != 0) g->still = 0;
             gs__send_ghost(net, g, now, size, 0, g->B);
         } else {
             gs__send_ghost(net, g, now, size, 1, g->B);
@@ -14348,6 +14523,8 @@ GS__PRIVATE void gs__send_due(gs_net *net, gs__ghost *g, double now, size_t *siz
     gs__send_ghost(net, g, now, size, 0, g->B);
     if (predict) gs__ghost_decoded(g, g->B, g->sent);
     else memcpy(g->sent, g->B, g->n * sizeof(double));
+    g->still = 1;
+    g->still_seq = g->b_seq;
     if (on_change) net->beat_states = 2;
     g->sent_any = 1;
     g->rest_repeats = 2;

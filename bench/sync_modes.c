@@ -77,6 +77,8 @@ typedef struct result {
     double frame_cpu;             /* s of CPU per host frame */
     uint64_t replays, fallbacks;
     uint64_t skipped;             /* replays whose blends changed no state */
+    uint64_t near;                /* of those, whose blends moved states
+                                     within gs_sync_desc.replay_tolerance */
 } result;
 
 static int attach(host *h) {
@@ -202,6 +204,7 @@ static int run(const profile *pr, int mode, int nhosts, double push, double afte
         rsteps += st.replay_steps;
         r->replays += st.replays;
         r->skipped += st.replays_skipped;
+        r->near += st.replays_near;
         r->fallbacks += st.fallbacks;
         for (a = 0; a < gs_world_agent_count(h[k].w); ++a)
             steps += agent_stats(gs_world_agent(h[k].w, a)).steps;
@@ -253,9 +256,9 @@ int main(int argc, char **argv) {
     nh = args.quick ? 1 : 2;
     push = args.quick ? 1.5 : 4.0;
     after = args.quick ? 1.5 : 4.0;
-    fprintf(stderr, "%-6s %-8s %5s | %9s %9s %9s | %9s %9s %7s | %8s %8s | %7s %7s %6s %6s %6s | %7s %7s\n", "link",
+    fprintf(stderr, "%-6s %-8s %5s | %9s %9s %9s | %9s %9s %7s | %8s %8s | %7s %7s %6s %6s %6s %6s | %7s %7s\n", "link",
             "mode", "hosts", "push med", "push p95", "push max", "stop+1s", "end", "bitwise",
-            "gap p95", "gap max", "replay", "cpu/fr", "fallb", "replays", "skip", "push:rep",
+            "gap p95", "gap max", "replay", "cpu/fr", "fallb", "replays", "skip", "near", "push:rep",
             "cpu/fr");
     if (only) np = 3;
     for (p = 0; p < np; ++p)
@@ -268,13 +271,13 @@ int main(int argc, char **argv) {
                     return 1;
                 }
                 fprintf(stderr,
-                        "%-6s %-8s %5d | %7.3fmm %7.3fmm %7.3fmm | %8.2em %8.2em %7s | %6.2fms %6.2fms | %6.1f%% %6.1f%% %6lu %6lu %6lu | %6.1f%% %6.1f%%\n",
+                        "%-6s %-8s %5d | %7.3fmm %7.3fmm %7.3fmm | %8.2em %8.2em %7s | %6.2fms %6.2fms | %6.1f%% %6.1f%% %6lu %6lu %6lu %6lu | %6.1f%% %6.1f%%\n",
                         r->profile, r->mode, r->hosts, 1e3 * r->push_med, 1e3 * r->push_p95,
                         1e3 * r->push_max, r->after_max, r->after_end,
                         r->bitwise_after_1s ? "yes" : "no",
                         1e3 * r->gap_p95, 1e3 * r->gap_max, 100.0 * r->replay_share,
                         100.0 * r->replay_cpu_frame, (unsigned long)r->fallbacks,
-                        (unsigned long)r->replays, (unsigned long)r->skipped,
+                        (unsigned long)r->replays, (unsigned long)r->skipped, (unsigned long)r->near,
                         100.0 * r->replay_push_worst,
                         100.0 * r->replay_push_worst * r->frame_cpu / FRAME);
                 nr++;
@@ -310,6 +313,7 @@ int main(int argc, char **argv) {
         bu_json_num(j, "replay_cpu_frame_share", r->replay_cpu_frame);
         bu_json_int(j, "replays", (long long)r->replays);
         bu_json_int(j, "replays_skipped", (long long)r->skipped);
+        bu_json_int(j, "replays_skipped_near", (long long)r->near);
         bu_json_int(j, "fallbacks", (long long)r->fallbacks);
         bu_json_obj_end(j);
     }

@@ -10,7 +10,13 @@
    the blow-up case checks that both paths refuse the same step. Where
    the CPU has no AVX every run is plain C and this holds trivially.
    Compiles the implementation itself (GHOSTSIM_STATIC) to reach the
-   private switch gs__mesh.avx. */
+   private switch gs__mesh.avx.
+   Built as GCC builds C++ and GNU C by default (products fused into sums
+   wherever the target has FMA, as AVX-512 has): the header's kernels
+   must keep plain C's bits under it too. */
+#if defined(__GNUC__) && !defined(__clang__)
+#pragma GCC optimize("fp-contract=fast")
+#endif
 #include <setjmp.h>
 #include <stdarg.h>
 #include <stddef.h>
