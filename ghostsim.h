@@ -12135,24 +12135,20 @@ GS__PRIVATE double gs__rice_pick(const int *hist, int n, int *k) {
     return best;
 }
 
-/* GS_WIRE_CHUNK_DELTA's spatial coding (coding 3, see >>wire): what
-   difference i is predicted as from the differences d before it, with
-   rows of `row` triples and the neighbours starting again at `restart`.
+/* GS_WIRE_CHUNK_DELTA's spatial coding (coding 3, see >>wire) predicts
+   difference i from the differences before it, in rows of `row` triples,
+   the neighbours starting again at `restart` (a section): a section's
+   first triple as 0, the rest of its first row as the triple before (l),
+   every later one as the median of l, the one a row up (up) and l + up -
+   dg, dg the one up-left: LOCO-I's MED, the smaller of l and up when dg is
+   at least both, the larger when at most both, else l + up - dg.
+   gs__med3 computes it as l + up - dg held between l and up: no branch on
+   the data, the same value (|l|, |up|, |dg| < 2^40 here: no overflow).
    The result lies between two earlier differences, so that decoded
    differences grow at most by a residual each (no overflow in int64). */
-/* The median of l, up and l + up - dg (LOCO-I's MED: the smaller of l
-   and up when dg is at least both, the larger when at most both, else
-   l + up - dg), as l + up - dg held between the two: no branch on the
-   data, and the same value (|l|, |up|, |dg| < 2^40 here: no overflow). */
 GS__PRIVATE_INLINE int64_t gs__med3(int64_t l, int64_t up, int64_t dg) {
     int64_t mn = l < up ? l : up, mx = l < up ? up : l, c = l + up - dg;
     return c < mn ? mn : c > mx ? mx : c;
-}
-GS__PRIVATE_INLINE int64_t gs__spatial_pred(const int64_t *d, int i, int row, int restart) {
-    int lo = restart > 0 && i >= restart ? restart : 0, u = i - 3 * row;
-    if (i - 3 < lo) return 0;
-    if (u - 3 < lo) return d[i - 3];
-    return gs__med3(d[i - 3], d[u], d[u - 3]);
 }
 /* Where a chunk's spatial neighbours start again: at its second segment
    (a chunk's positions, then its velocities), 0 if one. */
@@ -12329,7 +12325,7 @@ GS__PRIVATE int gs__delta_sum(const gs_wire_chunk *c, const int64_t *bk, int64_t
                differences before it (held in dd), checked, then the
                baseline: one pass. A section's first triple is predicted
                0, its first row (and one) from the left, the rest by the
-               median (gs__spatial_pred's cases, without its tests) */
+               median (the cases of gs__med3's comment) */
             int64_t dd[GS_WIRE_QUANT_CHUNK], x;
             int row3 = 3 * c->delta_row, lo = 0, bad = 0;
             for (i = 0; i < c->elements; ++i) {
@@ -12410,7 +12406,7 @@ GS__PRIVATE long gs__hist_bits(const int *hist) {
 }
 /* The spatial coding's (3) residuals of n differences d into e and their
    bit lengths into sh (as gs__dstat's hist): rows of `row` triples, the
-   neighbours starting again at `restart` (gs__spatial_pred's cases, a
+   neighbours starting again at `restart` (gs__med3's comment's cases, a
    section's first triple, its first row and the rest, in loops of their
    own without its tests). The sum of their bit lengths. */
 GS__PRIVATE long gs__spatial_stat(const int64_t *d, int n, int row, int restart, int64_t *e,
@@ -12432,6 +12428,18 @@ GS__PRIVATE long gs__spatial_stat(const int64_t *d, int n, int row, int restart,
         sh[L < 33 ? L : 33]++;
     }
     return gs__hist_bits(sh);
+}
+
+/* st's spatial part (row > 0: the residuals of n differences d into e)
+   and the smaller of the plain and the spatial bit sums: what the coding
+   choice compares, made once for it and for gs__delta_put. */
+GS__PRIVATE long gs__dstat_bits(gs__dstat *st, const int64_t *d, int n, int row, int restart,
+                                int64_t *e) {
+    long plain = gs__hist_bits(st->hist), sp;
+    if (!row) return plain;
+    sp = gs__spatial_stat(d, n, row, restart, e, st->sh);
+    st->e = e;
+    return sp < plain ? sp : plain;
 }
 
 /* A delta payload in the Rice coding of parameter k at p (room bytes,
@@ -12503,10 +12511,7 @@ GS__PRIVATE size_t gs__delta_put(unsigned char *p, size_t room, const gs_wire_ch
     if (!st) {
         memset(&own, 0, sizeof own);
         for (i = 0; i < c->elements; ++i) gs__dstat_add(&own, d[i]);
-        if (row) {
-            gs__spatial_stat(d, c->elements, row, gs__spatial_restart(c), e, own.sh);
-            own.e = e;
-        }
+        (void)gs__dstat_bits(&own, d, c->elements, row, gs__spatial_restart(c), e);
         st = &own;
     }
     while (w0 < 32 && st->m0 >> w0) ++w0;
@@ -14340,15 +14345,11 @@ GS__PRIVATE void gs__send_delta_chunk(gs_net *net, gs__ghost *g, double now, siz
            this choice and gs__delta_put's */
         int64_t *pr = g->kbuf + g->per_chunk;
         int restart = gs__spatial_restart(ch);
-        long plain = gs__hist_bits(st[0].hist), sp;
+        long plain;
         if (row < 1 || row > GS_WIRE_SPATIAL_ROW) row = 0;
         ch->flags = GS_WIRE_CHUNK_DELTA;
         ch->delta_row = g->row;
-        if (row) {
-            sp = gs__spatial_stat(d, ch->elements, row, restart, e[0], st[0].sh);
-            st[0].e = e[0];
-            if (sp < plain) plain = sp;
-        }
+        plain = gs__dstat_bits(&st[0], d, ch->elements, row, restart, e[0]);
         if (gs__delta_pred(g, base, ts, nseg, first, ch->elements, ch->time - base->time, pr) > 0) {
             uint64_t bad = 0;
             long pred;
@@ -14359,12 +14360,7 @@ GS__PRIVATE void gs__send_delta_chunk(gs_net *net, gs__ghost *g, double now, siz
                 gs__dstat_add(&st[1], pr[j]);
             }
             if (!bad) { /* else the differences from the baseline go */
-                pred = gs__hist_bits(st[1].hist);
-                if (row) {
-                    sp = gs__spatial_stat(pr, ch->elements, row, restart, e[1], st[1].sh);
-                    st[1].e = e[1];
-                    if (sp < pred) pred = sp;
-                }
+                pred = gs__dstat_bits(&st[1], pr, ch->elements, row, restart, e[1]);
                 if (pred < plain) {
                     d = pr;
                     use = &st[1];

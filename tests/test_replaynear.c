@@ -42,31 +42,17 @@ static void run(double tol, near_run *out) {
     gs_world *w[2];
     gs_scene sc[2];
     gs_link_desc link = gs_link_desc_default();
-    gs_scene_desc sd = gs_scene_desc_default();
-    gs_ghost_desc gd = gs_ghost_desc_default();
+    gs_world_desc wd = gs_world_desc_default();
     const gs_quat id = {0.0, 0.0, 0.0, 1.0};
-    gs_net *net;
     int k, f, i;
     memset(out, 0, sizeof *out);
     link.latency = 0.025;
     link.loss = 0.02;
-    sd.cloth_n = 6;
-    sd.sphere_count = 2;
-    sd.probe_count = 2;
-    gd.weight = gs_weight_cs;
+    wd.sync.mode = GS_SYNC_REPLAY;
+    wd.sync.clock = GS_SYNC_CLOCK_SESSION;
+    wd.sync.replay_tolerance = tol;
     assert_int_equal(gs_simnet_create(NULL, &sim), GS_OK);
-    for (k = 0; k < 2; ++k) {
-        gs_world_desc wd = gs_world_desc_default();
-        wd.host_id = (uint32_t)k + 1;
-        wd.sync.mode = GS_SYNC_REPLAY;
-        wd.sync.clock = GS_SYNC_CLOCK_SESSION;
-        wd.sync.replay_tolerance = tol;
-        assert_int_equal(gs_world_create(&wd, &w[k]), GS_OK);
-        assert_int_equal(gs_scene_create(w[k], &sd, &sc[k]), GS_OK);
-        assert_int_equal(gs_scene_attach_ghosts(&sc[k], &gd), GS_OK);
-        assert_int_equal(gs_world_advance(w[k], 0.5, NULL), GS_OK); /* spheres land */
-        assert_int_equal(test_join(sim, w[k], NULL, &net), GS_OK);
-    }
+    assert_int_equal(test_scene_pair(sim, &wd, w, sc), GS_OK);
     assert_int_equal(gs_simnet_link(sim, 1, 2, &link), GS_OK);
     assert_int_equal(gs_simnet_link(sim, 2, 1, &link), GS_OK);
     for (f = 0; f < FRAMES; ++f) {
