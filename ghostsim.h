@@ -1163,6 +1163,8 @@ typedef struct gs_scene_desc {
     uint32_t seed;        /* sphere placement; default 1 */
     gs_integrator cloth_integrator; /* default implicit Euler */
     double dt;            /* s for every agent, >= GS_MIN_DT; default 0.002 */
+    int cloth_substeps;   /* XPBD cloth: substeps per step (its
+                             solver.substeps), >= 1; default 4 */
 } gs_scene_desc;
 
 typedef struct gs_scene {
@@ -1174,8 +1176,9 @@ typedef struct gs_scene {
 } gs_scene;
 
 /* Settling the cloth (3 s of simulated time, below) costs cloth_n^2 *
-   3 s / dt particle steps; a scene that would need more is refused
-   (GS_ERR_INVALID_ARG). The bound admits the largest cloth ghostpeer takes
+   3 s / dt particle steps (an XPBD cloth of more than the default 4
+   substeps: times cloth_substeps / 4); a scene that would need more is
+   refused (GS_ERR_INVALID_ARG). The bound admits the largest cloth ghostpeer takes
    (256 x 256 at the default dt: 9.8e7) and refuses what would run for
    hours (4096 x 4096 at the default dt; 16 x 16 at dt = 1e-6 s). */
 #define GS_SCENE_SETTLE_WORK 1e8
@@ -8830,6 +8833,7 @@ GS_API gs_scene_desc gs_scene_desc_default(void) {
     d.seed = 1;
     d.cloth_integrator = GS_INTEGRATOR_IMPLICIT_EULER;
     d.dt = 0.002;
+    d.cloth_substeps = gs_solver_desc_default().substeps;
     return d;
 }
 
@@ -8845,6 +8849,7 @@ GS__PRIVATE gs_scene_desc gs__scene_defaults(const gs_scene_desc *in, int hosts)
     if (d.seed == 0) d.seed = def.seed;
     if (d.cloth_integrator == GS_INTEGRATOR_DEFAULT) d.cloth_integrator = def.cloth_integrator;
     if (d.dt == 0.0) d.dt = def.dt;
+    if (d.cloth_substeps == 0) d.cloth_substeps = def.cloth_substeps;
     return d;
 }
 
@@ -8967,9 +8972,11 @@ GS_API gs_result gs_scene_create(gs_world *w, const gs_scene_desc *desc,
     gs__check_positive(&c, "sphere_radius", out->desc.sphere_radius);
     gs__check_int(&c, "probe_count", out->desc.probe_count, 0, GS_SCENE_MAX_PROBES);
     gs__check_dt(&c, "dt", out->desc.dt);
+    gs__check_int(&c, "cloth_substeps", out->desc.cloth_substeps, 1, 1L << 20);
     if (c.r == GS_OK) {
-        double n = (double)out->desc.cloth_n,
+        double n = (double)out->desc.cloth_n, sub = out->desc.cloth_substeps / 4.0,
                work = n * n * floor(GS__SCENE_SETTLE_TIME / out->desc.dt);
+        if (out->desc.cloth_integrator == GS_INTEGRATOR_XPBD && sub > 1.0) work *= sub;
         if (work > GS_SCENE_SETTLE_WORK)
             gs__check_fail(&c, GS_ERR_INVALID_ARG,
                            "cloth_n %d at dt %g s needs %.3g particle steps to settle, "
@@ -8992,6 +8999,7 @@ GS_API gs_result gs_scene_create(gs_world *w, const gs_scene_desc *desc,
     cd.material = gs__scene_material();
     cd.solver.integrator = out->desc.cloth_integrator;
     cd.solver.dt = out->desc.dt;
+    cd.solver.substeps = out->desc.cloth_substeps;
     r = gs_cloth_create(w, &cd, &out->cloth);
     if (r == GS_OK) r = gs__scene_settle(out->cloth);
     if (r == GS_OK) r = gs__scene_bodies(w, out);

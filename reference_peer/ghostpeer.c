@@ -2,7 +2,7 @@
 
      ghostpeer --id N --listen HOST:PORT [--peer ID@HOST:PORT]... [--duration S]
                [--cloth N] [--spheres K] [--weight cs|exp[:RATE]|owner]
-               [--integrator NAME] [--dt S] [--probe-until S] [--seed N]
+               [--integrator NAME] [--dt S] [--substeps N] [--probe-until S] [--seed N]
                [--encoding f64|f32|quant|quant-delta] [--stats-every S] [--trace FILE] [--key FILE]
                [--clock-step AT:SECONDS] [--probe-wild AT:SECONDS:SPEED]
                [--resolution M] [--rest-threshold M] [--heartbeat-rate HZ]
@@ -75,6 +75,13 @@
    speed limit) along its scripted circle at SPEED m/s, with that velocity,
    from simulation time AT for SECONDS; then it follows its path again.
 
+   --substeps N (XPBD only; default 4) sets the cloth's substeps per step
+   of --dt: the cost of a simulated second is substeps / dt passes over
+   the springs (README, Performance: the schedule for large cloths). Each
+   JSON line carries "cpu": the process's CPU seconds (every thread) since
+   the run began, after the scene was built; over "wall" it is the share
+   of a core the host takes.
+
    stdout is for machines: one JSON object per line every --stats-every
    seconds of wall time, and a last line with "final": true and the totals
    (also on SIGINT or SIGTERM). Everything for humans goes to stderr. The
@@ -117,6 +124,7 @@ typedef struct options {
     double exp_rate;       /* 1/s for exp */
     gs_integrator integrator;
     double dt;
+    int substeps;          /* XPBD cloth substeps per step; 0 = the scene's default */
     double probe_until;    /* s of simulation time */
     uint32_t seed;
     gs_encoding encoding;
@@ -148,7 +156,7 @@ static void usage(const char *why) {
             "usage: ghostpeer --id N --listen HOST:PORT [--peer ID@HOST:PORT]... [--duration S]\n"
             "                 [--cloth N] [--spheres K] [--weight cs|exp[:RATE]|owner]\n"
             "                 [--integrator explicit|symplectic|verlet|rk4|implicit|xpbd] [--dt S]\n"
-            "                 [--probe-until S] [--seed N] [--encoding f64|f32|quant|quant-delta]\n"
+            "                 [--substeps N] [--probe-until S] [--seed N] [--encoding f64|f32|quant|quant-delta]\n"
             "                 [--stats-every S] [--trace FILE] [--key FILE]\n"
             "                 [--clock-step AT:SECONDS] [--probe-wild AT:SECONDS:SPEED]\n"
             "                 [--resolution M] [--rest-threshold M] [--heartbeat-rate HZ]\n"
@@ -314,6 +322,7 @@ static void parse_args(int argc, char **argv, options *o) {
         else if (strcmp(f, "--weight") == 0) parse_weight(o, v);
         else if (strcmp(f, "--integrator") == 0) o->integrator = parse_integrator(v);
         else if (strcmp(f, "--dt") == 0) o->dt = parse_number(f, v, 1e-5, 0.05);
+        else if (strcmp(f, "--substeps") == 0) o->substeps = (int)parse_number(f, v, 1, 64);
         else if (strcmp(f, "--probe-until") == 0) o->probe_until = parse_number(f, v, 0, 1e300);
         else if (strcmp(f, "--seed") == 0) o->seed = (uint32_t)parse_number(f, v, 0, 4294967295.0);
         else if (strcmp(f, "--encoding") == 0) {
@@ -385,6 +394,7 @@ typedef struct peer_host {
     gs_scene sc;
     gs_net *net;         /* on UDP; it owns its gs_udp */
     double wall0, mono0;   /* clocks at the start */
+    double cpu0;           /* process CPU seconds at the start (after the scene's settle) */
     double t_since;        /* wall time since the host shows "t" */
     double t_done;         /* wall time at the end of the advance to "t" */
     FILE *trace;
@@ -395,6 +405,13 @@ typedef struct peer_host {
 static double wall_now(void) {
     struct timespec ts;
     clock_gettime(CLOCK_REALTIME, &ts);
+    return (double)ts.tv_sec + 1e-9 * (double)ts.tv_nsec;
+}
+
+/* CPU seconds of the whole process (every thread: the world's and UDP's). */
+static double cpu_now(void) {
+    struct timespec ts;
+    clock_gettime(CLOCK_PROCESS_CPUTIME_ID, &ts);
     return (double)ts.tv_sec + 1e-9 * (double)ts.tv_nsec;
 }
 
@@ -437,6 +454,7 @@ static int build(peer_host *h) {
     sd.seed = o->seed;
     sd.cloth_integrator = o->integrator;
     sd.dt = o->dt;
+    sd.cloth_substeps = o->substeps;
     if (gs_scene_create(h->w, &sd, &h->sc) != GS_OK) return fail(h, "scene");
     gd.weight = o->weight;
     gd.weight_user = o->weight == gs_weight_exp ? (void *)&h->o.exp_rate : NULL;
@@ -573,6 +591,7 @@ static void print_line(peer_host *h, int final) {
     }
     printf(", \"frame_lock\": %s, \"t_since\": %.6f, \"t_done\": %.6f",
            h->o.frame_lock ? "true" : "false", h->t_since, h->t_done);
+    printf(", \"cpu\": %.6f", cpu_now() - h->cpu0);
     if (final) {
         if (gs_net_unknown_stats(net, &unknown) == GS_OK) unknown_total = unknown.rejected_total;
         printf(", \"final\": true, \"totals\": {\"wall_seconds\": %.3f, \"snapshots_sent\": %llu, "
@@ -643,6 +662,7 @@ static int run(peer_host *h) {
     double last = gs_udp_now(), next_stats = last, next_trace = last, skew = 0.0, at = 0.0;
     int stepped = h->o.step == 0.0;
     h->mono0 = last;
+    h->cpu0 = cpu_now();
     while (!g_stop) {
         double now = gs_udp_now(), elapsed = now - h->mono0, pnow;
         gs_result r;
