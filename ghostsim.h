@@ -1164,7 +1164,8 @@ typedef struct gs_scene_desc {
     gs_integrator cloth_integrator; /* default implicit Euler */
     double dt;            /* s for every agent, >= GS_MIN_DT; default 0.002 */
     int cloth_substeps;   /* XPBD cloth: substeps per step (its
-                             solver.substeps), >= 1; default 4 */
+                             solver.substeps), 1..2^20 whatever the
+                             integrator (others ignore it); default 4 */
 } gs_scene_desc;
 
 typedef struct gs_scene {

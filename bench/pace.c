@@ -26,6 +26,17 @@
 #ifndef PACE_N
 #define PACE_N 128 /* the cloth of the scene; -DPACE_N=64 for a profile under valgrind */
 #endif
+/* -DPACE_CALLGRIND: only the 2-host run, instrumented from the first frame
+   (valgrind --tool=callgrind --instr-atstart=no): the scenes' settle is not
+   in the profile. */
+#ifdef PACE_CALLGRIND
+#include <valgrind/callgrind.h>
+#define PACE_PROFILE_BEGIN() CALLGRIND_START_INSTRUMENTATION
+#define PACE_PROFILE_END() CALLGRIND_STOP_INSTRUMENTATION
+#else
+#define PACE_PROFILE_BEGIN() ((void)0)
+#define PACE_PROFILE_END() ((void)0)
+#endif
 
 static void die(const char *what, gs_world *w, gs_result r)
 {
@@ -83,6 +94,7 @@ static double scene_pace(int n, int H, double seconds)
     for (k = 0; k < H; ++k) host_make(&hs[k], sim, (uint32_t)k + 1u, H, n);
     if (sim) gs_simnet_run(sim, 2 * FRAME, FRAME); /* the hosts meet */
     t0 = bu_cpu_now();
+    PACE_PROFILE_BEGIN();
     for (i = 0; i < frames; ++i) {
         for (k = 0; k < H; ++k) drive(&hs[k], k, i * FRAME);
         if (sim) {
@@ -91,6 +103,7 @@ static double scene_pace(int n, int H, double seconds)
             die("gs_world_advance", hs[0].w, r);
         }
     }
+    PACE_PROFILE_END();
     cost = (bu_cpu_now() - t0) / (H * (frames * FRAME));
     if (sim) gs_simnet_destroy(sim);
     for (k = 0; k < H; ++k) gs_world_destroy(hs[k].w);
@@ -139,6 +152,11 @@ int main(int argc, char **argv)
     int n = PACE_N;
     int pa = bu_parse_args(argc, argv, "pace", &a);
     if (pa) return pa > 0 ? 0 : 2;
+#ifdef PACE_CALLGRIND
+    fprintf(stderr, "%dx%d xpbd, 2 hosts: %.3f CPU s per sim s per host (under callgrind)\n", n, n,
+            scene_pace(n, 2, 0.5));
+    return 0;
+#endif
     xp = spring_ns(64, GS_INTEGRATOR_XPBD, a.quick ? 100 : 400);
     sy = spring_ns(64, GS_INTEGRATOR_SYMPLECTIC_EULER, a.quick ? 30 : 120);
     fprintf(stderr, "64x64 cloth, dt 1 ms: %.2f ns per spring per substep (xpbd), %.2f (symplectic)\n", xp, sy);

@@ -75,8 +75,8 @@
    speed limit) along its scripted circle at SPEED m/s, with that velocity,
    from simulation time AT for SECONDS; then it follows its path again.
 
-   --substeps N (XPBD only; default 4) sets the cloth's substeps per step
-   of --dt: the cost of a simulated second is substeps / dt passes over
+   --substeps N (XPBD only; 0..64, 0 or absent: the scene's default 4)
+   sets the cloth's substeps per step of --dt: the cost of a simulated second is substeps / dt passes over
    the springs (README, Performance: the schedule for large cloths). Each
    JSON line carries "cpu": the process's CPU seconds (every thread) since
    the run began, after the scene was built; over "wall" it is the share
@@ -177,6 +177,17 @@ static double parse_number(const char *flag, const char *s, double lo, double hi
         usage(msg);
     }
     return v;
+}
+
+/* A whole number in [lo, hi]: a fraction is refused, not truncated. */
+static int parse_count(const char *flag, const char *s, int lo, int hi) {
+    double v = parse_number(flag, s, lo, hi);
+    char msg[160];
+    if (v != floor(v)) {
+        snprintf(msg, sizeof msg, "%s: '%s' is not a whole number", flag, s);
+        usage(msg);
+    }
+    return (int)v;
 }
 
 static void parse_weight(options *o, const char *s) {
@@ -322,7 +333,7 @@ static void parse_args(int argc, char **argv, options *o) {
         else if (strcmp(f, "--weight") == 0) parse_weight(o, v);
         else if (strcmp(f, "--integrator") == 0) o->integrator = parse_integrator(v);
         else if (strcmp(f, "--dt") == 0) o->dt = parse_number(f, v, 1e-5, 0.05);
-        else if (strcmp(f, "--substeps") == 0) o->substeps = (int)parse_number(f, v, 1, 64);
+        else if (strcmp(f, "--substeps") == 0) o->substeps = parse_count(f, v, 0, 64);
         else if (strcmp(f, "--probe-until") == 0) o->probe_until = parse_number(f, v, 0, 1e300);
         else if (strcmp(f, "--seed") == 0) o->seed = (uint32_t)parse_number(f, v, 0, 4294967295.0);
         else if (strcmp(f, "--encoding") == 0) {
