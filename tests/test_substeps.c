@@ -127,11 +127,56 @@ static void test_bound_counts_xpbd_only(void **state) {
     refused(16, GS_INTEGRATOR_XPBD, 1100, "GS_SCENE_SETTLE_WORK");
 }
 
+/* A step per 60 Hz frame on a 64 x 64 cloth (a 16 x 16 one is softer under a
+   sphere: 13 substeps do): the scene's spheres on the cloth need more than
+   the default max_substeps (64) for their contact stiffness at dt 1/60 s,
+   and the scene lets them take up to 256. The substeps counted show the
+   cap is what is tested (if a sphere never needed more than 64, this test
+   would not cover the scene's cap: it says so by failing). */
+static void test_frame_step_scene_runs(void **state) {
+    gs_world *w = world_make();
+    gs_scene_desc sd = gs_scene_desc_default();
+    gs_agent_stats st;
+    gs_scene sc;
+    gs_result r;
+    const gs_quat id = {0.0, 0.0, 0.0, 1.0};
+    uint64_t most = 0;
+    int i, k;
+    (void)state;
+    sd.cloth_n = 64;
+    sd.cloth_integrator = GS_INTEGRATOR_XPBD;
+    sd.dt = 1.0 / 60.0;
+    sd.cloth_substeps = 4;
+    r = gs_scene_create(w, &sd, &sc);
+    CHECK(r == GS_OK, "gs_scene_create: %s (%s)\n", gs_result_str(r), gs_world_error(w));
+    for (i = 0; i < 60; ++i) { /* 1 s: the spheres land on the cloth */
+        gs_probe_set_target(sc.probes[0], gs_scene_probe_path(0, i * sd.dt), id);
+        {
+            uint64_t prev[GS_SCENE_MAX_SPHERES];
+            for (k = 0; k < sc.sphere_count; ++k) {
+                memset(&st, 0, sizeof st);
+                gs_agent_get_stats(sc.spheres[k], &st);
+                prev[k] = st.substeps;
+            }
+            r = gs_world_advance(w, sd.dt, NULL);
+            CHECK(r == GS_OK, "step %d: %s (%s)\n", i, gs_result_str(r), gs_world_error(w));
+            for (k = 0; k < sc.sphere_count; ++k) {
+                memset(&st, 0, sizeof st);
+                gs_agent_get_stats(sc.spheres[k], &st);
+                if (st.substeps - prev[k] > most) most = st.substeps - prev[k];
+            }
+        }
+    }
+    CHECK(most > 64, "the spheres took at most %llu substeps a step\n", (unsigned long long)most);
+    gs_world_destroy(w);
+}
+
 int main(void) {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_count_reaches_the_solver),
         cmocka_unit_test(test_bad_counts_refused),
         cmocka_unit_test(test_bound_counts_xpbd_only),
+        cmocka_unit_test(test_frame_step_scene_runs),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }
