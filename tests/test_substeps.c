@@ -30,33 +30,46 @@ static gs_world *world_make(void) {
     return w;
 }
 
+/* A world holding an XPBD scene (cloth_n, dt 0: the default, substeps 0:
+   unset), built or the test fails. */
+static gs_world *xpbd_scene(int cloth_n, double dt, int substeps, gs_scene *sc) {
+    gs_world *w = world_make();
+    gs_scene_desc sd = gs_scene_desc_default();
+    gs_result r;
+    sd.cloth_n = cloth_n;
+    sd.cloth_integrator = GS_INTEGRATOR_XPBD;
+    if (dt > 0.0) sd.dt = dt;
+    sd.cloth_substeps = substeps;
+    r = gs_scene_create(w, &sd, sc);
+    CHECK(r == GS_OK, "gs_scene_create: %s (%s)\n", gs_result_str(r), gs_world_error(w));
+    return w;
+}
+
+static uint64_t substeps_of(const gs_agent *a) {
+    gs_agent_stats st;
+    memset(&st, 0, sizeof st);
+    assert_int_equal(gs_agent_get_stats(a, &st), GS_OK);
+    return st.substeps;
+}
+
 /* A small XPBD scene of `substeps` (0: unset), its probe driven on its path
    for STEPS steps; its cloth's positions copied to out (n_out particles). */
 static void scene_run(int substeps, int cloth_n, gs_vec3 *out, int n_out,
                       uint64_t *substeps_taken) {
-    gs_world *w = world_make();
-    gs_scene_desc sd = gs_scene_desc_default();
-    gs_agent_stats st;
     gs_scene sc;
+    gs_world *w = xpbd_scene(cloth_n, 0.0, substeps, &sc);
     gs_result r;
     const gs_quat id = {0.0, 0.0, 0.0, 1.0};
     int i;
-    sd.cloth_n = cloth_n;
-    sd.cloth_integrator = GS_INTEGRATOR_XPBD;
-    sd.cloth_substeps = substeps;
-    r = gs_scene_create(w, &sd, &sc);
-    CHECK(r == GS_OK, "gs_scene_create: %s (%s)\n", gs_result_str(r), gs_world_error(w));
     assert_int_equal(sc.desc.cloth_substeps, substeps == 0 ? 4 : substeps);
     for (i = 0; i < STEPS; ++i) {
-        gs_probe_set_target(sc.probes[0], gs_scene_probe_path(0, i * sd.dt), id);
+        gs_probe_set_target(sc.probes[0], gs_scene_probe_path(0, i * sc.desc.dt), id);
         r = gs_world_advance(w, sc.desc.dt, NULL);
         CHECK(r == GS_OK, "gs_world_advance: %s (%s)\n", gs_result_str(r), gs_world_error(w));
     }
     assert_int_equal(gs_mesh_particle_count(sc.cloth), n_out);
     memcpy(out, gs_mesh_positions(sc.cloth), (size_t)n_out * sizeof *out);
-    memset(&st, 0, sizeof st);
-    assert_int_equal(gs_agent_get_stats(sc.cloth, &st), GS_OK);
-    *substeps_taken = st.substeps;
+    *substeps_taken = substeps_of(sc.cloth);
     gs_world_destroy(w);
 }
 
@@ -134,38 +147,21 @@ static void test_bound_counts_xpbd_only(void **state) {
    cap is what is tested (if a sphere never needed more than 64, this test
    would not cover the scene's cap: it says so by failing). */
 static void test_frame_step_scene_runs(void **state) {
-    gs_world *w = world_make();
-    gs_scene_desc sd = gs_scene_desc_default();
-    gs_agent_stats st;
-    gs_scene sc;
-    gs_result r;
     const gs_quat id = {0.0, 0.0, 0.0, 1.0};
-    uint64_t most = 0;
+    const double dt = 1.0 / 60.0;
+    uint64_t most = 0, prev[GS_SCENE_MAX_SPHERES];
+    gs_scene sc;
+    gs_world *w = xpbd_scene(64, dt, 4, &sc);
+    gs_result r;
     int i, k;
     (void)state;
-    sd.cloth_n = 64;
-    sd.cloth_integrator = GS_INTEGRATOR_XPBD;
-    sd.dt = 1.0 / 60.0;
-    sd.cloth_substeps = 4;
-    r = gs_scene_create(w, &sd, &sc);
-    CHECK(r == GS_OK, "gs_scene_create: %s (%s)\n", gs_result_str(r), gs_world_error(w));
     for (i = 0; i < 60; ++i) { /* 1 s: the spheres land on the cloth */
-        gs_probe_set_target(sc.probes[0], gs_scene_probe_path(0, i * sd.dt), id);
-        {
-            uint64_t prev[GS_SCENE_MAX_SPHERES];
-            for (k = 0; k < sc.sphere_count; ++k) {
-                memset(&st, 0, sizeof st);
-                gs_agent_get_stats(sc.spheres[k], &st);
-                prev[k] = st.substeps;
-            }
-            r = gs_world_advance(w, sd.dt, NULL);
-            CHECK(r == GS_OK, "step %d: %s (%s)\n", i, gs_result_str(r), gs_world_error(w));
-            for (k = 0; k < sc.sphere_count; ++k) {
-                memset(&st, 0, sizeof st);
-                gs_agent_get_stats(sc.spheres[k], &st);
-                if (st.substeps - prev[k] > most) most = st.substeps - prev[k];
-            }
-        }
+        gs_probe_set_target(sc.probes[0], gs_scene_probe_path(0, i * dt), id);
+        for (k = 0; k < sc.sphere_count; ++k) prev[k] = substeps_of(sc.spheres[k]);
+        r = gs_world_advance(w, dt, NULL);
+        CHECK(r == GS_OK, "step %d: %s (%s)\n", i, gs_result_str(r), gs_world_error(w));
+        for (k = 0; k < sc.sphere_count; ++k)
+            if (substeps_of(sc.spheres[k]) - prev[k] > most) most = substeps_of(sc.spheres[k]) - prev[k];
     }
     CHECK(most > 64, "the spheres took at most %llu substeps a step\n", (unsigned long long)most);
     gs_world_destroy(w);
