@@ -11154,12 +11154,20 @@ GS__PRIVATE void gs__sync_end(gs_world *w, double seconds, const gs_advance_repo
                    this timeline from its time less its send time (the
                    grid is fixed at creation: without one stands_at stays
                    0 and the net's lock is not taken for it) */
+                double next = g->next_publish + 1.0 / g->d.send_rate;
                 if (sy->d.frame > 0.0) {
                     gs__lock(w->net);
                     g->stands_at = w->target - sy->origin;
                     gs__unlock(w->net);
                 }
                 gs__ghost_publish_now(g, w->net);
+                /* on a frame grid the next one is due a period after this
+                   one was, not after the boundary it went at: rounded to
+                   the nearest boundary, a 60 Hz ghost on a 5 ms grid then
+                   publishes 15 and 20 ms apart, 60 a second (from the
+                   boundary, always 15: 67 a second) */
+                if (sy->d.frame > 0.0 && next > g->next_publish - 1.0 / g->d.send_rate)
+                    g->next_publish = next; /* (still ahead: not after a pause) */
             }
         }
     sy->frame_steps = rep->steps;
@@ -14563,6 +14571,15 @@ GS__PRIVATE int gs__ghost_due(const gs__ghost *g, double now) {
     double period = 1.0 / g->d.send_rate;
     if (g->stands_at - now > 0.0 && g->stands_at - now <= GS__SYNC_FRAME_MAX) return 0;
     if (g->b_seq == g->sent_seq) return 0;
+    /* On a frame grid a new state goes at its instant, whatever the send
+       phase: the peers read the session's timeline from its time less its
+       send time, and a wall-clock send phase (next_send) beating against
+       the grid sent two states in three one or two frames late, for
+       150 ms stretches, as long as the peers' window of estimates (four
+       processes on loopback: followers a frame behind the timekeeper).
+       Its rate is the publishes' (gs__sync_end: send_rate on average). */
+    if (g->stands_at > 0.0 && now >= g->stands_at && now - g->stands_at <= GS__SYNC_FRAME_MAX)
+        return 1;
     /* a resting ghost's beat goes in its update, whatever its send phase */
     return now >= g->next_send || g->next_send - now > period || (g->at_rest && gs__beat_due(g, now));
 }
