@@ -244,7 +244,7 @@ int main(int argc, char **argv)
         const double *xs[1] = {sub_s + 1}, *ys[1] = {rms_mm + 1};
         const int ns[1] = {NSCHED - 1};
         bu_json_arr_begin(j, "plots");
-        bu_json_plot(j, "128x128 scene: cloth RMS error against substeps per simulated second",
+        bu_json_plot(j, "XPBD scene: cloth RMS error against substeps per simulated second",
                      "substeps per sim s", "cloth RMS error (mm)", 1, 1, names, xs, ys, ns);
         bu_json_arr_end(j);
     }
