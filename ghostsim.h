@@ -6242,7 +6242,7 @@ GS__PRIVATE gs_result gs__mesh_check(gs_world *w, const gs_mesh_desc *d) {
 GS_API gs_result gs_mesh_create(gs_world *w, const gs_mesh_desc *desc,
                                 gs_agent **out) {
     gs_mesh_desc d;
-    gs__mesh *m;
+    gs__mesh *m = NULL; /* set by gs__mesh_new; GCC -O2 cannot tell when inlined */
     int i;
     gs_result r = gs__create_begin(w, desc, out, "gs_mesh_create");
     if (r != GS_OK) return r;
