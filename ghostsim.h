@@ -5184,6 +5184,23 @@ GS__PRIVATE void gs__fin_done(gs__mesh *m, const gs__fin *f) {
     }
 }
 
+/* One particle's share of a substep end's checks and box (gs__fin): the
+   largest speed^2, the sum of coordinates, the largest |v| component and
+   the bounds, in the scalar ends (gs__xpbd_fin1, gs__sym_fin1). */
+GS__PRIVATE void gs__fin_take(gs_vec3 p, gs_vec3 v, double *w2, double *sum, double *vm,
+                               double *lo, double *hi) {
+    double s2 = v.x * v.x + v.y * v.y + v.z * v.z, a;
+    *w2 = s2 > *w2 ? s2 : *w2;
+    *w2 = s2 == s2 ? *w2 : s2; /* a NaN speed stays NaN */
+    *sum += (p.x + p.y) + p.z;
+    a = fabs(v.x) > fabs(v.y) ? fabs(v.x) : fabs(v.y);
+    a = fabs(v.z) > a ? fabs(v.z) : a;
+    *vm = a > *vm ? a : *vm; /* a NaN fails the check above: no box of it is used */
+    lo[0] = p.x < lo[0] ? p.x : lo[0]; lo[1] = p.y < lo[1] ? p.y : lo[1];
+    lo[2] = p.z < lo[2] ? p.z : lo[2]; hi[0] = p.x > hi[0] ? p.x : hi[0];
+    hi[1] = p.y > hi[1] ? p.y : hi[1]; hi[2] = p.z > hi[2] ? p.z : hi[2];
+}
+
 /* Particles i..end (one box), scalar. */
 GS__PRIVATE void gs__xpbd_fin1(gs__mesh *m, size_t i, size_t end, size_t k, double ih,
                                gs__fin *f) {
@@ -5194,19 +5211,10 @@ GS__PRIVATE void gs__xpbd_fin1(gs__mesh *m, size_t i, size_t end, size_t k, doub
     for (; i < end; ++i) {
         gs_vec3 p = gs__v3(X[i], Y[i], Z[i]);
         gs_vec3 v = gs__v3((p.x - PX[i]) * ih, (p.y - PY[i]) * ih, (p.z - PZ[i]) * ih);
-        double s2 = v.x * v.x + v.y * v.y + v.z * v.z, a;
         m->xn[i] = p;
         m->vn[i] = v;
         if (m->pred_next) gs__xpbd_predict1(m, i, p, v, f->h);
-        w2 = s2 > w2 ? s2 : w2;
-        w2 = s2 == s2 ? w2 : s2; /* a NaN speed stays NaN */
-        sum += (p.x + p.y) + p.z;
-        a = fabs(v.x) > fabs(v.y) ? fabs(v.x) : fabs(v.y);
-        a = fabs(v.z) > a ? fabs(v.z) : a;
-        vm = a > vm ? a : vm; /* a NaN fails the check above: no box of it is used */
-        lo[0] = p.x < lo[0] ? p.x : lo[0]; lo[1] = p.y < lo[1] ? p.y : lo[1];
-        lo[2] = p.z < lo[2] ? p.z : lo[2]; hi[0] = p.x > hi[0] ? p.x : hi[0];
-        hi[1] = p.y > hi[1] ? p.y : hi[1]; hi[2] = p.z > hi[2] ? p.z : hi[2];
+        gs__fin_take(p, v, &w2, &sum, &vm, lo, hi);
     }
     f->w2 = w2;
     f->sum = sum;
@@ -5513,14 +5521,12 @@ GS__PRIVATE void gs__sym_fin1(gs__mesh *m, size_t i, size_t end, size_t k, doubl
     double vm = 0.0, w2 = f->w2, sum = f->sum;
     for (; i < end; ++i) {
         gs_vec3 p = gs__v3(X[i], Y[i], Z[i]), v = gs__v3(0.0, 0.0, 0.0);
-        double s2, a;
         if (im[i] > 0.0) {
             v.x = VX[i] + ((g.x + VX[i] * -m->air) + im[i] * FX[i]) * h;
             v.y = VY[i] + ((g.y + VY[i] * -m->air) + im[i] * FY[i]) * h;
             v.z = VZ[i] + ((g.z + VZ[i] * -m->air) + im[i] * FZ[i]) * h;
             p = gs__v3(p.x + v.x * h, p.y + v.y * h, p.z + v.z * h);
         }
-        s2 = v.x * v.x + v.y * v.y + v.z * v.z;
         m->xn[i] = p;
         m->vn[i] = v;
         if (m->pred_next) {
@@ -5528,15 +5534,7 @@ GS__PRIVATE void gs__sym_fin1(gs__mesh *m, size_t i, size_t end, size_t k, doubl
             VX[i] = v.x; VY[i] = v.y; VZ[i] = v.z;
             FX[i] = FY[i] = FZ[i] = 0.0;
         }
-        w2 = s2 > w2 ? s2 : w2;
-        w2 = s2 == s2 ? w2 : s2; /* a NaN speed stays NaN */
-        sum += (p.x + p.y) + p.z;
-        a = fabs(v.x) > fabs(v.y) ? fabs(v.x) : fabs(v.y);
-        a = fabs(v.z) > a ? fabs(v.z) : a;
-        vm = a > vm ? a : vm; /* a NaN fails the check above: no box of it is used */
-        lo[0] = p.x < lo[0] ? p.x : lo[0]; lo[1] = p.y < lo[1] ? p.y : lo[1];
-        lo[2] = p.z < lo[2] ? p.z : lo[2]; hi[0] = p.x > hi[0] ? p.x : hi[0];
-        hi[1] = p.y > hi[1] ? p.y : hi[1]; hi[2] = p.z > hi[2] ? p.z : hi[2];
+        gs__fin_take(p, v, &w2, &sum, &vm, lo, hi);
     }
     f->w2 = w2;
     f->sum = sum;
