@@ -5222,6 +5222,21 @@ GS__PRIVATE void gs__xpbd_fin1(gs__mesh *m, size_t i, size_t end, size_t k, doub
 }
 
 #ifdef GS__MESH_AVX
+/* The four-lane substep ends' per-lane speed^2 (NaN flags), sums, |v|
+   maxima and bounds into f and box k (gs__xpbd_fin4, gs__sym_fin4). */
+GS__XINLINE void gs__fin_lanes(gs__mesh *m, size_t k, __m256d w2, __m256d nan, __m256d sum,
+                               __m256d vm, __m256d lx, __m256d ly, __m256d lz, __m256d hx,
+                               __m256d hy, __m256d hz, gs__fin *f) {
+    double lo[3], hi[3];
+    f->w2 = gs__hmax4(w2);
+    if (_mm256_movemask_pd(nan)) f->w2 = NAN;
+    f->sum += gs__hmax4(sum) + gs__hmin4(sum); /* a NaN or inf lane shows */
+    if (_mm256_movemask_pd(_mm256_cmp_pd(sum, sum, _CMP_UNORD_Q))) f->sum = NAN;
+    lo[0] = gs__hmin4(lx); lo[1] = gs__hmin4(ly); lo[2] = gs__hmin4(lz);
+    hi[0] = gs__hmax4(hx); hi[1] = gs__hmax4(hy); hi[2] = gs__hmax4(hz);
+    gs__fin_box(m, k, lo, hi, gs__hmax4(vm), f);
+}
+
 /* gs__xpbd_fin1 four particles at a time over whole boxes: the same xn,
    vn and boxes; the speed and the sum are per lane, which changes
    neither check's outcome (the sum only asks "finite?", and its terms
@@ -5232,7 +5247,7 @@ GS__XINLINE void gs__xpbd_fin4(gs__mesh *m, size_t i, size_t k, double ih, gs__f
     __m256d hv = _mm256_set1_pd(ih), sign = _mm256_set1_pd(-0.0), w2 = _mm256_set1_pd(f->w2);
     __m256d lx = _mm256_set1_pd(HUGE_VAL), ly = lx, lz = lx, hx = _mm256_set1_pd(-HUGE_VAL);
     __m256d hy = hx, hz = hx, vm = _mm256_setzero_pd(), sum = _mm256_setzero_pd(), nan = vm;
-    double lo[3], hi[3], *xn = &m->xn[0].x, *vn = &m->vn[0].x;
+    double *xn = &m->xn[0].x, *vn = &m->vn[0].x;
     gs_vec3 g = m->base.world->gravity;
     __m256d h = _mm256_set1_pd(f->h), nair = _mm256_set1_pd(-m->air), zero = _mm256_setzero_pd();
     __m256d gx = _mm256_set1_pd(g.x), gy = _mm256_set1_pd(g.y), gz = _mm256_set1_pd(g.z);
@@ -5269,13 +5284,7 @@ GS__XINLINE void gs__xpbd_fin4(gs__mesh *m, size_t i, size_t k, double ih, gs__f
             _mm256_storeu_pd(PZ + i, pz);
         }
     }
-    f->w2 = gs__hmax4(w2);
-    if (_mm256_movemask_pd(nan)) f->w2 = NAN;
-    f->sum += gs__hmax4(sum) + gs__hmin4(sum); /* a NaN or inf lane shows */
-    if (_mm256_movemask_pd(_mm256_cmp_pd(sum, sum, _CMP_UNORD_Q))) f->sum = NAN;
-    lo[0] = gs__hmin4(lx); lo[1] = gs__hmin4(ly); lo[2] = gs__hmin4(lz);
-    hi[0] = gs__hmax4(hx); hi[1] = gs__hmax4(hy); hi[2] = gs__hmax4(hz);
-    gs__fin_box(m, k, lo, hi, gs__hmax4(vm), f);
+    gs__fin_lanes(m, k, w2, nan, sum, vm, lx, ly, lz, hx, hy, hz, f);
 }
 
 __attribute__((target("avx"))) GS__PRIVATE void gs__xpbd_fin_avx(gs__mesh *m, size_t i, size_t k,
@@ -5549,7 +5558,6 @@ __attribute__((target("avx"))) GS__PRIVATE void gs__sym_fin4(gs__mesh *m, size_t
     size_t st = gs__soa_stride((size_t)m->n), end = i + GS__CHUNK;
     double *X = m->soa, *Y = X + st, *Z = Y + st, *VX = Z + st, *VY = VX + st, *VZ = VY + st;
     double *FX = VZ + st, *FY = FX + st, *FZ = FY + st, *xn = &m->xn[0].x, *vn = &m->vn[0].x;
-    double lo[3], hi[3];
     gs_vec3 g = m->base.world->gravity;
     __m256d hv = _mm256_set1_pd(h), nair = _mm256_set1_pd(-m->air), zero = _mm256_setzero_pd();
     __m256d gx = _mm256_set1_pd(g.x), gy = _mm256_set1_pd(g.y), gz = _mm256_set1_pd(g.z);
@@ -5582,13 +5590,7 @@ __attribute__((target("avx"))) GS__PRIVATE void gs__sym_fin4(gs__mesh *m, size_t
             _mm256_storeu_pd(FX + i, zero); _mm256_storeu_pd(FY + i, zero); _mm256_storeu_pd(FZ + i, zero);
         }
     }
-    f->w2 = gs__hmax4(w2);
-    if (_mm256_movemask_pd(nan)) f->w2 = NAN;
-    f->sum += gs__hmax4(sum) + gs__hmin4(sum); /* a NaN or inf lane shows */
-    if (_mm256_movemask_pd(_mm256_cmp_pd(sum, sum, _CMP_UNORD_Q))) f->sum = NAN;
-    lo[0] = gs__hmin4(lx); lo[1] = gs__hmin4(ly); lo[2] = gs__hmin4(lz);
-    hi[0] = gs__hmax4(hx); hi[1] = gs__hmax4(hy); hi[2] = gs__hmax4(hz);
-    gs__fin_box(m, k, lo, hi, gs__hmax4(vm), f);
+    gs__fin_lanes(m, k, w2, nan, sum, vm, lx, ly, lz, hx, hy, hz, f);
 }
 #endif
 
