@@ -4124,7 +4124,7 @@ GS__PRIVATE void gs__mesh_layout(gs__mesh *m, gs__carver *cv) {
     if (it == GS_INTEGRATOR_SYMPLECTIC_EULER) {
         m->runs = (gs__run *)gs__carve(cv, (size_t)m->ns * sizeof(gs__run));
         m->soa = (double *)gs__carve(cv, 9 * gs__soa_stride(n) * sizeof(double));
-        m->sp_soa = (double *)gs__carve(cv, gs__soa_stride((size_t)m->ns) * 6 * sizeof(double));
+        m->sp_soa = (double *)gs__carve(cv, gs__soa_stride((size_t)m->ns) * 3 * sizeof(double));
     }
     m->perm = (int *)gs__carve(cv, (size_t)m->ns * sizeof(int));
     m->ext = (gs_vec3 *)gs__carve(cv, v3);
@@ -4280,7 +4280,7 @@ GS__PRIVATE void gs__int_explicit_euler(gs__mesh *m, double h) {
     }
 }
 
-/* ---- symplectic Euler over runs of springs (see gs__mesh.runs) ---- */
+/* ---- vector helpers of the cloth's paths (symplectic runs, XPBD) ---- */
 
 #ifdef GS__MESH_AVX
 /* The AVX-512VL copies give plain C's bits only if no product is fused
@@ -4324,269 +4324,9 @@ GS__XINLINE void gs__st_aos4(double *p, __m256d x, __m256d y, __m256d z) {
     _mm256_storeu_pd(p + 8, _mm256_permute2f128_pd(u, w, 0x31));
 }
 
-/* The inverse: 12 doubles at p as four particles' x, y, z lanes. */
-GS__XINLINE void gs__ld_aos4(const double *p, __m256d *x, __m256d *y, __m256d *z) {
-    __m256d m0 = _mm256_loadu_pd(p), m1 = _mm256_loadu_pd(p + 4), m2 = _mm256_loadu_pd(p + 8);
-    __m256d t0 = _mm256_permute2f128_pd(m0, m1, 0x30); /* x0 y0 | x2 y2 */
-    __m256d t1 = _mm256_permute2f128_pd(m0, m2, 0x21); /* z0 x1 | z2 x3 */
-    __m256d t2 = _mm256_permute2f128_pd(m1, m2, 0x30); /* y1 z1 | y3 z3 */
-    *x = _mm256_shuffle_pd(t0, t1, 0xA);
-    *y = _mm256_shuffle_pd(t0, t2, 0x5);
-    *z = _mm256_shuffle_pd(t1, t2, 0xA);
-}
-
-/* gs__run_forces four springs at a time; returns how many it did. */
-__attribute__((target("avx"))) GS__PRIVATE int gs__run_forces4(const gs__mesh *m,
-                                                                const gs__run *r) {
-    size_t n = gs__soa_stride((size_t)m->n), ns = gs__soa_stride((size_t)m->ns);
-    const double *X = m->soa, *Y = X + n, *Z = Y + n, *VX = Z + n, *VY = VX + n, *VZ = VY + n;
-    const double *K = m->sp_soa, *C = K + ns, *R = C + ns;
-    double *FX = m->sp_soa + 3 * ns, *FY = FX + ns, *FZ = FY + ns;
-    int j = 0, a = r->a0, b = r->a0 + r->off, s = r->s0;
-    for (; j + 3 < r->len; j += 4) {
-        __m256d dx = _mm256_sub_pd(_mm256_loadu_pd(X + b + j), _mm256_loadu_pd(X + a + j));
-        __m256d dy = _mm256_sub_pd(_mm256_loadu_pd(Y + b + j), _mm256_loadu_pd(Y + a + j));
-        __m256d dz = _mm256_sub_pd(_mm256_loadu_pd(Z + b + j), _mm256_loadu_pd(Z + a + j));
-        __m256d l = _mm256_sqrt_pd(_mm256_add_pd(
-            _mm256_add_pd(_mm256_mul_pd(dx, dx), _mm256_mul_pd(dy, dy)), _mm256_mul_pd(dz, dz)));
-        __m256d ok = _mm256_cmp_pd(l, _mm256_setzero_pd(), _CMP_GT_OQ);
-        __m256d il = _mm256_and_pd(ok, _mm256_div_pd(_mm256_set1_pd(1.0), l));
-        __m256d ux = _mm256_mul_pd(dx, il), uy = _mm256_mul_pd(dy, il), uz = _mm256_mul_pd(dz, il);
-        __m256d w = _mm256_add_pd(
-            _mm256_add_pd(
-                _mm256_mul_pd(_mm256_sub_pd(_mm256_loadu_pd(VX + b + j), _mm256_loadu_pd(VX + a + j)), ux),
-                _mm256_mul_pd(_mm256_sub_pd(_mm256_loadu_pd(VY + b + j), _mm256_loadu_pd(VY + a + j)), uy)),
-            _mm256_mul_pd(_mm256_sub_pd(_mm256_loadu_pd(VZ + b + j), _mm256_loadu_pd(VZ + a + j)), uz));
-        __m256d f = _mm256_and_pd(
-            ok, _mm256_add_pd(_mm256_mul_pd(_mm256_loadu_pd(K + s + j),
-                                            _mm256_sub_pd(l, _mm256_loadu_pd(R + s + j))),
-                              _mm256_mul_pd(_mm256_loadu_pd(C + s + j), w)));
-        _mm256_storeu_pd(FX + s + j, _mm256_mul_pd(ux, f));
-        _mm256_storeu_pd(FY + s + j, _mm256_mul_pd(uy, f));
-        _mm256_storeu_pd(FZ + s + j, _mm256_mul_pd(uz, f));
-    }
-    return j;
-}
-
-__attribute__((target("avx"))) GS__PRIVATE int gs__run_add4(double *acc, const double *f,
-                                                             const double *im, int p0,
-                                                             int len, double sign) {
-    __m256d sg = _mm256_set1_pd(sign);
-    int j = 0;
-    for (; j + 3 < len; j += 4)
-        _mm256_storeu_pd(acc + p0 + j,
-                         _mm256_add_pd(_mm256_loadu_pd(acc + p0 + j),
-                                       _mm256_mul_pd(_mm256_mul_pd(_mm256_loadu_pd(f + j), sg),
-                                                     _mm256_loadu_pd(im + p0 + j))));
-    return j;
-}
 #endif
 
-/* Forces of run r's springs on their ends a, into fx, fy, fz. */
-GS__PRIVATE void gs__run_forces(const gs__mesh *m, const gs__run *r) {
-    size_t n = gs__soa_stride((size_t)m->n), ns = gs__soa_stride((size_t)m->ns);
-    const double *X = m->soa, *Y = X + n, *Z = Y + n, *VX = Z + n, *VY = VX + n, *VZ = VY + n;
-    const double *K = m->sp_soa, *C = K + ns, *R = C + ns;
-    double *FX = m->sp_soa + 3 * ns, *FY = FX + ns, *FZ = FY + ns;
-    int j = 0, a = r->a0, b = r->a0 + r->off, s = r->s0;
-#ifdef GS__MESH_AVX
-    if (m->avx) j = gs__run_forces4(m, r);
-#endif
-#ifdef GS__MESH_SSE2
-    for (; j + 1 < r->len; j += 2) {
-        __m128d dx = _mm_sub_pd(_mm_loadu_pd(X + b + j), _mm_loadu_pd(X + a + j));
-        __m128d dy = _mm_sub_pd(_mm_loadu_pd(Y + b + j), _mm_loadu_pd(Y + a + j));
-        __m128d dz = _mm_sub_pd(_mm_loadu_pd(Z + b + j), _mm_loadu_pd(Z + a + j));
-        __m128d l = _mm_sqrt_pd(_mm_add_pd(_mm_add_pd(_mm_mul_pd(dx, dx), _mm_mul_pd(dy, dy)),
-                                           _mm_mul_pd(dz, dz)));
-        __m128d ok = _mm_cmpgt_pd(l, _mm_setzero_pd());
-        __m128d il = _mm_and_pd(ok, _mm_div_pd(_mm_set1_pd(1.0), l));
-        __m128d ux = _mm_mul_pd(dx, il), uy = _mm_mul_pd(dy, il), uz = _mm_mul_pd(dz, il);
-        __m128d w = _mm_add_pd(
-            _mm_add_pd(_mm_mul_pd(_mm_sub_pd(_mm_loadu_pd(VX + b + j), _mm_loadu_pd(VX + a + j)), ux),
-                       _mm_mul_pd(_mm_sub_pd(_mm_loadu_pd(VY + b + j), _mm_loadu_pd(VY + a + j)), uy)),
-            _mm_mul_pd(_mm_sub_pd(_mm_loadu_pd(VZ + b + j), _mm_loadu_pd(VZ + a + j)), uz));
-        __m128d f = _mm_and_pd(ok, _mm_add_pd(_mm_mul_pd(_mm_loadu_pd(K + s + j),
-                                                         _mm_sub_pd(l, _mm_loadu_pd(R + s + j))),
-                                              _mm_mul_pd(_mm_loadu_pd(C + s + j), w)));
-        _mm_storeu_pd(FX + s + j, _mm_mul_pd(ux, f));
-        _mm_storeu_pd(FY + s + j, _mm_mul_pd(uy, f));
-        _mm_storeu_pd(FZ + s + j, _mm_mul_pd(uz, f));
-    }
-#endif
-    for (; j < r->len; ++j) {
-        double dx = X[b + j] - X[a + j], dy = Y[b + j] - Y[a + j], dz = Z[b + j] - Z[a + j];
-        double l = sqrt(dx * dx + dy * dy + dz * dz);
-        double il = l > 0.0 ? 1.0 / l : 0.0, ux = dx * il, uy = dy * il, uz = dz * il;
-        double f = K[s + j] * (l - R[s + j]) +
-                   C[s + j] * ((VX[b + j] - VX[a + j]) * ux + (VY[b + j] - VY[a + j]) * uy +
-                               (VZ[b + j] - VZ[a + j]) * uz);
-        f = l > 0.0 ? f : 0.0;
-        FX[s + j] = ux * f;
-        FY[s + j] = uy * f;
-        FZ[s + j] = uz * f;
-    }
-}
-
-/* acc[p0 + j] += sign * f[j] / m over a run's ends: one stream each, no
-   two elements alike, so it runs two wide; the same bits either way. */
-GS__PRIVATE void gs__run_add(int avx, double *acc, const double *f, const double *im,
-                             int p0, int len, double sign) {
-    int j = 0;
-#ifdef GS__MESH_AVX
-    if (avx) j = gs__run_add4(acc, f, im, p0, len, sign);
-#else
-    (void)avx;
-#endif
-#ifdef GS__MESH_SSE2
-    __m128d sg = _mm_set1_pd(sign);
-    for (; j + 1 < len; j += 2)
-        _mm_storeu_pd(acc + p0 + j,
-                      _mm_add_pd(_mm_loadu_pd(acc + p0 + j),
-                                 _mm_mul_pd(_mm_mul_pd(_mm_loadu_pd(f + j), sg),
-                                            _mm_loadu_pd(im + p0 + j))));
-#endif
-    for (; j < len; ++j) acc[p0 + j] += f[j] * sign * im[p0 + j];
-}
-
-#ifdef GS__MESH_AVX
-/* gs__int_symplectic_runs's copy in, four particles at a time; returns
-   how many it did. */
-__attribute__((target("avx"))) GS__PRIVATE size_t gs__runs_in4(gs__mesh *m) {
-    size_t n = (size_t)m->n, st = gs__soa_stride(n), i;
-    double *X = m->soa, *Y = X + st, *Z = Y + st, *VX = Z + st, *VY = VX + st, *VZ = VY + st;
-    double *AX = VZ + st, *AY = AX + st, *AZ = AY + st;
-    gs_vec3 g = m->base.world->gravity;
-    __m256d gx = _mm256_set1_pd(g.x), gy = _mm256_set1_pd(g.y), gz = _mm256_set1_pd(g.z);
-    __m256d nair = _mm256_set1_pd(-m->air);
-    for (i = 0; i + 3 < n; i += 4) {
-        __m256d px, py, pz, vx, vy, vz;
-        gs__ld_aos4(&m->x[i].x, &px, &py, &pz);
-        gs__ld_aos4(&m->v[i].x, &vx, &vy, &vz);
-        _mm256_storeu_pd(X + i, px); _mm256_storeu_pd(Y + i, py); _mm256_storeu_pd(Z + i, pz);
-        _mm256_storeu_pd(VX + i, vx); _mm256_storeu_pd(VY + i, vy); _mm256_storeu_pd(VZ + i, vz);
-        _mm256_storeu_pd(AX + i, _mm256_add_pd(gx, _mm256_mul_pd(vx, nair)));
-        _mm256_storeu_pd(AY + i, _mm256_add_pd(gy, _mm256_mul_pd(vy, nair)));
-        _mm256_storeu_pd(AZ + i, _mm256_add_pd(gz, _mm256_mul_pd(vz, nair)));
-    }
-    return i;
-}
-
-/* gs__runs_update's loop four particles at a time; returns how many it
-   did, its largest speed^2, sum and bounds in r (w2, sum, lo xyz, hi
-   xyz), per lane as gs__xpbd_fin4 takes them. */
-__attribute__((target("avx"))) GS__PRIVATE size_t gs__runs_update4(gs__mesh *m, double h, double *r) {
-    size_t n = (size_t)m->n, st = gs__soa_stride(n), i;
-    const double *X = m->soa, *Y = X + st, *Z = Y + st, *VX = Z + st, *VY = VX + st, *VZ = VY + st;
-    const double *AX = VZ + st, *AY = AX + st, *AZ = AY + st;
-    double *xn = &m->xn[0].x, *vn = &m->vn[0].x;
-    __m256d hv = _mm256_set1_pd(h), w2 = _mm256_setzero_pd(), sum = w2, nan = w2;
-    __m256d lx = _mm256_set1_pd(HUGE_VAL), ly = lx, lz = lx, hx = _mm256_set1_pd(-HUGE_VAL), hy = hx, hz = hx;
-    for (i = 0; i + 3 < n; i += 4) {
-        __m256d vx = _mm256_add_pd(_mm256_loadu_pd(VX + i), _mm256_mul_pd(_mm256_loadu_pd(AX + i), hv));
-        __m256d vy = _mm256_add_pd(_mm256_loadu_pd(VY + i), _mm256_mul_pd(_mm256_loadu_pd(AY + i), hv));
-        __m256d vz = _mm256_add_pd(_mm256_loadu_pd(VZ + i), _mm256_mul_pd(_mm256_loadu_pd(AZ + i), hv));
-        __m256d px = _mm256_add_pd(_mm256_loadu_pd(X + i), _mm256_mul_pd(vx, hv));
-        __m256d py = _mm256_add_pd(_mm256_loadu_pd(Y + i), _mm256_mul_pd(vy, hv));
-        __m256d pz = _mm256_add_pd(_mm256_loadu_pd(Z + i), _mm256_mul_pd(vz, hv));
-        __m256d s2 = _mm256_add_pd(_mm256_add_pd(_mm256_mul_pd(vx, vx), _mm256_mul_pd(vy, vy)),
-                                   _mm256_mul_pd(vz, vz));
-        gs__st_aos4(vn + 3 * i, vx, vy, vz);
-        gs__st_aos4(xn + 3 * i, px, py, pz);
-        w2 = _mm256_max_pd(s2, w2);
-        nan = _mm256_or_pd(nan, _mm256_cmp_pd(s2, s2, _CMP_UNORD_Q));
-        sum = _mm256_add_pd(sum, _mm256_add_pd(_mm256_add_pd(px, py), pz));
-        lx = _mm256_min_pd(px, lx); ly = _mm256_min_pd(py, ly); lz = _mm256_min_pd(pz, lz);
-        hx = _mm256_max_pd(px, hx); hy = _mm256_max_pd(py, hy); hz = _mm256_max_pd(pz, hz);
-    }
-    r[0] = _mm256_movemask_pd(nan) ? NAN : gs__hmax4(w2);
-    r[1] = gs__hmax4(sum) + gs__hmin4(sum); /* a NaN or inf lane shows */
-    if (_mm256_movemask_pd(_mm256_cmp_pd(sum, sum, _CMP_UNORD_Q))) r[1] = NAN;
-    r[2] = gs__hmin4(lx); r[3] = gs__hmin4(ly); r[4] = gs__hmin4(lz);
-    r[5] = gs__hmax4(hx); r[6] = gs__hmax4(hy); r[7] = gs__hmax4(hz);
-    return i;
-}
-#endif
-
-/* The update into (xn, vn), with gs__mesh_sane's checks and bounds in the
-   same pass (a pinned particle comes out where it was, at rest, as the
-   substep's pin pass will set it). */
-GS__PRIVATE void gs__runs_update(gs__mesh *m, double h) {
-    size_t n = (size_t)m->n, st = gs__soa_stride(n), i;
-    const double *X = m->soa, *Y = X + st, *Z = Y + st, *VX = Z + st, *VY = VX + st, *VZ = VY + st;
-    const double *AX = VZ + st, *AY = AX + st, *AZ = AY + st;
-    double vmax2 = m->solver.max_speed * m->solver.max_speed, sum = 0.0, w2 = 0.0;
-    double lx = HUGE_VAL, ly = HUGE_VAL, lz = HUGE_VAL, hx = -HUGE_VAL, hy = -HUGE_VAL, hz = -HUGE_VAL;
-    i = 0;
-#ifdef GS__MESH_AVX
-    if (m->avx) {
-        double r[8];
-        i = gs__runs_update4(m, h, r);
-        w2 = r[0]; sum = r[1]; lx = r[2]; ly = r[3]; lz = r[4]; hx = r[5]; hy = r[6]; hz = r[7];
-    }
-#endif
-    for (; i < n; ++i) {
-        double vx = VX[i] + AX[i] * h, vy = VY[i] + AY[i] * h, vz = VZ[i] + AZ[i] * h;
-        double px = X[i] + vx * h, py = Y[i] + vy * h, pz = Z[i] + vz * h;
-        double s2 = vx * vx + vy * vy + vz * vz;
-        m->vn[i] = gs__v3(vx, vy, vz);
-        m->xn[i] = gs__v3(px, py, pz);
-        w2 = s2 > w2 ? s2 : w2;
-        w2 = s2 == s2 ? w2 : s2; /* a NaN speed stays NaN */
-        sum += px + py + pz;
-        lx = px < lx ? px : lx; ly = py < ly ? py : ly; lz = pz < lz ? pz : lz;
-        hx = px > hx ? px : hx; hy = py > hy ? py : hy; hz = pz > hz ? pz : hz;
-    }
-    m->checked = 1;
-    m->check_ok = w2 <= vmax2 && gs__finite(sum) && gs__in_range3(gs__v3(lx, ly, lz)) &&
-                  gs__in_range3(gs__v3(hx, hy, hz));
-    if (m->check_ok) {
-        m->lo = gs__v3(lx - m->radius, ly - m->radius, lz - m->radius);
-        m->hi = gs__v3(hx + m->radius, hy + m->radius, hz + m->radius);
-    }
-}
-
-/* Symplectic Euler through the transposed copy: copy in, accelerations,
-   springs run by run (forces, then their ends a, then their ends b), then
-   the update back into (xn, vn). */
-GS__PRIVATE void gs__int_symplectic_runs(gs__mesh *m, double h) {
-    size_t n = (size_t)m->n, ns = gs__soa_stride((size_t)m->ns), i;
-    size_t st = gs__soa_stride(n);
-    double *X = m->soa, *Y = X + st, *Z = Y + st, *VX = Z + st, *VY = VX + st, *VZ = VY + st;
-    double *AX = VZ + st, *AY = AX + st, *AZ = AY + st;
-    const double *F = m->sp_soa + 3 * ns, *im = m->inv_mass;
-    gs_vec3 g = m->base.world->gravity;
-    int r;
-    i = 0;
-#ifdef GS__MESH_AVX
-    if (m->avx) i = gs__runs_in4(m);
-#endif
-    for (; i < n; ++i) {
-        X[i] = m->x[i].x; Y[i] = m->x[i].y; Z[i] = m->x[i].z;
-        VX[i] = m->v[i].x; VY[i] = m->v[i].y; VZ[i] = m->v[i].z;
-        AX[i] = g.x + VX[i] * -m->air;
-        AY[i] = g.y + VY[i] * -m->air;
-        AZ[i] = g.z + VZ[i] * -m->air;
-    }
-    if (m->ext_active)
-        for (i = 0; i < n; ++i) {
-            AX[i] += m->ext[i].x * im[i];
-            AY[i] += m->ext[i].y * im[i];
-            AZ[i] += m->ext[i].z * im[i];
-        }
-    for (r = 0; r < m->nruns; ++r) {
-        const gs__run *u = &m->runs[r];
-        gs__run_forces(m, u);
-        gs__run_add(m->avx, AX, F + u->s0, im, u->a0, u->len, 1.0);
-        gs__run_add(m->avx, AY, F + ns + u->s0, im, u->a0, u->len, 1.0);
-        gs__run_add(m->avx, AZ, F + 2 * ns + u->s0, im, u->a0, u->len, 1.0);
-        gs__run_add(m->avx, AX, F + u->s0, im, u->a0 + u->off, u->len, -1.0);
-        gs__run_add(m->avx, AY, F + ns + u->s0, im, u->a0 + u->off, u->len, -1.0);
-        gs__run_add(m->avx, AZ, F + 2 * ns + u->s0, im, u->a0 + u->off, u->len, -1.0);
-    }
-    for (i = 0; i < (size_t)m->npins; ++i) AX[m->pins[i]] = AY[m->pins[i]] = AZ[m->pins[i]] = 0.0;
-    gs__runs_update(m, h);
-}
+GS__PRIVATE void gs__int_symplectic_runs(gs__mesh *m, double h);
 
 /* Finds the runs in spring order; 0 (the batched path) unless they average
    8 springs or more. Springs' k, c, rest go to the transposed copy. */
@@ -5443,6 +5183,46 @@ GS__PRIVATE_INLINE void gs__fin_box(gs__mesh *m, size_t k, const double *lo, con
     }
 }
 
+GS__PRIVATE void gs__fin_start(gs__fin *f, double h) {
+    f->w2 = f->sum = 0.0;
+    f->h = h; /* the substeps of a step are equal */
+    f->lo[0] = f->lo[1] = f->lo[2] = HUGE_VAL;
+    f->hi[0] = f->hi[1] = f->hi[2] = -HUGE_VAL;
+}
+
+/* The checks' outcome after the last box: the boxes are the new state's
+   (chunks_next), and the next substep may start from the copy. */
+GS__PRIVATE void gs__fin_done(gs__mesh *m, const gs__fin *f) {
+    double vmax2 = m->solver.max_speed * m->solver.max_speed;
+    m->chunks_next = 1;
+    m->checked = 1;
+    m->pred_ready = m->pred_next;
+    m->check_ok = f->w2 <= vmax2 && gs__finite(f->sum) &&
+                  gs__in_range3(gs__v3(f->lo[0], f->lo[1], f->lo[2])) &&
+                  gs__in_range3(gs__v3(f->hi[0], f->hi[1], f->hi[2]));
+    if (m->check_ok) {
+        m->lo = gs__v3(f->lo[0] - m->radius, f->lo[1] - m->radius, f->lo[2] - m->radius);
+        m->hi = gs__v3(f->hi[0] + m->radius, f->hi[1] + m->radius, f->hi[2] + m->radius);
+    }
+}
+
+/* One particle's share of a substep end's checks and box (gs__fin): the
+   largest speed^2, the sum of coordinates, the largest |v| component and
+   the bounds, in the scalar ends (gs__xpbd_fin1, gs__sym_fin1). */
+GS__PRIVATE void gs__fin_take(gs_vec3 p, gs_vec3 v, double *w2, double *sum, double *vm,
+                               double *lo, double *hi) {
+    double s2 = v.x * v.x + v.y * v.y + v.z * v.z, a;
+    *w2 = s2 > *w2 ? s2 : *w2;
+    *w2 = s2 == s2 ? *w2 : s2; /* a NaN speed stays NaN */
+    *sum += (p.x + p.y) + p.z;
+    a = fabs(v.x) > fabs(v.y) ? fabs(v.x) : fabs(v.y);
+    a = fabs(v.z) > a ? fabs(v.z) : a;
+    *vm = a > *vm ? a : *vm; /* a NaN fails the check above: no box of it is used */
+    lo[0] = p.x < lo[0] ? p.x : lo[0]; lo[1] = p.y < lo[1] ? p.y : lo[1];
+    lo[2] = p.z < lo[2] ? p.z : lo[2]; hi[0] = p.x > hi[0] ? p.x : hi[0];
+    hi[1] = p.y > hi[1] ? p.y : hi[1]; hi[2] = p.z > hi[2] ? p.z : hi[2];
+}
+
 /* Particles i..end (one box), scalar. */
 GS__PRIVATE void gs__xpbd_fin1(gs__mesh *m, size_t i, size_t end, size_t k, double ih,
                                gs__fin *f) {
@@ -5453,19 +5233,10 @@ GS__PRIVATE void gs__xpbd_fin1(gs__mesh *m, size_t i, size_t end, size_t k, doub
     for (; i < end; ++i) {
         gs_vec3 p = gs__v3(X[i], Y[i], Z[i]);
         gs_vec3 v = gs__v3((p.x - PX[i]) * ih, (p.y - PY[i]) * ih, (p.z - PZ[i]) * ih);
-        double s2 = v.x * v.x + v.y * v.y + v.z * v.z, a;
         m->xn[i] = p;
         m->vn[i] = v;
         if (m->pred_next) gs__xpbd_predict1(m, i, p, v, f->h);
-        w2 = s2 > w2 ? s2 : w2;
-        w2 = s2 == s2 ? w2 : s2; /* a NaN speed stays NaN */
-        sum += (p.x + p.y) + p.z;
-        a = fabs(v.x) > fabs(v.y) ? fabs(v.x) : fabs(v.y);
-        a = fabs(v.z) > a ? fabs(v.z) : a;
-        vm = a > vm ? a : vm; /* a NaN fails the check above: no box of it is used */
-        lo[0] = p.x < lo[0] ? p.x : lo[0]; lo[1] = p.y < lo[1] ? p.y : lo[1];
-        lo[2] = p.z < lo[2] ? p.z : lo[2]; hi[0] = p.x > hi[0] ? p.x : hi[0];
-        hi[1] = p.y > hi[1] ? p.y : hi[1]; hi[2] = p.z > hi[2] ? p.z : hi[2];
+        gs__fin_take(p, v, &w2, &sum, &vm, lo, hi);
     }
     f->w2 = w2;
     f->sum = sum;
@@ -5473,6 +5244,21 @@ GS__PRIVATE void gs__xpbd_fin1(gs__mesh *m, size_t i, size_t end, size_t k, doub
 }
 
 #ifdef GS__MESH_AVX
+/* The four-lane substep ends' per-lane speed^2 (NaN flags), sums, |v|
+   maxima and bounds into f and box k (gs__xpbd_fin4, gs__sym_fin4). */
+GS__XINLINE void gs__fin_lanes(gs__mesh *m, size_t k, __m256d w2, __m256d nan, __m256d sum,
+                               __m256d vm, __m256d lx, __m256d ly, __m256d lz, __m256d hx,
+                               __m256d hy, __m256d hz, gs__fin *f) {
+    double lo[3], hi[3];
+    f->w2 = gs__hmax4(w2);
+    if (_mm256_movemask_pd(nan)) f->w2 = NAN;
+    f->sum += gs__hmax4(sum) + gs__hmin4(sum); /* a NaN or inf lane shows */
+    if (_mm256_movemask_pd(_mm256_cmp_pd(sum, sum, _CMP_UNORD_Q))) f->sum = NAN;
+    lo[0] = gs__hmin4(lx); lo[1] = gs__hmin4(ly); lo[2] = gs__hmin4(lz);
+    hi[0] = gs__hmax4(hx); hi[1] = gs__hmax4(hy); hi[2] = gs__hmax4(hz);
+    gs__fin_box(m, k, lo, hi, gs__hmax4(vm), f);
+}
+
 /* gs__xpbd_fin1 four particles at a time over whole boxes: the same xn,
    vn and boxes; the speed and the sum are per lane, which changes
    neither check's outcome (the sum only asks "finite?", and its terms
@@ -5483,7 +5269,7 @@ GS__XINLINE void gs__xpbd_fin4(gs__mesh *m, size_t i, size_t k, double ih, gs__f
     __m256d hv = _mm256_set1_pd(ih), sign = _mm256_set1_pd(-0.0), w2 = _mm256_set1_pd(f->w2);
     __m256d lx = _mm256_set1_pd(HUGE_VAL), ly = lx, lz = lx, hx = _mm256_set1_pd(-HUGE_VAL);
     __m256d hy = hx, hz = hx, vm = _mm256_setzero_pd(), sum = _mm256_setzero_pd(), nan = vm;
-    double lo[3], hi[3], *xn = &m->xn[0].x, *vn = &m->vn[0].x;
+    double *xn = &m->xn[0].x, *vn = &m->vn[0].x;
     gs_vec3 g = m->base.world->gravity;
     __m256d h = _mm256_set1_pd(f->h), nair = _mm256_set1_pd(-m->air), zero = _mm256_setzero_pd();
     __m256d gx = _mm256_set1_pd(g.x), gy = _mm256_set1_pd(g.y), gz = _mm256_set1_pd(g.z);
@@ -5520,13 +5306,7 @@ GS__XINLINE void gs__xpbd_fin4(gs__mesh *m, size_t i, size_t k, double ih, gs__f
             _mm256_storeu_pd(PZ + i, pz);
         }
     }
-    f->w2 = gs__hmax4(w2);
-    if (_mm256_movemask_pd(nan)) f->w2 = NAN;
-    f->sum += gs__hmax4(sum) + gs__hmin4(sum); /* a NaN or inf lane shows */
-    if (_mm256_movemask_pd(_mm256_cmp_pd(sum, sum, _CMP_UNORD_Q))) f->sum = NAN;
-    lo[0] = gs__hmin4(lx); lo[1] = gs__hmin4(ly); lo[2] = gs__hmin4(lz);
-    hi[0] = gs__hmax4(hx); hi[1] = gs__hmax4(hy); hi[2] = gs__hmax4(hz);
-    gs__fin_box(m, k, lo, hi, gs__hmax4(vm), f);
+    gs__fin_lanes(m, k, w2, nan, sum, vm, lx, ly, lz, hx, hy, hz, f);
 }
 
 __attribute__((target("avx"))) GS__PRIVATE void gs__xpbd_fin_avx(gs__mesh *m, size_t i, size_t k,
@@ -5568,7 +5348,7 @@ GS__PRIVATE void gs__int_xpbd_blocks(gs__mesh *m, double h) {
     double *X = m->soa, *Y = X + st, *Z = Y + st, *PX = Z + st, *PY = PX + st, *PZ = PY + st;
     const double *im = m->inv_mass;
     gs_vec3 g = m->base.world->gravity;
-    double ih = 1.0 / h, vmax2 = m->solver.max_speed * m->solver.max_speed;
+    double ih = 1.0 / h;
     gs__fin f;
     const gs_vec3 *x = m->x, *v0 = m->v, *ext = m->ext_active ? m->ext : NULL;
     int j;
@@ -5592,10 +5372,7 @@ GS__PRIVATE void gs__int_xpbd_blocks(gs__mesh *m, double h) {
     }
     gs__xpbd_blocks(m, h);
     if (ext) gs__xpbd_soa_contacts(m, h);
-    f.w2 = f.sum = 0.0;
-    f.h = h; /* the substeps of a step are equal */
-    f.lo[0] = f.lo[1] = f.lo[2] = HUGE_VAL;
-    f.hi[0] = f.hi[1] = f.hi[2] = -HUGE_VAL;
+    gs__fin_start(&f, h);
     for (k = 0, i = 0; i < n; ++k, i += GS__CHUNK) { /* box by box (gs__mesh_chunks) */
 #ifdef GS__MESH_AVX
         if (m->avx && i + GS__CHUNK <= n) {
@@ -5608,16 +5385,7 @@ GS__PRIVATE void gs__int_xpbd_blocks(gs__mesh *m, double h) {
 #endif
         gs__xpbd_fin1(m, i, i + GS__CHUNK < n ? i + GS__CHUNK : n, k, ih, &f);
     }
-    m->chunks_next = 1;
-    m->checked = 1;
-    m->pred_ready = m->pred_next;
-    m->check_ok = f.w2 <= vmax2 && gs__finite(f.sum) &&
-                  gs__in_range3(gs__v3(f.lo[0], f.lo[1], f.lo[2])) &&
-                  gs__in_range3(gs__v3(f.hi[0], f.hi[1], f.hi[2]));
-    if (m->check_ok) {
-        m->lo = gs__v3(f.lo[0] - m->radius, f.lo[1] - m->radius, f.lo[2] - m->radius);
-        m->hi = gs__v3(f.hi[0] + m->radius, f.hi[1] + m->radius, f.hi[2] + m->radius);
-    }
+    gs__fin_done(m, &f);
 }
 
 GS__PRIVATE void gs__int_xpbd(gs__mesh *m, double h) {
@@ -5639,6 +5407,255 @@ GS__PRIVATE void gs__int_xpbd(gs__mesh *m, double h) {
     gs__xpbd_pass(m, h);
     if (m->ext_active) gs__xpbd_contacts(m, h);
     for (i = 0; i < m->n; ++i) m->vn[i] = gs__scale(gs__sub(m->xn[i], m->x[i]), ih);
+}
+
+/* ---- symplectic Euler over runs of springs (see gs__mesh.runs) ----
+   The transposed copy (soa) holds x y z, vx vy vz and the substep's
+   forces fx fy fz, n each; sp_soa the springs' k, c, rest. A run's
+   springs add their forces to both ends in the one loop that makes them
+   (no force array between two passes), as the plain loop
+       F[a] += f;  F[b] -= f;   spring by spring
+   does: a particle takes its end-b force of spring j - off before its
+   end-a force of spring j, and every vector path keeps that order per
+   particle, so all give the same bits. Accelerations come at the end,
+   a = g - air v + F / m, in the pass that updates the state, checks it
+   and makes the contacts' boxes; a substep followed by another in the
+   same step leaves its result in the copy for the next one (pred_next),
+   which then reads nothing of the AoS state. */
+
+/* Run u's springs j0..len, one at a time: the plain path. */
+GS__PRIVATE void gs__sym_run1(gs__mesh *m, const gs__run *u, int j0) {
+    size_t st = gs__soa_stride((size_t)m->n), ns = gs__soa_stride((size_t)m->ns);
+    const double *X = m->soa, *Y = X + st, *Z = Y + st, *VX = Z + st, *VY = VX + st, *VZ = VY + st;
+    const double *K = m->sp_soa, *C = K + ns, *R = C + ns;
+    double *FX = m->soa + 6 * st, *FY = FX + st, *FZ = FY + st;
+    int j;
+    for (j = j0; j < u->len; ++j) {
+        int a = u->a0 + j, b = a + u->off, s = u->s0 + j;
+        double dx = X[b] - X[a], dy = Y[b] - Y[a], dz = Z[b] - Z[a];
+        double l = sqrt(dx * dx + dy * dy + dz * dz);
+        double il = l > 0.0 ? 1.0 / l : 0.0, ux = dx * il, uy = dy * il, uz = dz * il;
+        double f = K[s] * (l - R[s]) +
+                   C[s] * ((VX[b] - VX[a]) * ux + (VY[b] - VY[a]) * uy + (VZ[b] - VZ[a]) * uz);
+        f = l > 0.0 ? f : 0.0;
+        FX[a] += ux * f; FY[a] += uy * f; FZ[a] += uz * f;
+        FX[b] -= ux * f; FY[b] -= uy * f; FZ[b] -= uz * f;
+    }
+}
+
+#ifdef GS__MESH_AVX
+/* Forces on ends a of springs s..s+3 (ends a.., b..) into f[0..2],
+   gs__sym_run1's operations lane by lane. */
+GS__XINLINE void gs__sym_force4(const double *X, size_t st, const double *K, size_t ns, int a, int b,
+                                int s, __m256d *fx, __m256d *fy, __m256d *fz) {
+    const double *Y = X + st, *Z = Y + st, *VX = Z + st, *VY = VX + st, *VZ = VY + st;
+    __m256d dx = _mm256_sub_pd(_mm256_loadu_pd(X + b), _mm256_loadu_pd(X + a));
+    __m256d dy = _mm256_sub_pd(_mm256_loadu_pd(Y + b), _mm256_loadu_pd(Y + a));
+    __m256d dz = _mm256_sub_pd(_mm256_loadu_pd(Z + b), _mm256_loadu_pd(Z + a));
+    __m256d l = _mm256_sqrt_pd(_mm256_add_pd(
+        _mm256_add_pd(_mm256_mul_pd(dx, dx), _mm256_mul_pd(dy, dy)), _mm256_mul_pd(dz, dz)));
+    __m256d ok = _mm256_cmp_pd(l, _mm256_setzero_pd(), _CMP_GT_OQ);
+    __m256d il = _mm256_and_pd(ok, _mm256_div_pd(_mm256_set1_pd(1.0), l));
+    __m256d ux = _mm256_mul_pd(dx, il), uy = _mm256_mul_pd(dy, il), uz = _mm256_mul_pd(dz, il);
+    __m256d w = _mm256_add_pd(
+        _mm256_add_pd(_mm256_mul_pd(_mm256_sub_pd(_mm256_loadu_pd(VX + b), _mm256_loadu_pd(VX + a)), ux),
+                      _mm256_mul_pd(_mm256_sub_pd(_mm256_loadu_pd(VY + b), _mm256_loadu_pd(VY + a)), uy)),
+        _mm256_mul_pd(_mm256_sub_pd(_mm256_loadu_pd(VZ + b), _mm256_loadu_pd(VZ + a)), uz));
+    __m256d f = _mm256_and_pd(
+        ok, _mm256_add_pd(_mm256_mul_pd(_mm256_loadu_pd(K + s), _mm256_sub_pd(l, _mm256_loadu_pd(K + 2 * ns + s))),
+                          _mm256_mul_pd(_mm256_loadu_pd(K + ns + s), w)));
+    *fx = _mm256_mul_pd(ux, f);
+    *fy = _mm256_mul_pd(uy, f);
+    *fz = _mm256_mul_pd(uz, f);
+}
+
+/* A run's last block: lanes past `left` (< 4) out, as -0 for the add to
+   ends a and +0 for the subtract from ends b, what leave a value as it
+   was. They read past the run, within the copy's padding
+   (gs__soa_stride): their values are dropped. */
+GS__XINLINE void gs__sym_cut4(int left, __m256d *ax, __m256d *ay, __m256d *az, __m256d *bx,
+                              __m256d *by, __m256d *bz) {
+    __m256d in = _mm256_cmp_pd(_mm256_set_pd(3.0, 2.0, 1.0, 0.0), _mm256_set1_pd((double)left), _CMP_LT_OQ);
+    __m256d mz = _mm256_andnot_pd(in, _mm256_set1_pd(-0.0));
+    *bx = _mm256_and_pd(in, *bx); *by = _mm256_and_pd(in, *by); *bz = _mm256_and_pd(in, *bz);
+    *ax = _mm256_or_pd(*bx, mz); *ay = _mm256_or_pd(*by, mz); *az = _mm256_or_pd(*bz, mz);
+}
+
+/* Lanes of f shifted up by `off` (1..3), the lanes below from p: spring
+   j - off's force for particle j's lane. */
+GS__XINLINE __m256d gs__sym_shift(__m256d p, __m256d f, int off) {
+    __m256d t = _mm256_permute2f128_pd(p, f, 0x21); /* p2 p3 f0 f1 */
+    return off == 1 ? _mm256_shuffle_pd(t, f, 0x5) : off == 2 ? t : _mm256_shuffle_pd(p, t, 0x5);
+}
+
+/* gs__sym_run1 over a whole run four springs at a time. Offsets of 4 or
+   more: a block's ends a and b are disjoint, so they take their forces
+   as vectors, and a particle's end-b force (block j - off) comes before
+   its end-a one (block j). Offsets 1..3: a block's ends overlap, so the
+   loop goes by blocks of particles, each taking its end-b forces (the
+   last block's and this one's forces shifted by off) and then its end-a
+   ones. Other offsets (negative under 4) go one spring at a time. */
+__attribute__((target("avx"))) GS__PRIVATE void gs__sym_run4(gs__mesh *m, const gs__run *u) {
+    size_t st = gs__soa_stride((size_t)m->n), ns = gs__soa_stride((size_t)m->ns);
+    const double *X = m->soa, *K = m->sp_soa;
+    double *F = m->soa + 6 * st;
+    int j, off = u->off, a = u->a0, s = u->s0, len = u->len;
+    __m256d ax, ay, az, bx, by, bz, px, py, pz;
+    if (off >= 4 || off <= -4) {
+        for (j = 0; j < len; j += 4) {
+            double *pa = F + a + j, *pb = pa + off;
+            gs__sym_force4(X, st, K, ns, a + j, a + off + j, s + j, &ax, &ay, &az);
+            bx = ax; by = ay; bz = az;
+            if (len - j < 4) gs__sym_cut4(len - j, &ax, &ay, &az, &bx, &by, &bz);
+            _mm256_storeu_pd(pa, _mm256_add_pd(_mm256_loadu_pd(pa), ax));
+            _mm256_storeu_pd(pa + st, _mm256_add_pd(_mm256_loadu_pd(pa + st), ay));
+            _mm256_storeu_pd(pa + 2 * st, _mm256_add_pd(_mm256_loadu_pd(pa + 2 * st), az));
+            _mm256_storeu_pd(pb, _mm256_sub_pd(_mm256_loadu_pd(pb), bx));
+            _mm256_storeu_pd(pb + st, _mm256_sub_pd(_mm256_loadu_pd(pb + st), by));
+            _mm256_storeu_pd(pb + 2 * st, _mm256_sub_pd(_mm256_loadu_pd(pb + 2 * st), bz));
+        }
+        return;
+    }
+    if (off < 1) {
+        gs__sym_run1(m, u, 0);
+        return;
+    }
+    px = py = pz = _mm256_setzero_pd();
+    for (j = 0; j < len + off; j += 4) {
+        double *pa = F + a + j;
+        if (j < len) {
+            gs__sym_force4(X, st, K, ns, a + j, a + off + j, s + j, &ax, &ay, &az);
+            bx = ax; by = ay; bz = az;
+            if (len - j < 4) gs__sym_cut4(len - j, &ax, &ay, &az, &bx, &by, &bz);
+        } else {
+            ax = ay = az = _mm256_set1_pd(-0.0);
+            bx = by = bz = _mm256_setzero_pd();
+        }
+        _mm256_storeu_pd(pa, _mm256_add_pd(_mm256_sub_pd(_mm256_loadu_pd(pa), gs__sym_shift(px, bx, off)), ax));
+        _mm256_storeu_pd(pa + st, _mm256_add_pd(_mm256_sub_pd(_mm256_loadu_pd(pa + st), gs__sym_shift(py, by, off)), ay));
+        _mm256_storeu_pd(pa + 2 * st, _mm256_add_pd(_mm256_sub_pd(_mm256_loadu_pd(pa + 2 * st), gs__sym_shift(pz, bz, off)), az));
+        px = bx; py = by; pz = bz;
+    }
+}
+#endif
+
+/* The end of a symplectic substep from the copy's x, v and forces, into
+   (xn, vn) as gs__xpbd_fin1 does, with the same checks and boxes;
+   pinned particles keep their place and come out at rest. */
+GS__PRIVATE void gs__sym_fin1(gs__mesh *m, size_t i, size_t end, size_t k, double h, gs__fin *f) {
+    size_t st = gs__soa_stride((size_t)m->n);
+    double *X = m->soa, *Y = X + st, *Z = Y + st, *VX = Z + st, *VY = VX + st, *VZ = VY + st;
+    double *FX = VZ + st, *FY = FX + st, *FZ = FY + st;
+    const double *im = m->inv_mass;
+    gs_vec3 g = m->base.world->gravity;
+    double lo[3] = {HUGE_VAL, HUGE_VAL, HUGE_VAL}, hi[3] = {-HUGE_VAL, -HUGE_VAL, -HUGE_VAL};
+    double vm = 0.0, w2 = f->w2, sum = f->sum;
+    for (; i < end; ++i) {
+        gs_vec3 p = gs__v3(X[i], Y[i], Z[i]), v = gs__v3(0.0, 0.0, 0.0);
+        if (im[i] > 0.0) {
+            v.x = VX[i] + ((g.x + VX[i] * -m->air) + im[i] * FX[i]) * h;
+            v.y = VY[i] + ((g.y + VY[i] * -m->air) + im[i] * FY[i]) * h;
+            v.z = VZ[i] + ((g.z + VZ[i] * -m->air) + im[i] * FZ[i]) * h;
+            p = gs__v3(p.x + v.x * h, p.y + v.y * h, p.z + v.z * h);
+        }
+        m->xn[i] = p;
+        m->vn[i] = v;
+        if (m->pred_next) {
+            X[i] = p.x; Y[i] = p.y; Z[i] = p.z;
+            VX[i] = v.x; VY[i] = v.y; VZ[i] = v.z;
+            FX[i] = FY[i] = FZ[i] = 0.0;
+        }
+        gs__fin_take(p, v, &w2, &sum, &vm, lo, hi);
+    }
+    f->w2 = w2;
+    f->sum = sum;
+    gs__fin_box(m, k, lo, hi, vm, f);
+}
+
+#ifdef GS__MESH_AVX
+/* gs__sym_fin1 four particles at a time over one whole box; the speed
+   and the sum per lane, as in gs__xpbd_fin4. */
+__attribute__((target("avx"))) GS__PRIVATE void gs__sym_fin4(gs__mesh *m, size_t i, size_t k, double h,
+                                                             gs__fin *f) {
+    size_t st = gs__soa_stride((size_t)m->n), end = i + GS__CHUNK;
+    double *X = m->soa, *Y = X + st, *Z = Y + st, *VX = Z + st, *VY = VX + st, *VZ = VY + st;
+    double *FX = VZ + st, *FY = FX + st, *FZ = FY + st, *xn = &m->xn[0].x, *vn = &m->vn[0].x;
+    gs_vec3 g = m->base.world->gravity;
+    __m256d hv = _mm256_set1_pd(h), nair = _mm256_set1_pd(-m->air), zero = _mm256_setzero_pd();
+    __m256d gx = _mm256_set1_pd(g.x), gy = _mm256_set1_pd(g.y), gz = _mm256_set1_pd(g.z);
+    __m256d sign = _mm256_set1_pd(-0.0), w2 = _mm256_set1_pd(f->w2), vm = zero, sum = zero, nan = zero;
+    __m256d lx = _mm256_set1_pd(HUGE_VAL), ly = lx, lz = lx, hx = _mm256_set1_pd(-HUGE_VAL), hy = hx, hz = hx;
+    for (; i < end; i += 4) {
+        __m256d im = _mm256_loadu_pd(m->inv_mass + i), free = _mm256_cmp_pd(im, zero, _CMP_GT_OQ);
+        __m256d vx = _mm256_loadu_pd(VX + i), vy = _mm256_loadu_pd(VY + i), vz = _mm256_loadu_pd(VZ + i);
+        __m256d px = _mm256_loadu_pd(X + i), py = _mm256_loadu_pd(Y + i), pz = _mm256_loadu_pd(Z + i);
+        __m256d s2, ax, ay, az;
+        vx = _mm256_and_pd(free, _mm256_add_pd(vx, _mm256_mul_pd(_mm256_add_pd(_mm256_add_pd(gx, _mm256_mul_pd(vx, nair)), _mm256_mul_pd(im, _mm256_loadu_pd(FX + i))), hv)));
+        vy = _mm256_and_pd(free, _mm256_add_pd(vy, _mm256_mul_pd(_mm256_add_pd(_mm256_add_pd(gy, _mm256_mul_pd(vy, nair)), _mm256_mul_pd(im, _mm256_loadu_pd(FY + i))), hv)));
+        vz = _mm256_and_pd(free, _mm256_add_pd(vz, _mm256_mul_pd(_mm256_add_pd(_mm256_add_pd(gz, _mm256_mul_pd(vz, nair)), _mm256_mul_pd(im, _mm256_loadu_pd(FZ + i))), hv)));
+        px = _mm256_blendv_pd(px, _mm256_add_pd(px, _mm256_mul_pd(vx, hv)), free);
+        py = _mm256_blendv_pd(py, _mm256_add_pd(py, _mm256_mul_pd(vy, hv)), free);
+        pz = _mm256_blendv_pd(pz, _mm256_add_pd(pz, _mm256_mul_pd(vz, hv)), free);
+        s2 = _mm256_add_pd(_mm256_add_pd(_mm256_mul_pd(vx, vx), _mm256_mul_pd(vy, vy)), _mm256_mul_pd(vz, vz));
+        ax = _mm256_andnot_pd(sign, vx); ay = _mm256_andnot_pd(sign, vy); az = _mm256_andnot_pd(sign, vz);
+        w2 = _mm256_max_pd(s2, w2);
+        nan = _mm256_or_pd(nan, _mm256_cmp_pd(s2, s2, _CMP_UNORD_Q));
+        sum = _mm256_add_pd(sum, _mm256_add_pd(_mm256_add_pd(px, py), pz));
+        vm = _mm256_max_pd(_mm256_max_pd(az, _mm256_max_pd(ax, ay)), vm);
+        lx = _mm256_min_pd(px, lx); ly = _mm256_min_pd(py, ly); lz = _mm256_min_pd(pz, lz);
+        hx = _mm256_max_pd(px, hx); hy = _mm256_max_pd(py, hy); hz = _mm256_max_pd(pz, hz);
+        gs__st_aos4(xn + 3 * i, px, py, pz);
+        gs__st_aos4(vn + 3 * i, vx, vy, vz);
+        if (m->pred_next) {
+            _mm256_storeu_pd(X + i, px); _mm256_storeu_pd(Y + i, py); _mm256_storeu_pd(Z + i, pz);
+            _mm256_storeu_pd(VX + i, vx); _mm256_storeu_pd(VY + i, vy); _mm256_storeu_pd(VZ + i, vz);
+            _mm256_storeu_pd(FX + i, zero); _mm256_storeu_pd(FY + i, zero); _mm256_storeu_pd(FZ + i, zero);
+        }
+    }
+    gs__fin_lanes(m, k, w2, nan, sum, vm, lx, ly, lz, hx, hy, hz, f);
+}
+#endif
+
+/* Symplectic Euler through the transposed copy: copy in (unless the last
+   substep left it there), contact forces, the runs, then the end box by
+   box. */
+GS__PRIVATE void gs__int_symplectic_runs(gs__mesh *m, double h) {
+    size_t n = (size_t)m->n, st = gs__soa_stride(n), i, k;
+    double *X = m->soa, *Y = X + st, *Z = Y + st, *VX = Z + st, *VY = VX + st, *VZ = VY + st;
+    double *FX = VZ + st, *FY = FX + st, *FZ = FY + st;
+    gs__fin f;
+    int r;
+    if (!m->pred_ready)
+        for (i = 0; i < n; ++i) {
+            X[i] = m->x[i].x; Y[i] = m->x[i].y; Z[i] = m->x[i].z;
+            VX[i] = m->v[i].x; VY[i] = m->v[i].y; VZ[i] = m->v[i].z;
+            FX[i] = FY[i] = FZ[i] = 0.0;
+        }
+    m->pred_ready = 0;
+    for (r = 0; m->ext_active && r < m->ntouched; ++r) { /* ext is zero elsewhere */
+        i = (size_t)m->touched[r];
+        FX[i] = m->ext[i].x; FY[i] = m->ext[i].y; FZ[i] = m->ext[i].z;
+    }
+    for (r = 0; r < m->nruns; ++r) {
+#ifdef GS__MESH_AVX
+        if (m->avx) {
+            gs__sym_run4(m, &m->runs[r]);
+            continue;
+        }
+#endif
+        gs__sym_run1(m, &m->runs[r], 0);
+    }
+    gs__fin_start(&f, h);
+    for (k = 0, i = 0; i < n; ++k, i += GS__CHUNK) {
+#ifdef GS__MESH_AVX
+        if (m->avx && i + GS__CHUNK <= n) {
+            gs__sym_fin4(m, i, k, h, &f);
+            continue;
+        }
+#endif
+        gs__sym_fin1(m, i, i + GS__CHUNK < n ? i + GS__CHUNK : n, k, h, &f);
+    }
+    gs__fin_done(m, &f);
 }
 
 /* ---- stepping ---- */
@@ -6247,7 +6264,7 @@ GS__PRIVATE gs_result gs__mesh_check(gs_world *w, const gs_mesh_desc *d) {
 GS_API gs_result gs_mesh_create(gs_world *w, const gs_mesh_desc *desc,
                                 gs_agent **out) {
     gs_mesh_desc d;
-    gs__mesh *m;
+    gs__mesh *m = NULL; /* set by gs__mesh_new; GCC -O2 cannot tell when inlined */
     int i;
     gs_result r = gs__create_begin(w, desc, out, "gs_mesh_create");
     if (r != GS_OK) return r;
