@@ -1239,11 +1239,12 @@ typedef struct gs_weight_in {
     uint32_t host;   /* the sending host (this host for the local state) */
     uint32_t lead;   /* the most advanced host among this one and the
                         peers heard in the last 0.5 s (their snapshots in
-                        this blend or not); but hosts within the ghost's
-                        time deadband of it are in step, a tie, and the
-                        lowest id among them leads (a peer's time, which
-                        is only ever read late, counts within twice the
-                        deadband) */
+                        this blend or not); but hosts within twice the
+                        ghost's time deadband of it are in step, a tie,
+                        and the lowest id among them leads (a peer's time,
+                        which is read with an error, counts within three
+                        times the deadband). One lead for every ghost of
+                        the world's blend */
     uint32_t owner;  /* the object's owner, 0 if shared */
     int local;       /* 1 for the local state */
     int local_owns;  /* 1 if this host owns the object */
