@@ -8881,11 +8881,11 @@ GS__PRIVATE double gs__scene_rand(uint32_t *state) {
 #ifndef GS__SCENE_SPIN
 /* m; 0: the scene's spheres have no torsional friction. The patch's
    (2/3) mu a would be ~4 mm (friction 0.4, a ~18 mm contact patch), and
-   at 4 mm the scene rests (bench/bandwidth paper-rest), but between
-   ghostpeer processes in present mode its hosts then met 10-50 times
-   less closely after a fault (faults.py cut: final 0.2-0.5 mm against
-   0.004-0.01 mm, three runs each), not yet understood; build with
-   -DGS__SCENE_SPIN=0.004 to measure the scene at rest */
+   at 4 mm the scene rests (bench/bandwidth paper-rest). Off until that
+   scene is measured with it: between ghostpeer processes its hosts met
+   10-50 times less closely after a fault while leads were elected ghost
+   by ghost (gs__world_lead); build with -DGS__SCENE_SPIN=0.004 to
+   measure it */
 #define GS__SCENE_SPIN 0.0
 #endif
 #ifndef GS__SCENE_ROLLING
