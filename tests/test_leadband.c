@@ -54,27 +54,17 @@ static void test_edge_of_band_one_lead(void **state) {
     gs_world *w[2] = {NULL, NULL};
     gs_scene sc[2];
     record rec[2];
-    gs_net *net;
     double t, worst = 0.0;
     int k, i, mixed = 0, apart = 0, not_one = 0, frames = 0;
     (void)state;
     memset(rec, 0, sizeof rec);
     assert_int_equal(gs_simnet_create(NULL, &sim), GS_OK);
-    for (k = 0; k < 2; ++k) {
+    {
         gs_world_desc wd = gs_world_desc_default();
-        gs_scene_desc sd = gs_scene_desc_default();
-        gs_ghost_desc gd = gs_ghost_desc_default();
-        wd.host_id = (uint32_t)k + 1;
-        assert_int_equal(gs_world_create(&wd, &w[k]), GS_OK);
-        sd.cloth_n = 6;
-        sd.sphere_count = 2;
-        sd.probe_count = 2;
-        assert_int_equal(gs_scene_create(w[k], &sd, &sc[k]), GS_OK);
-        gd.weight = recording_cs;
-        gd.weight_user = &rec[k];
-        assert_int_equal(gs_scene_attach_ghosts(&sc[k], &gd), GS_OK);
-        assert_int_equal(gs_world_advance(w[k], 0.5, NULL), GS_OK); /* spheres land */
-        assert_int_equal(test_join(sim, w[k], NULL, &net), GS_OK);
+        void *users[2];
+        users[0] = &rec[0];
+        users[1] = &rec[1];
+        assert_int_equal(test_scene_pair_rule(sim, &wd, w, sc, recording_cs, users), GS_OK);
     }
     ld.latency = 0.0005; /* loopback */
     assert_int_equal(gs_simnet_link(sim, 1, 2, &ld), GS_OK);
