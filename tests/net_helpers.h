@@ -45,9 +45,11 @@ static GS_TEST_UNUSED gs_result test_join(gs_simnet *sim, gs_world *w, const gs_
 /* Two hosts (ids 1 and 2) of a small paper scene on sim: a 6 x 6 cloth,
    2 spheres and a probe each, client/server ghosts, the spheres landed
    (0.5 s), each joined; wd: their world desc but for the host id. The
-   first failure, or GS_OK. */
-static GS_TEST_UNUSED gs_result test_scene_pair(gs_simnet *sim, const gs_world_desc *wd,
-                                                gs_world *w[2], gs_scene sc[2]) {
+   first failure, or GS_OK. test_scene_pair_rule: host k+1's ghosts
+   under `weight` with users[k] (users NULL: no user). */
+static GS_TEST_UNUSED gs_result test_scene_pair_rule(gs_simnet *sim, const gs_world_desc *wd,
+                                                     gs_world *w[2], gs_scene sc[2],
+                                                     gs_weight_fn weight, void *const *users) {
     gs_scene_desc sd = gs_scene_desc_default();
     gs_ghost_desc gd = gs_ghost_desc_default();
     gs_net *net; /* the world owns it */
@@ -56,10 +58,11 @@ static GS_TEST_UNUSED gs_result test_scene_pair(gs_simnet *sim, const gs_world_d
     sd.cloth_n = 6;
     sd.sphere_count = 2;
     sd.probe_count = 2;
-    gd.weight = gs_weight_cs;
+    gd.weight = weight;
     for (k = 0; k < 2 && r == GS_OK; ++k) {
         gs_world_desc d = *wd;
         d.host_id = (uint32_t)k + 1;
+        gd.weight_user = users ? users[k] : NULL;
         r = gs_world_create(&d, &w[k]);
         if (r == GS_OK) r = gs_scene_create(w[k], &sd, &sc[k]);
         if (r == GS_OK) r = gs_scene_attach_ghosts(&sc[k], &gd);
@@ -67,6 +70,10 @@ static GS_TEST_UNUSED gs_result test_scene_pair(gs_simnet *sim, const gs_world_d
         if (r == GS_OK) r = test_join(sim, w[k], NULL, &net);
     }
     return r;
+}
+static GS_TEST_UNUSED gs_result test_scene_pair(gs_simnet *sim, const gs_world_desc *wd,
+                                                gs_world *w[2], gs_scene sc[2]) {
+    return test_scene_pair_rule(sim, wd, w, sc, gs_weight_cs, NULL);
 }
 
 /* The world's net on a transport of the test's own that has only send
