@@ -1562,7 +1562,7 @@ GS_API gs_result gs_world_sync_test(gs_world *w, int frames, int *bad_agent);
        said), send time f64 (s, sender's clock), echo time f64 (the latest
        send time received from the destination), echo hold f64 (s it was
        held since)
-     chunk: a header of 3 to GS_WIRE_CHUNK_HEADER bytes, coded against the
+     chunk: a header of 1 to GS_WIRE_CHUNK_HEADER bytes, coded against the
        datagram's chunk before it (an acknowledgement chunk aside: nothing
        before the first), then its payload, whose length its contents
        imply. Varints are unsigned LEB128; "zigzag" maps a signed
@@ -1570,7 +1570,8 @@ GS_API gs_result gs_world_sync_test(gs_world *w, int frames, int *bad_agent);
        kind u8: bits 0-1 the chunk's kind (0 values, 1 delta, 2 heartbeat,
          3 acknowledgements), bit 2 a time follows, bits 3-4 the encoding
          (1 f64, 2 f32, 3 GS_ENCODING_QUANT), bit 5 the state is split
-         (index, count and first follow), bits 6-7 0;
+         (index, count and first follow), bit 6 the next chunk (below),
+         bit 7 0;
        object id: zigzag(id - the chunk before's) varint (at most 5 bytes);
        snapshot sequence: zigzag(sequence - the chunk before's) varint;
        the simulation time f64 (exact) if bit 2, else the chunk before's
@@ -1584,8 +1585,20 @@ GS_API gs_result gs_world_sync_test(gs_world *w, int frames, int *bad_agent);
          encoding 3), the host it is for as a varint and its entry count
          (1..GS_WIRE_MAX_ACKS), nothing else: the chunk after it is coded
          against the chunk before it.
-       A chunk of 10 f64 after one of the same time and sequence: 4 bytes
-       of header; a heartbeat 3. The payload: count values as f64 or f32,
+       The next chunk (bit 6; not a heartbeat or an acknowledgement): the
+         chunk continues the chunk before's snapshot: its object id,
+         sequence and time, chunk index + 1 (< its count), the same count,
+         first element = the chunk before's first + its element count (at
+         most 2^32 - 1), and its element count, unless bit 5 is set: then
+         the element count varint alone follows (not the chunk before's).
+         Bit 2 is clear. A chunk that continues the chunk before so says
+         it with bit 6 and only so (the long form is refused: one
+         datagram, one meaning); each further chunk of a cut snapshot in
+         a datagram takes 1 byte of header, a last shorter one 2 or 3.
+       A chunk of 10 f64 after one of the same time and sequence (and not
+       its next chunk): 4 bytes of header; a heartbeat 3. (Bit 6 is new in
+       this revision of v3: a ghostsim before it refuses its datagram as
+       GS_REJECT_LAYOUT.) The payload: count values as f64 or f32,
        or in
        GS_ENCODING_QUANT a segment count u8 (1..GS_WIRE_MAX_SEGMENTS) and
        segments whose value counts add up to the element count:
@@ -9217,12 +9230,15 @@ typedef struct gs__peer {
 } gs__peer;
 
 /* A chunk's header is coded against the datagram's chunk before it (see
-   >>wire): its object id, sequence and time. Nothing before the first
-   (any 0): its time is always written. */
+   >>wire): its object id, sequence and time, and for the next chunk of the
+   same snapshot its index, count, first element and element count.
+   Nothing before the first (any 0): its time is always written. */
 typedef struct gs__wire_ctx {
     uint32_t id, seq;
     double time;
     int any;
+    uint16_t index, count, elements;
+    uint32_t first;
 } gs__wire_ctx;
 
 struct gs_net {
@@ -12645,8 +12661,10 @@ GS__PRIVATE gs_result gs__wire_put_quant(unsigned char *p, size_t room, const gs
 #define GS__KIND_REST 2u
 #define GS__KIND_ACK 3u
 #define GS__KIND_TIME 0x04u  /* a time follows; else the previous chunk's */
-#define GS__KIND_SPLIT 0x20u /* index, count and first follow; else 0, 1, 0 */
-#define GS__KIND_BITS 0x3fu  /* bits 6-7: 0 */
+#define GS__KIND_SPLIT 0x20u /* index, count and first follow; else 0, 1, 0;
+                                with GS__KIND_NEXT: the element count */
+#define GS__KIND_NEXT 0x40u  /* the next chunk of the chunk before's snapshot */
+#define GS__KIND_BITS 0x7fu  /* bit 7: 0 */
 
 /* The chunk flags of c as its kind (GS_WIRE_CHUNK_*: at most one). */
 GS__PRIVATE unsigned gs__chunk_kind(const gs_wire_chunk *c) {
@@ -12654,6 +12672,17 @@ GS__PRIVATE unsigned gs__chunk_kind(const gs_wire_chunk *c) {
            : c->flags & GS_WIRE_CHUNK_REST ? GS__KIND_REST
            : c->flags & GS_WIRE_CHUNK_ACK  ? GS__KIND_ACK
                                            : GS__KIND_VALUES;
+}
+
+/* Does c continue the chunk x says (its object, sequence and time, the
+   next index of the same count, from the element after x's last)? Its
+   header is then GS__KIND_NEXT's (see >>wire), and only that: encoder
+   and decoder ask the same question. */
+GS__PRIVATE int gs__chunk_is_next(const gs__wire_ctx *x, const gs_wire_chunk *c) {
+    return x->any && c->object_id == x->id && c->sequence == x->seq &&
+           memcmp(&c->time, &x->time, sizeof c->time) == 0 && c->count == x->count &&
+           (uint32_t)c->index == (uint32_t)x->index + 1u &&
+           (uint64_t)c->first == (uint64_t)x->first + x->elements;
 }
 
 /* The header of c at p (at most GS_WIRE_CHUNK_HEADER bytes), coded
@@ -12665,6 +12694,15 @@ GS__PRIVATE size_t gs__chunk_head(unsigned char *p, const gs__wire_ctx *x,
     if (kind == GS__KIND_ACK) { /* the host it is for, and its entries */
         n += gs__varint_put(p + n, c->object_id);
         n += gs__varint_put(p + n, c->elements);
+        p[0] = (unsigned char)b;
+        return n;
+    }
+    if (kind != GS__KIND_REST && gs__chunk_is_next(x, c)) {
+        b |= GS__KIND_NEXT;
+        if (c->elements != x->elements) {
+            b |= GS__KIND_SPLIT;
+            n += gs__varint_put(p + n, c->elements);
+        }
         p[0] = (unsigned char)b;
         return n;
     }
@@ -12702,6 +12740,18 @@ GS__PRIVATE gs_result gs__wire_room(const unsigned char *buf, size_t cap, const 
     return GS_OK;
 }
 
+/* x moved on to chunk c (not an acknowledgement). */
+GS__PRIVATE void gs__wire_ctx_move(gs__wire_ctx *x, const gs_wire_chunk *c) {
+    x->id = c->object_id;
+    x->seq = c->sequence;
+    x->time = c->time;
+    x->any = 1;
+    x->index = c->index;
+    x->count = c->count;
+    x->first = c->first;
+    x->elements = c->elements;
+}
+
 /* The chunk's header (head, hn bytes; its payload of vs bytes already
    written after it) at *size, the chunk counted and x moved on to it. */
 GS__PRIVATE void gs__wire_put_head(unsigned char *buf, size_t *size, gs__wire_ctx *x,
@@ -12711,10 +12761,7 @@ GS__PRIVATE void gs__wire_put_head(unsigned char *buf, size_t *size, gs__wire_ct
     *size += hn + vs;
     gs__hdr_set_chunks(buf, gs__hdr_chunks(buf) + 1);
     if (c->flags & GS_WIRE_CHUNK_ACK) return; /* it says no id, sequence or time */
-    x->id = c->object_id;
-    x->seq = c->sequence;
-    x->time = c->time;
-    x->any = 1;
+    gs__wire_ctx_move(x, c);
 }
 
 GS__PRIVATE int gs__wire_chunk(const unsigned char *buf, size_t end, size_t *off,
@@ -12973,13 +13020,32 @@ GS__PRIVATE int gs__chunk_head_get(const unsigned char *buf, size_t end, size_t 
                : k == GS__KIND_ACK ? GS_WIRE_CHUNK_ACK : 0u;
     if ((b & ~GS__KIND_BITS) || c->encoding == 0) return 0;
     if (k == GS__KIND_ACK) {
-        if (b & (GS__KIND_TIME | GS__KIND_SPLIT) || c->encoding != GS_ENCODING_QUANT ||
+        if (b & (GS__KIND_TIME | GS__KIND_SPLIT | GS__KIND_NEXT) ||
+            c->encoding != GS_ENCODING_QUANT ||
             !gs__head_varint(buf, end, off, 5, 0xffffffffu, &id) ||
             !gs__head_varint(buf, end, off, 2, GS_WIRE_MAX_ACKS, &el) || el < 1)
             return 0;
         c->object_id = (uint32_t)id;
         c->sequence = 0;
         c->time = 0.0;
+    } else if (b & GS__KIND_NEXT) {
+        /* the chunk before's snapshot, its next chunk: only bit 5 (an
+           element count of its own) may follow; past the snapshot's last
+           chunk or its 2^32 elements, refused */
+        if ((b & GS__KIND_TIME) || k == GS__KIND_REST || !x->any ||
+            (uint32_t)x->index + 1u >= x->count ||
+            (uint64_t)x->first + x->elements > 0xffffffffu)
+            return 0;
+        el = x->elements;
+        if ((b & GS__KIND_SPLIT) &&
+            (!gs__head_varint(buf, end, off, 2, 0xffff, &el) || el == x->elements))
+            return 0; /* one meaning: the same count is not said again */
+        c->object_id = x->id;
+        c->sequence = x->seq;
+        c->time = x->time;
+        idx = (uint64_t)x->index + 1u;
+        cnt = x->count;
+        first = (uint64_t)x->first + x->elements;
     } else {
         if (!gs__head_varint(buf, end, off, 5, 0x1ffffffffull, &id) ||
             !gs__head_varint(buf, end, off, 5, 0x1ffffffffull, &seq))
@@ -13003,6 +13069,11 @@ GS__PRIVATE int gs__chunk_head_get(const unsigned char *buf, size_t end, size_t 
              (idx == 0 && cnt == 1 && first == 0))) /* one meaning: not split */
             return 0;
         if (k != GS__KIND_REST && !gs__head_varint(buf, end, off, 2, 0xffff, &el)) return 0;
+        c->index = (uint16_t)idx;
+        c->count = (uint16_t)cnt;
+        c->first = (uint32_t)first;
+        /* one meaning: a chunk that continues the one before says so */
+        if (k != GS__KIND_REST && gs__chunk_is_next(x, c)) return 0;
     }
     c->index = (uint16_t)idx;
     c->count = (uint16_t)cnt;
@@ -13045,12 +13116,7 @@ GS__PRIVATE int gs__wire_chunk(const unsigned char *buf, size_t end, size_t *off
     c->payload_bytes = (uint16_t)len;
     if (!gs__wire_values_finite(c)) { *why = GS_REJECT_NOT_FINITE; return 0; }
     *off += len;
-    if (kind != GS__KIND_ACK) {
-        x->id = c->object_id;
-        x->seq = c->sequence;
-        x->time = c->time;
-        x->any = 1;
-    }
+    if (kind != GS__KIND_ACK) gs__wire_ctx_move(x, c);
     return 1;
 }
 
