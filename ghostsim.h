@@ -1591,8 +1591,12 @@ GS_API gs_result gs_world_sync_test(gs_world *w, int frames, int *bad_agent);
          first element = the chunk before's first + its element count (at
          most 2^32 - 1), and its element count, unless bit 5 is set: then
          the element count varint alone follows (not the chunk before's).
-         Bit 2 is clear. A chunk that continues the chunk before so says
-         it with bit 6 and only so (the long form is refused: one
+         Bit 2 says, in a delta chunk after a delta chunk, that its
+         baseline is the chunk before's: its payload then starts at the
+         width and coding byte (no baseline distance); else bit 2 is
+         clear. A chunk that continues the chunk before so says it with
+         bit 6 and only so, and a delta against the chunk before's
+         baseline with bit 2 and only so (the long forms are refused: one
          datagram, one meaning); each further chunk of a cut snapshot in
          a datagram takes 1 byte of header, a last shorter one 2 or 3.
        A chunk of 10 f64 after one of the same time and sequence (and not
@@ -1639,7 +1643,8 @@ GS_API gs_result gs_world_sync_test(gs_world *w, int frames, int *bad_agent);
        a delta is decoded only against the very state it was coded from,
        so the receiver's state is the sender's quantized state bit for
        bit. Payload: sequence - baseline sequence (u32 arithmetic) as an
-       unsigned LEB128 varint, 1..2^31; one byte: the width w (0..32) in
+       unsigned LEB128 varint, 1..2^31 (left out after bit 6 and 2 of the
+       kind byte: the chunk before's); one byte: the width w (0..32) in
        bits 0-5 and the coding in bits 6-7; then
          coding 0 (packed): element-count zigzag differences of w bits,
            packed as above;
@@ -1815,6 +1820,9 @@ typedef struct gs_wire_chunk {
     int delta_restart;            /* decode, coding 3: where its
                                      neighbours start again (0: nowhere) */
     uint16_t payload_bytes;       /* decode: the payload's length */
+    uint8_t delta_skip;           /* decode, delta: the payload's bytes
+                                     before its coding byte (the baseline
+                                     distance; 0: the chunk before's) */
 } gs_wire_chunk;
 
 /* One entry of an acknowledgement chunk (GS_WIRE_CHUNK_ACK). */
@@ -9239,6 +9247,8 @@ typedef struct gs__wire_ctx {
     int any;
     uint16_t index, count, elements;
     uint32_t first;
+    int delta;         /* the chunk before was a delta, against baseline */
+    uint32_t baseline;
 } gs__wire_ctx;
 
 struct gs_net {
@@ -12179,10 +12189,8 @@ typedef struct gs__dread {
     int coding, width;
 } gs__dread;
 GS__PRIVATE void gs__dread_init(const gs_wire_chunk *c, gs__dread *d) {
-    const unsigned char *q = c->payload, *end = q + c->payload_bytes;
-    uint64_t dist = 0;
+    const unsigned char *q = c->payload + c->delta_skip, *end = c->payload + c->payload_bytes;
     size_t bm = ((size_t)c->elements + 7) / 8;
-    gs__varint_get(&q, end, 5, &dist);
     q++; /* width and coding: in c already */
     d->coding = c->delta_coding;
     d->width = c->delta_width;
@@ -12201,7 +12209,8 @@ GS__PRIVATE int64_t gs__dread_next(gs__dread *d) {
 
 /* Checks a delta payload (within len bytes) and fills c's baseline,
    coding and width: its length, or 0. */
-GS__PRIVATE size_t gs__delta_parse(gs_wire_chunk *c, const unsigned char *p, size_t len) {
+GS__PRIVATE size_t gs__delta_parse(gs_wire_chunk *c, const unsigned char *p, size_t len,
+                                   int same_base) {
     const unsigned char *q = p, *end = p + len;
     uint64_t dist = 0;
     size_t need, bm, i;
@@ -12209,8 +12218,11 @@ GS__PRIVATE size_t gs__delta_parse(gs_wire_chunk *c, const unsigned char *p, siz
     if (c->encoding != GS_ENCODING_QUANT || c->elements == 0 ||
         c->elements > GS_WIRE_QUANT_CHUNK)
         return 0;
-    if (!gs__varint_get(&q, end, 5, &dist) || dist < 1 || dist > 0x80000000u || q >= end)
+    if (same_base) dist = c->sequence - c->baseline; /* checked as the chunk before's */
+    else if (!gs__varint_get(&q, end, 5, &dist) || dist < 1 || dist > 0x80000000u)
         return 0;
+    if (q >= end) return 0;
+    c->delta_skip = (uint8_t)(q - p);
     c->delta_coding = *q >> 6;
     /* Rice's k is at most 24: its bit 5 says predicted */
     c->delta_width = *q & (c->delta_coding >= 2 ? 0x1f : 0x3f);
@@ -12319,11 +12331,11 @@ GS_API int gs_wire_acks(const gs_wire_chunk *c, gs_wire_ack *out, int max) {
    receiving side's inner loop. 0 if a spatial coding's difference is
    past +-(2^31 - 1) (out is then all the same filled). */
 GS__PRIVATE int gs__delta_sum(const gs_wire_chunk *c, const int64_t *bk, int64_t *out) {
-    const unsigned char *q = c->payload, *end = q + c->payload_bytes, *map = NULL;
-    uint64_t dist = 0, acc = 0, mask, z;
+    const unsigned char *q = c->payload + c->delta_skip, *end = c->payload + c->payload_bytes,
+                        *map = NULL;
+    uint64_t acc = 0, mask, z;
     int i, n = 0, w;
-    gs__varint_get(&q, end, 5, &dist);
-    q++;
+    q++; /* width and coding: in c already */
     w = c->delta_width;
     mask = ((uint64_t)1 << w) - 1;
     if (c->delta_coding >= 2) {
@@ -12515,9 +12527,9 @@ GS__PRIVATE size_t gs__delta_put_rice(unsigned char *p, size_t room, const gs_wi
    fit. The differences are within +-2^31 (checked by the caller); st:
    what the choice reads of them (gs__dstat), NULL to make it here. */
 GS__PRIVATE size_t gs__delta_put(unsigned char *p, size_t room, const gs_wire_chunk *c,
-                                 const int64_t *d, const gs__dstat *st) {
+                                 const int64_t *d, const gs__dstat *st, int same_base) {
     unsigned char head[6];
-    size_t hn = gs__varint_put(head, (uint64_t)(uint32_t)(c->sequence - c->baseline));
+    size_t hn = same_base ? 0 : gs__varint_put(head, (uint64_t)(uint32_t)(c->sequence - c->baseline));
     size_t need0, need1, need;
     int i, w0 = 0, w1 = 0, coding, wd, rk = 0, row = c->delta_row;
     double rbits;
@@ -12664,6 +12676,8 @@ GS__PRIVATE gs_result gs__wire_put_quant(unsigned char *p, size_t room, const gs
 #define GS__KIND_SPLIT 0x20u /* index, count and first follow; else 0, 1, 0;
                                 with GS__KIND_NEXT: the element count */
 #define GS__KIND_NEXT 0x40u  /* the next chunk of the chunk before's snapshot */
+#define GS__KIND_SAME_BASE 0x04u /* with GS__KIND_NEXT, a delta: the chunk
+                                    before's baseline (its distance not said) */
 #define GS__KIND_BITS 0x7fu  /* bit 7: 0 */
 
 /* The chunk flags of c as its kind (GS_WIRE_CHUNK_*: at most one). */
@@ -12685,6 +12699,13 @@ GS__PRIVATE int gs__chunk_is_next(const gs__wire_ctx *x, const gs_wire_chunk *c)
            (uint64_t)c->first == (uint64_t)x->first + x->elements;
 }
 
+/* Is delta chunk c, a next chunk, coded against the baseline of the chunk
+   before (a delta too)? Its payload then leaves the distance out. */
+GS__PRIVATE int gs__chunk_same_base(const gs__wire_ctx *x, const gs_wire_chunk *c) {
+    return (c->flags & GS_WIRE_CHUNK_DELTA) && x->delta && c->baseline == x->baseline &&
+           gs__chunk_is_next(x, c);
+}
+
 /* The header of c at p (at most GS_WIRE_CHUNK_HEADER bytes), coded
    against x; its length. */
 GS__PRIVATE size_t gs__chunk_head(unsigned char *p, const gs__wire_ctx *x,
@@ -12698,7 +12719,7 @@ GS__PRIVATE size_t gs__chunk_head(unsigned char *p, const gs__wire_ctx *x,
         return n;
     }
     if (kind != GS__KIND_REST && gs__chunk_is_next(x, c)) {
-        b |= GS__KIND_NEXT;
+        b |= GS__KIND_NEXT | (gs__chunk_same_base(x, c) ? GS__KIND_SAME_BASE : 0u);
         if (c->elements != x->elements) {
             b |= GS__KIND_SPLIT;
             n += gs__varint_put(p + n, c->elements);
@@ -12750,6 +12771,8 @@ GS__PRIVATE void gs__wire_ctx_move(gs__wire_ctx *x, const gs_wire_chunk *c) {
     x->count = c->count;
     x->first = c->first;
     x->elements = c->elements;
+    x->delta = (c->flags & GS_WIRE_CHUNK_DELTA) != 0;
+    x->baseline = c->baseline;
 }
 
 /* The chunk's header (head, hn bytes; its payload of vs bytes already
@@ -12851,7 +12874,7 @@ GS__PRIVATE gs_result gs__wire_add_delta_in(unsigned char *buf, size_t cap, size
     hn = gs__chunk_head(head, x, c);
     r = gs__wire_room(buf, cap, size, hn, &room);
     if (r != GS_OK) return r;
-    vs = gs__delta_put(buf + *size + hn, room, c, diff, st);
+    vs = gs__delta_put(buf + *size + hn, room, c, diff, st, gs__chunk_same_base(x, c));
     if (!vs) return GS_ERR_CAPACITY;
     gs__wire_put_head(buf, size, x, c, head, hn, vs);
     return GS_OK;
@@ -13014,7 +13037,7 @@ GS__PRIVATE int gs__chunk_head_get(const unsigned char *buf, size_t end, size_t 
                                    const gs__wire_ctx *x, gs_wire_chunk *c, unsigned *kind) {
     uint64_t id = 0, seq = 0, idx = 0, cnt = 1, first = 0, el = 0;
     unsigned b = buf[(*off)++], k = b & 3u;
-    *kind = k;
+    *kind = b;
     c->encoding = (gs_encoding)(b >> 3 & 3u);
     c->flags = k == GS__KIND_DELTA ? GS_WIRE_CHUNK_DELTA : k == GS__KIND_REST ? GS_WIRE_CHUNK_REST
                : k == GS__KIND_ACK ? GS_WIRE_CHUNK_ACK : 0u;
@@ -13032,7 +13055,8 @@ GS__PRIVATE int gs__chunk_head_get(const unsigned char *buf, size_t end, size_t 
         /* the chunk before's snapshot, its next chunk: only bit 5 (an
            element count of its own) may follow; past the snapshot's last
            chunk or its 2^32 elements, refused */
-        if ((b & GS__KIND_TIME) || k == GS__KIND_REST || !x->any ||
+        if (((b & GS__KIND_SAME_BASE) && (k != GS__KIND_DELTA || !x->delta)) ||
+            k == GS__KIND_REST || !x->any ||
             (uint32_t)x->index + 1u >= x->count ||
             (uint64_t)x->first + x->elements > 0xffffffffu)
             return 0;
@@ -13043,6 +13067,7 @@ GS__PRIVATE int gs__chunk_head_get(const unsigned char *buf, size_t end, size_t 
         c->object_id = x->id;
         c->sequence = x->seq;
         c->time = x->time;
+        if (b & GS__KIND_SAME_BASE) c->baseline = x->baseline;
         idx = (uint64_t)x->index + 1u;
         cnt = x->count;
         first = (uint64_t)x->first + x->elements;
@@ -13087,16 +13112,18 @@ GS__PRIVATE int gs__chunk_head_get(const unsigned char *buf, size_t end, size_t 
 GS__PRIVATE int gs__wire_chunk(const unsigned char *buf, size_t end, size_t *off,
                                gs__wire_ctx *x, gs_wire_chunk *c, gs_reject *why) {
     size_t len, avail;
-    unsigned kind;
+    unsigned kind, b;
     c->segment_count = 0;
     c->baseline = 0;
     c->delta_coding = c->delta_width = 0;
+    c->delta_skip = 0;
     if (*off >= end) { *why = GS_REJECT_SHORT; return 0; }
-    if (!gs__chunk_head_get(buf, end, off, x, c, &kind)) {
+    if (!gs__chunk_head_get(buf, end, off, x, c, &b)) {
         /* cut short where the bytes ran out, else inconsistent */
         *why = *off >= end ? GS_REJECT_SHORT : GS_REJECT_LAYOUT;
         return 0;
     }
+    kind = b & 3u;
     if ((kind == GS__KIND_DELTA && c->encoding != GS_ENCODING_QUANT) ||
         (kind == GS__KIND_REST && c->index)) { *why = GS_REJECT_LAYOUT; return 0; }
     if (!gs__wire_time_ok(c->time)) { *why = GS_REJECT_TIME; return 0; }
@@ -13108,10 +13135,17 @@ GS__PRIVATE int gs__wire_chunk(const unsigned char *buf, size_t end, size_t *off
         len = gs__value_size(c->encoding) * c->elements;
         if (len > avail) { *why = GS_REJECT_SHORT; return 0; }
     } else {
-        len = kind == GS__KIND_DELTA ? gs__delta_parse(c, c->payload, avail)
+        len = kind == GS__KIND_DELTA
+                  ? gs__delta_parse(c, c->payload, avail, (b & GS__KIND_NEXT) &&
+                                                              (b & GS__KIND_SAME_BASE))
               : kind == GS__KIND_ACK ? gs__ack_parse(c, c->payload, avail)
                                      : gs__quant_parse(c, c->payload, avail);
         if (!len) { *why = GS_REJECT_LAYOUT; return 0; }
+        /* one meaning: the chunk before's baseline is not said again */
+        if (kind == GS__KIND_DELTA && !(b & GS__KIND_SAME_BASE) && gs__chunk_same_base(x, c)) {
+            *why = GS_REJECT_LAYOUT;
+            return 0;
+        }
     }
     c->payload_bytes = (uint16_t)len;
     if (!gs__wire_values_finite(c)) { *why = GS_REJECT_NOT_FINITE; return 0; }

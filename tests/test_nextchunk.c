@@ -269,28 +269,30 @@ static void test_next_refused(void **state) {
     }
 }
 
-/* Delta chunks of a quantized snapshot cut in three: next chunks, their
-   differences back bit for bit. */
+/* Delta chunks of a quantized snapshot cut in four: next chunks, their
+   differences back bit for bit; the baseline is said once (bit 2, its
+   distance left out of the payload) while it stays the chunk before's:
+   chunk 3, against another baseline, says its own. */
 static void test_next_delta(void **state) {
     static gs_wire_view v;
     unsigned char buf[GS_WIRE_MAX_DATAGRAM];
     gs_wire_header h = header();
-    int64_t d[3][60], got[GS_WIRE_QUANT_CHUNK];
+    int64_t d[4][60], got[GS_WIRE_QUANT_CHUNK];
     size_t size, n;
     int i, k;
     (void)state;
     assert_int_equal(gs_wire_begin(buf, sizeof buf, &h, &size), GS_OK);
-    for (i = 0; i < 3; ++i) {
+    for (i = 0; i < 4; ++i) {
         gs_wire_chunk c;
         memset(&c, 0, sizeof c);
         c.object_id = 8;
         c.sequence = 40;
-        c.baseline = 37;
+        c.baseline = i == 3 ? 36 : 37;
         c.time = 2.0;
         c.index = (uint16_t)i;
-        c.count = 3;
-        c.first = (uint32_t)(60 * i);
-        c.elements = i == 2 ? 45 : 60;
+        c.count = 4;
+        c.first = (uint32_t)(i == 3 ? 165 : 60 * i);
+        c.elements = i >= 2 ? 45 : 60;
         c.encoding = GS_ENCODING_QUANT;
         c.flags = GS_WIRE_CHUNK_DELTA;
         c.delta_row = 5;
@@ -299,16 +301,89 @@ static void test_next_delta(void **state) {
     }
     n = gs_wire_end(buf, size);
     assert_int_equal(decode(buf, n, &v), GS_REJECT_COUNT);
-    assert_int_equal(v.chunk_count, 3);
-    for (i = 0; i < 3; ++i) {
+    assert_int_equal(v.chunk_count, 4);
+    for (i = 0; i < 4; ++i) {
         const gs_wire_chunk *c = &v.chunks[i];
+        int same = i == 1 || i == 2;
         assert_int_equal((keep[head_at(&v, i)] & NEXT_BIT) != 0, i > 0);
-        assert_int_equal(c->first, 60 * i);
-        assert_int_equal(c->elements, i == 2 ? 45 : 60);
-        assert_int_equal(c->baseline, 37);
+        if (i) assert_int_equal((keep[head_at(&v, i)] & 0x04) != 0, same); /* 0: its time */
+        assert_int_equal(c->delta_skip, same ? 0 : 1); /* distance 3 or 4: 1 byte */
+        assert_int_equal(c->first, i == 3 ? 165 : 60 * i);
+        assert_int_equal(c->elements, i >= 2 ? 45 : 60);
+        assert_int_equal(c->baseline, i == 3 ? 36 : 37);
         gs_wire_deltas(c, got);
         for (k = 0; k < c->elements; ++k) assert_int_equal(got[k], d[i][k]);
     }
+}
+
+/* Bit 2 of a next chunk (the chunk before's baseline) where it cannot
+   hold, and its long form (the distance said again): refused as a
+   layout. Chunk 1's header and payload start at at: [kind][coding...]. */
+static void test_next_same_base_refused(void **state) {
+    static gs_wire_view v;
+    unsigned char good[GS_WIRE_MAX_DATAGRAM + 16], buf[GS_WIRE_MAX_DATAGRAM + 16];
+    gs_wire_header h = header();
+    int64_t d[30];
+    size_t size, n, m, at;
+    int i, k;
+    (void)state;
+    for (k = 0; k < 30; ++k) d[k] = k % 5 - 2;
+    assert_int_equal(gs_wire_begin(good, sizeof good, &h, &size), GS_OK);
+    for (i = 0; i < 2; ++i) {
+        gs_wire_chunk c;
+        memset(&c, 0, sizeof c);
+        c.object_id = 8;
+        c.sequence = 40;
+        c.baseline = 37;
+        c.time = 2.0;
+        c.index = (uint16_t)i;
+        c.count = 2;
+        c.first = (uint32_t)(30 * i);
+        c.elements = 30;
+        c.encoding = GS_ENCODING_QUANT;
+        c.flags = GS_WIRE_CHUNK_DELTA;
+        if (i) at = size;
+        assert_int_equal(gs_wire_add_delta(good, sizeof good, &size, &c, d), GS_OK);
+    }
+    n = gs_wire_end(good, size);
+    assert_int_equal(decode(good, n, &v), GS_REJECT_COUNT);
+    assert_int_equal(good[at], 0x19 | NEXT_BIT | 0x04); /* delta, quant, next, same base */
+    {   /* the distance said again (3), bit 2 clear: refused */
+        unsigned char lf[] = {0x19 | NEXT_BIT, 3};
+        memcpy(buf, good, n);
+        m = reheader(buf, n, at, lf, sizeof lf);
+        assert_int_equal(decode(buf, m, &v), GS_REJECT_LAYOUT);
+        lf[1] = 4; /* another baseline (36): taken */
+        memcpy(buf, good, n);
+        m = reheader(buf, n, at, lf, sizeof lf);
+        assert_int_equal(decode(buf, m, &v), GS_REJECT_COUNT);
+        assert_int_equal(v.chunks[1].baseline, 36);
+        assert_int_equal(v.chunks[1].delta_skip, 1);
+    }
+    {   /* bit 2 after a chunk that is not a delta: the first made values */
+        static gs_wire_view w;
+        double vals[30] = {0};
+        gs_wire_chunk a;
+        memset(&a, 0, sizeof a);
+        a.object_id = 8;
+        a.sequence = 40;
+        a.time = 2.0;
+        a.count = 2;
+        a.elements = 30;
+        a.encoding = GS_ENCODING_F64;
+        assert_int_equal(gs_wire_begin(buf, sizeof buf, &h, &size), GS_OK);
+        assert_int_equal(gs_wire_add(buf, sizeof buf, &size, &a, vals), GS_OK);
+        memcpy(buf + size, good + at, n - 4 - at); /* chunk 1 as it was */
+        gs__hdr_set_chunks(buf, 2);
+        m = size + (n - 4 - at) + 4;
+        recrc(buf, m);
+        assert_int_equal(decode(buf, m, &w), GS_REJECT_LAYOUT);
+    }
+    /* bit 2 on a values chunk after a delta chunk: refused */
+    memcpy(buf, good, n);
+    buf[at] = 0x18 | NEXT_BIT | 0x04;
+    recrc(buf, n);
+    assert_int_equal(decode(buf, n, &v), GS_REJECT_LAYOUT);
 }
 
 /* The pushed 12x12 cloth of delta_pair.h (4 chunks a snapshot) over a
@@ -372,6 +447,7 @@ int main(void) {
         cmocka_unit_test_teardown(test_next_across_ack, teardown),
         cmocka_unit_test_teardown(test_next_refused, teardown),
         cmocka_unit_test_teardown(test_next_delta, teardown),
+        cmocka_unit_test_teardown(test_next_same_base_refused, teardown),
         cmocka_unit_test_teardown(test_next_chain_lossy, teardown),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
