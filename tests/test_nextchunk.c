@@ -54,6 +54,24 @@ static gs_wire_chunk piece(uint32_t id, uint32_t seq, double t, int index, int c
     return c;
 }
 
+/* Delta chunk `index` of `count` of snapshot 40 of object 8 at 2 s, n
+   quantized differences from `first` against snapshot `baseline`. */
+static gs_wire_chunk delta_piece(int index, int count, int first, int n, uint32_t baseline) {
+    gs_wire_chunk c;
+    memset(&c, 0, sizeof c);
+    c.object_id = 8;
+    c.sequence = 40;
+    c.baseline = baseline;
+    c.time = 2.0;
+    c.index = (uint16_t)index;
+    c.count = (uint16_t)count;
+    c.first = (uint32_t)first;
+    c.elements = (uint16_t)n;
+    c.encoding = GS_ENCODING_QUANT;
+    c.flags = GS_WIRE_CHUNK_DELTA;
+    return c;
+}
+
 /* Decodes an exact-size copy (ASan sees a read past it): the refusal's
    reason, or GS_REJECT_COUNT when taken (*v then points into *keep). */
 static unsigned char *keep;
@@ -283,18 +301,8 @@ static void test_next_delta(void **state) {
     (void)state;
     assert_int_equal(gs_wire_begin(buf, sizeof buf, &h, &size), GS_OK);
     for (i = 0; i < 4; ++i) {
-        gs_wire_chunk c;
-        memset(&c, 0, sizeof c);
-        c.object_id = 8;
-        c.sequence = 40;
-        c.baseline = i == 3 ? 36 : 37;
-        c.time = 2.0;
-        c.index = (uint16_t)i;
-        c.count = 4;
-        c.first = (uint32_t)(i == 3 ? 165 : 60 * i);
-        c.elements = i >= 2 ? 45 : 60;
-        c.encoding = GS_ENCODING_QUANT;
-        c.flags = GS_WIRE_CHUNK_DELTA;
+        gs_wire_chunk c = delta_piece(i, 4, i == 3 ? 165 : 60 * i, i >= 2 ? 45 : 60,
+                                      i == 3 ? 36 : 37);
         c.delta_row = 5;
         for (k = 0; k < 60; ++k) d[i][k] = (int64_t)((k * 7 + i * 3) % 11) - 5;
         assert_int_equal(gs_wire_add_delta(buf, sizeof buf, &size, &c, d[i]), GS_OK);
@@ -330,18 +338,7 @@ static void test_next_same_base_refused(void **state) {
     for (k = 0; k < 30; ++k) d[k] = k % 5 - 2;
     assert_int_equal(gs_wire_begin(good, sizeof good, &h, &size), GS_OK);
     for (i = 0; i < 2; ++i) {
-        gs_wire_chunk c;
-        memset(&c, 0, sizeof c);
-        c.object_id = 8;
-        c.sequence = 40;
-        c.baseline = 37;
-        c.time = 2.0;
-        c.index = (uint16_t)i;
-        c.count = 2;
-        c.first = (uint32_t)(30 * i);
-        c.elements = 30;
-        c.encoding = GS_ENCODING_QUANT;
-        c.flags = GS_WIRE_CHUNK_DELTA;
+        gs_wire_chunk c = delta_piece(i, 2, 30 * i, 30, 37);
         if (i) at = size;
         assert_int_equal(gs_wire_add_delta(good, sizeof good, &size, &c, d), GS_OK);
     }
