@@ -531,12 +531,27 @@ typedef struct gs_sync_desc {
                               at rest still end bitwise equal). Default 0:
                               GS_REPLAY_TOLERANCE; negative: off (every
                               blend that changes a bit replays) */
+    int replay_every;      /* advances; replay mode: the snapshots that
+                              arrive wait in the queues and are taken (the
+                              newest whole set of each peer, one replay)
+                              once every `replay_every` advances that have
+                              some: a replay costs about its span, the
+                              latency, and one every k advances spans
+                              hardly more, so the re-run steps fall about
+                              k-fold, while each copy drifts on its own
+                              k-1 frames longer between corrections.
+                              Default 0: GS_REPLAY_EVERY; 1: every advance;
+                              at most GS_REPLAY_EVERY_MAX */
 } gs_sync_desc;
 
 /* m; the default gs_sync_desc.replay_tolerance (see docs/sync-notes.md) */
 #define GS_REPLAY_TOLERANCE 1e-4
 /* replays skipped in a row by replay_tolerance before one runs */
 #define GS_REPLAY_NEAR_SKIPS 2
+/* the default gs_sync_desc.replay_every, and its largest value (a
+   snapshot's wait must leave room in the history and the ghosts' queues) */
+#define GS_REPLAY_EVERY 1
+#define GS_REPLAY_EVERY_MAX 8
 
 /* Mode present, local clock, the world's clock, 16 frames of history, a
    replay budget of 4096 steps, no frame grid, a replay tolerance of
@@ -2894,6 +2909,7 @@ GS_API gs_sync_desc gs_sync_desc_default(void) {
     d.history_frames = 16;
     d.replay_budget = 4096;
     d.replay_tolerance = GS_REPLAY_TOLERANCE;
+    d.replay_every = GS_REPLAY_EVERY;
     return d;
 }
 
@@ -2926,6 +2942,7 @@ GS__PRIVATE gs_world_desc gs__world_defaults(const gs_world_desc *in) {
     if (d.sync.replay_budget == 0) d.sync.replay_budget = def.sync.replay_budget;
     if (d.sync.history_frames == 0) d.sync.history_frames = def.sync.history_frames;
     if (d.sync.replay_tolerance == 0.0) d.sync.replay_tolerance = def.sync.replay_tolerance;
+    if (d.sync.replay_every == 0) d.sync.replay_every = def.sync.replay_every;
     if (d.max_steps == 0) d.max_steps = def.max_steps;
     if (d.sleep_time == 0.0) d.sleep_time = def.sleep_time;
     if (d.sleep_speed == 0.0) d.sleep_speed = def.sleep_speed;
@@ -2953,6 +2970,7 @@ GS__PRIVATE gs_result gs__world_check(const gs_world_desc *d) {
         gs__check_int(&c, "sync.history_frames", d->sync.history_frames, 1, 1024);
     gs__check_finite(&c, "sync.frame", d->sync.frame);
     gs__check_finite(&c, "sync.replay_tolerance", d->sync.replay_tolerance);
+    gs__check_int(&c, "sync.replay_every", d->sync.replay_every, 1, GS_REPLAY_EVERY_MAX);
     if (!(d->sync.frame >= 0.0 && d->sync.frame <= GS__SYNC_FRAME_MAX))
         gs__check_fail(&c, GS_ERR_INVALID_ARG, "sync.frame is %g s, must be in [0, %g]",
                        d->sync.frame, GS__SYNC_FRAME_MAX);
@@ -10435,6 +10453,8 @@ typedef struct gs__sync {
     int near_skips;      /* replays stopped so, in a row */
     int near_ok;         /* the replay probed may stop so (GS__NEAR_SPAN) */
     double stopped_at;   /* s; that blend's time */
+    int idle;            /* advances since snapshots were last taken
+                            (replay_every) */
 } gs__sync;
 
 GS__PRIVATE gs_result gs__sync_advance(gs_world *w, double seconds, gs_advance_report *rep);
@@ -10879,7 +10899,12 @@ GS__PRIVATE void gs__sync_begin(gs_world *w, double seconds) {
     if (!sy->cap || sy->replaying) return;
     if (sy->agents != w->agent_count) { sy->valid_from = sy->seq + 1; sy->seq++; return; }
     sy->nfresh = 0;
-    if (sy->d.mode == GS_SYNC_REPLAY && w->net) gs__sync_take(w);
+    /* replay_every: the snapshots wait until the k-th advance since the
+       last that took some */
+    if (sy->d.mode == GS_SYNC_REPLAY && w->net && ++sy->idle >= sy->d.replay_every) {
+        gs__sync_take(w);
+        if (sy->nfresh > 0) sy->idle = 0;
+    }
     f = &sy->frames[sy->seq % (uint64_t)sy->cap];
     f->nsplit = 0;
     for (i = 0; i < sy->nfresh; ++i) /* due in this advance: it runs to them first */
@@ -11155,12 +11180,20 @@ GS__PRIVATE void gs__sync_end(gs_world *w, double seconds, const gs_advance_repo
                    this timeline from its time less its send time (the
                    grid is fixed at creation: without one stands_at stays
                    0 and the net's lock is not taken for it) */
+                double next = g->next_publish + 1.0 / g->d.send_rate;
                 if (sy->d.frame > 0.0) {
                     gs__lock(w->net);
                     g->stands_at = w->target - sy->origin;
                     gs__unlock(w->net);
                 }
                 gs__ghost_publish_now(g, w->net);
+                /* on a frame grid the next one is due a period after this
+                   one was, not after the boundary it went at: rounded to
+                   the nearest boundary, a 60 Hz ghost on a 5 ms grid then
+                   publishes 15 and 20 ms apart, 60 a second (from the
+                   boundary, always 15: 67 a second) */
+                if (sy->d.frame > 0.0 && next > g->next_publish - 1.0 / g->d.send_rate)
+                    g->next_publish = next; /* (still ahead: not after a pause) */
             }
         }
     sy->frame_steps = rep->steps;
@@ -14638,6 +14671,15 @@ GS__PRIVATE int gs__ghost_due(const gs__ghost *g, double now) {
     double period = 1.0 / g->d.send_rate;
     if (g->stands_at - now > 0.0 && g->stands_at - now <= GS__SYNC_FRAME_MAX) return 0;
     if (g->b_seq == g->sent_seq) return 0;
+    /* On a frame grid a new state goes at its instant, whatever the send
+       phase: the peers read the session's timeline from its time less its
+       send time, and a wall-clock send phase (next_send) beating against
+       the grid sent two states in three one or two frames late, for
+       150 ms stretches, as long as the peers' window of estimates (four
+       processes on loopback: followers a frame behind the timekeeper).
+       Its rate is the publishes' (gs__sync_end: send_rate on average). */
+    if (g->stands_at > 0.0 && now >= g->stands_at && now - g->stands_at <= GS__SYNC_FRAME_MAX)
+        return 1;
     /* a resting ghost's beat goes in its update, whatever its send phase */
     return now >= g->next_send || g->next_send - now > period || (g->at_rest && gs__beat_due(g, now));
 }

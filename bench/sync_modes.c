@@ -21,10 +21,28 @@
      sampled) from 1 s after the stop to the end, and the last figure;
    - the simulation-time gap at equal wall time: |target_k - target_1| at
      the end of every frame (gs_world_time), p95 over the run from the push;
-   - replay CPU: the share of agent steps that replays re-ran
-     (gs_sync_stats.replay_steps over all steps), times the CPU time of a
-     host's frame (the thread's CPU time of gs_simnet_run over hosts),
-     as a share of the 1/60 s frame. */
+   - replay CPU: the agent steps that replays re-ran
+     (gs_sync_stats.replay_steps) per frame, on the busiest host while the
+     probe pushes (and over every host and the run), times the CPU of one
+     agent step: the thread's CPU time of gs_simnet_run over every agent
+     step the hosts ran, first runs and re-runs (the steps gs_agent_stats
+     counts, which a rewind restores, plus replay_steps), as a share of
+     the 1/60 s frame. (Until session 14 the bench took the re-run steps'
+     share of the first-run steps times a host's whole frame CPU, re-runs
+     included, which counted the re-runs' own CPU twice: 1.4-1.7x the
+     figure on a follower that re-runs a frame per frame.) `push:rep` is
+     the load-independent part: the busiest host's re-run steps over its
+     first-run steps while the probe pushes;
+   - convergence after the stop: the time from the stop after which every
+     compared sample is bitwise equal (`conv 0`), or within 1 mm
+     (`conv 1mm`), to the end of the run; "never" when the last one is not;
+   - the outage (`--outage`, WAN link, 2 hosts): host 1's probe pushes from
+     the start, the links are cut OUT_AT..OUT_AT+OUT_LEN s, host 2's probe
+     pushes during the cut too, both park when it ends; pace during the
+     cut: the least simulation time a host advanced over the cut's
+     seconds, the largest lag (gs_sync_stats.lag) and the CPU of a host's
+     frame as a share of the frame; after it: conv 0 and conv 1mm from the
+     reconnection. */
 #include "bench_util.h"
 
 #define GHOSTSIM_IMPLEMENTATION
@@ -44,6 +62,8 @@ static gs_agent_stats agent_stats(const gs_agent *a) {
 
 #define FRAME (1.0 / 60.0)
 #define SETTLE 1.0
+#define OUT_AT 1.0  /* s from the start: the outage scenario's cut */
+#define OUT_LEN 5.0
 #define PARK_HEIGHT 0.4
 #define MAX_HOSTS 4
 #define MAX_FRAMES 1200
@@ -73,8 +93,20 @@ typedef struct result {
     double replay_share;          /* of the steps */
     double replay_push_worst;     /* the largest over hosts of the share
                                      during the push (a follower's) */
-    double replay_cpu_frame;      /* share of the 1/60 s frame */
+    double replay_cpu_frame;      /* share of the 1/60 s frame, over every
+                                     host and the run */
+    double replay_cpu_push;       /* share of the frame, the busiest host
+                                     while the probe pushes */
     double frame_cpu;             /* s of CPU per host frame */
+    double conv0, conv1mm;        /* s from the stop (or the reconnection)
+                                     to bitwise equal / within 1 mm for
+                                     good; -1: not by the end */
+    int outage;                   /* the outage scenario */
+    double out_pace;              /* the least of a host's simulation time
+                                     advanced during the cut over its s */
+    double out_lag;               /* s, the largest lag during the cut */
+    double out_cpu;               /* CPU of a host frame during the cut,
+                                     share of the frame */
     uint64_t replays, fallbacks;
     uint64_t skipped;             /* replays whose blends changed no state */
     uint64_t near;                /* of those, whose blends moved states
@@ -95,11 +127,28 @@ static void keep(host *h) {
     for (i = 0; i < h->sc.sphere_count && i < 3; ++i) p[n + i] = gs_rigid_position(h->sc.spheres[i]);
 }
 
-static void drive(host *h, double t, double push) {
+/* Host h's own probe (index i) on the scene's path i until `push`, then
+   parked above it. */
+static void drive(host *h, int i, double t, double push) {
     const gs_quat id = {0.0, 0.0, 0.0, 1.0};
-    gs_vec3 p = gs_scene_probe_path(0, t < push ? t : push);
+    gs_vec3 p = gs_scene_probe_path(i, t < push ? t : push);
     if (t >= push) p.y = PARK_HEIGHT;
-    gs_probe_set_target(h->sc.probes[0], p, id);
+    gs_probe_set_target(h->sc.probes[i], p, id);
+}
+
+/* s from `from` after which every compared sample (d[i] at time
+   (i + 1) * FRAME, -1 when none) is within lim to the end; -1 when the
+   last is not. */
+static double converged(const double *d, int n, double from, double lim) {
+    double at = -1.0;
+    int i;
+    for (i = 0; i < n; ++i) {
+        double t = (i + 1) * FRAME;
+        if (t < from || d[i] < 0.0) continue;
+        if (d[i] > lim) at = -1.0;
+        else if (at < 0.0) at = t - from;
+    }
+    return at;
 }
 
 static const char *const mode_names[3] = {"present", "pres+clk", "replay"};
@@ -116,14 +165,20 @@ static void count_steps(gs_world *w, uint64_t *steps, uint64_t *rsteps) {
 
 /* mode 0: the defaults (present, local clock); 1: present on the session
    clock; 2: replay on the session clock. */
-static int run(const profile *pr, int mode, int nhosts, double push, double after, result *r) {
-    static double push_div[MAX_FRAMES], gaps[MAX_FRAMES];
+static int replay_every; /* gs_sync_desc.replay_every; 0: the default */
+
+/* outage: the outage scenario (see the top), push is then the cut's end */
+static int run(const profile *pr, int mode, int nhosts, double push, double after, int outage,
+               result *r) {
+    static double push_div[MAX_FRAMES], gaps[MAX_FRAMES], divs[MAX_FRAMES];
     gs_simnet *sim = NULL;
     gs_simnet_desc simd;
     host h[MAX_HOSTS];
     int frames = (int)((push + after) / FRAME + 0.5), k, i, j, np = 0, ng = 0, ok = 0, n;
-    double cpu = 0.0;
+    double cpu = 0.0, out_cpu = 0.0, out_t0[MAX_HOSTS];
     uint64_t steps = 0, rsteps = 0, push_steps[MAX_HOSTS], push_rsteps[MAX_HOSTS];
+    uint64_t loop_steps = 0, loop_rsteps = 0, worst_rsteps = 0;
+    int out_frames = 0;
     memset(r, 0, sizeof *r);
     memset(h, 0, sizeof h);
     memset(&simd, 0, sizeof simd);
@@ -132,6 +187,8 @@ static int run(const profile *pr, int mode, int nhosts, double push, double afte
     r->mode = mode_names[mode];
     r->hosts = nhosts;
     r->bitwise_after_1s = 1;
+    r->outage = outage;
+    r->out_pace = HUGE_VAL;
     if (frames > MAX_FRAMES) frames = MAX_FRAMES;
     if (gs_simnet_create(&simd, &sim) != GS_OK) return 0;
     for (k = 0; k < nhosts; ++k) {
@@ -140,6 +197,7 @@ static int run(const profile *pr, int mode, int nhosts, double push, double afte
         wd.host_id = (uint32_t)k + 1;
         if (mode > 0) wd.sync.clock = GS_SYNC_CLOCK_SESSION;
         if (mode > 1) wd.sync.mode = GS_SYNC_REPLAY;
+        wd.sync.replay_every = replay_every;
         sd.probe_count = nhosts;
         if (gs_world_create(&wd, &h[k].w) != GS_OK || gs_scene_create(h[k].w, &sd, &h[k].sc) != GS_OK ||
             !attach(&h[k]))
@@ -156,22 +214,48 @@ static int run(const profile *pr, int mode, int nhosts, double push, double afte
     }
     for (k = 0; k < nhosts; ++k)
         for (j = 0; j < nhosts; ++j)
-            if (j != k) gs_simnet_link(sim, (uint32_t)k + 1, (uint32_t)j + 1, &pr->link);
+            if (j != k) {
+                gs_link_desc l = pr->link;
+                if (outage) {
+                    l.outage_start[0] = gs_simnet_time(sim) + OUT_AT;
+                    l.outage_end[0] = gs_simnet_time(sim) + OUT_AT + OUT_LEN;
+                }
+                gs_simnet_link(sim, (uint32_t)k + 1, (uint32_t)j + 1, &l);
+            }
     for (k = 0; k < nhosts; ++k) count_steps(h[k].w, &push_steps[k], &push_rsteps[k]);
     for (i = 0; i < frames; ++i) {
-        double c0;
+        double c0, t = i * FRAME;
+        int cut = outage && t >= OUT_AT && t < OUT_AT + OUT_LEN;
         if (i == (int)(push / FRAME + 0.5))
             for (k = 0; k < nhosts; ++k) {
                 uint64_t s, rs;
                 count_steps(h[k].w, &s, &rs);
-                if (s > push_steps[k])
-                    r->replay_push_worst = fmax(r->replay_push_worst, (double)(rs - push_rsteps[k]) /
-                                                                        (double)(s - push_steps[k]));
+                if (s > push_steps[k] && (double)(rs - push_rsteps[k]) / (double)(s - push_steps[k]) >=
+                                             r->replay_push_worst) {
+                    r->replay_push_worst = (double)(rs - push_rsteps[k]) / (double)(s - push_steps[k]);
+                    worst_rsteps = rs - push_rsteps[k];
+                }
             }
-        drive(&h[0], gs_simnet_time(sim), push);
+        if (outage && i == (int)(OUT_AT / FRAME + 0.5))
+            for (k = 0; k < nhosts; ++k) out_t0[k] = gs_world_time(h[k].w);
+        if (outage && i == (int)((OUT_AT + OUT_LEN) / FRAME + 0.5))
+            for (k = 0; k < nhosts; ++k)
+                r->out_pace = fmin(r->out_pace, (gs_world_time(h[k].w) - out_t0[k]) / OUT_LEN);
+        drive(&h[0], 0, t, push);
+        if (outage && nhosts > 1 && t >= OUT_AT) drive(&h[1], 1, t, push);
         c0 = bu_cpu_now();
         gs_simnet_run(sim, FRAME, FRAME);
-        cpu += bu_cpu_now() - c0;
+        c0 = bu_cpu_now() - c0;
+        cpu += c0;
+        if (cut) {
+            out_cpu += c0;
+            out_frames++;
+            for (k = 0; k < nhosts; ++k) {
+                gs_sync_stats st;
+                gs_world_sync_stats(h[k].w, &st);
+                r->out_lag = fmax(r->out_lag, st.lag);
+            }
+        }
         for (k = 0; k < nhosts; ++k) keep(&h[k]);
         {
             double g = 0.0;
@@ -186,8 +270,9 @@ static int run(const profile *pr, int mode, int nhosts, double push, double afte
             double dk = et_diverge_at(&h[0].s, i, &h[k].s);
             if (dk >= 0.0) { any = 1; if (dk > d) d = dk; }
         }
+        divs[i] = any ? d : -1.0;
         if (!any) continue;
-        if (now <= push) push_div[np++] = d;
+        if (now <= push && !(outage && now > OUT_AT)) push_div[np++] = d;
         if (now >= push + 1.0 && d > r->after_max) r->after_max = d;
         if (now >= push + 1.0 && d != 0.0) r->bitwise_after_1s = 0;
         r->after_end = d;
@@ -197,10 +282,16 @@ static int run(const profile *pr, int mode, int nhosts, double push, double afte
     r->push_max = bu_quantile(push_div, np, 1.0);
     r->gap_p95 = bu_quantile(gaps, ng, 0.95);
     r->gap_max = bu_quantile(gaps, ng, 1.0);
+    r->conv0 = converged(divs, frames, push, 0.0);
+    r->conv1mm = converged(divs, frames, push, 1e-3);
     for (k = 0; k < nhosts; ++k) {
         gs_sync_stats st;
         int a;
+        uint64_t s0, rs0;
         gs_world_sync_stats(h[k].w, &st);
+        count_steps(h[k].w, &s0, &rs0);
+        loop_steps += s0 - push_steps[k];
+        loop_rsteps += rs0 - push_rsteps[k];
         rsteps += st.replay_steps;
         r->replays += st.replays;
         r->skipped += st.replays_skipped;
@@ -211,7 +302,12 @@ static int run(const profile *pr, int mode, int nhosts, double push, double afte
     }
     r->replay_share = steps ? (double)rsteps / (double)steps : 0.0;
     r->frame_cpu = cpu / frames / nhosts;
-    r->replay_cpu_frame = r->replay_share * r->frame_cpu / FRAME;
+    if (loop_steps + loop_rsteps > 0) {
+        double step_cpu = cpu / (double)(loop_steps + loop_rsteps);
+        r->replay_cpu_frame = (double)loop_rsteps / frames / nhosts * step_cpu / FRAME;
+        r->replay_cpu_push = (double)worst_rsteps / (push / FRAME) * step_cpu / FRAME;
+    }
+    if (out_frames) r->out_cpu = out_cpu / out_frames / nhosts / FRAME;
     ok = 1;
 done:
     for (k = 0; k < nhosts; ++k) {
@@ -222,21 +318,63 @@ done:
     return ok;
 }
 
+/* "never" for a convergence time of -1 */
+static const char *secs(char *buf, size_t n, double t) {
+    if (t < 0.0) snprintf(buf, n, "never");
+    else snprintf(buf, n, "%.2fs", t);
+    return buf;
+}
+
+static void print_row(const result *r) {
+    char c0[16], c1[16];
+    if (r->outage) {
+        fprintf(stderr,
+                "%-6s %-8s %5d | outage %.0f s: pace %.3f, lag max %6.2fms, frame cpu %5.1f%% | after: "
+                "conv 0 %7s, conv 1mm %7s, end %8.2em | replays %lu fallb %lu\n",
+                r->profile, r->mode, r->hosts, OUT_LEN, r->out_pace, 1e3 * r->out_lag, 100.0 * r->out_cpu,
+                secs(c0, sizeof c0, r->conv0), secs(c1, sizeof c1, r->conv1mm), r->after_end,
+                (unsigned long)r->replays, (unsigned long)r->fallbacks);
+        return;
+    }
+    fprintf(stderr,
+            "%-6s %-8s %5d | %7.3fmm %7.3fmm %7.3fmm | %8.2em %8.2em %7s %7s %8s | %6.2fms %6.2fms | "
+            "%6.1f%% %6.1f%% %6lu %6lu %6lu %6lu | %6.1f%% %6.1f%%\n",
+            r->profile, r->mode, r->hosts, 1e3 * r->push_med, 1e3 * r->push_p95, 1e3 * r->push_max,
+            r->after_max, r->after_end, r->bitwise_after_1s ? "yes" : "no", secs(c0, sizeof c0, r->conv0),
+            secs(c1, sizeof c1, r->conv1mm), 1e3 * r->gap_p95, 1e3 * r->gap_max, 100.0 * r->replay_share,
+            100.0 * r->replay_cpu_frame, (unsigned long)r->fallbacks, (unsigned long)r->replays,
+            (unsigned long)r->skipped, (unsigned long)r->near, 100.0 * r->replay_push_worst,
+            100.0 * r->replay_cpu_push);
+}
+
 int main(int argc, char **argv) {
     static profile profs[3];
-    static result res[32];
+    static result res[40];
     bu_args args;
     bu_json *j;
-    int np, nh, p, m, hh, nr = 0, i, hosts[2] = {2, 4};
+    int np, nh, p, m, hh, nr = 0, i, hosts[2] = {2, 4}, outage_only = 0, outages = 0;
     double push, after;
     const char *only = NULL;
     int a;
-    /* --profile lan|wan|harsh runs that one alone (then the other flags) */
-    if (argc >= 3 && strcmp(argv[1], "--profile") == 0) {
-        only = argv[2];
-        argv[2] = argv[0];
-        argv += 2;
-        argc -= 2;
+    /* --profile lan|wan|harsh runs that one alone; --outage the outage
+       scenario alone; --replay-every K sets gs_sync_desc.replay_every (then
+       the other flags) */
+    while (argc >= 2) {
+        int used = 0;
+        if (argc >= 3 && strcmp(argv[1], "--profile") == 0) {
+            only = argv[2];
+            used = 2;
+        } else if (argc >= 3 && strcmp(argv[1], "--replay-every") == 0) {
+            replay_every = atoi(argv[2]);
+            used = 2;
+        } else if (strcmp(argv[1], "--outage") == 0) {
+            outage_only = 1;
+            used = 1;
+        }
+        if (!used) break;
+        argv[used] = argv[0];
+        argv += used;
+        argc -= used;
     }
     a = bu_parse_args(argc, argv, "sync_modes", &args);
     if (a) return a < 0 ? 2 : 0;
@@ -255,33 +393,38 @@ int main(int argc, char **argv) {
     np = args.quick ? 2 : 3;
     nh = args.quick ? 1 : 2;
     push = args.quick ? 1.5 : 4.0;
-    after = args.quick ? 1.5 : 4.0;
-    fprintf(stderr, "%-6s %-8s %5s | %9s %9s %9s | %9s %9s %7s | %8s %8s | %7s %7s %6s %6s %6s %6s | %7s %7s\n", "link",
-            "mode", "hosts", "push med", "push p95", "push max", "stop+1s", "end", "bitwise",
-            "gap p95", "gap max", "replay", "cpu/fr", "fallb", "replays", "skip", "near", "push:rep",
-            "cpu/fr");
+    after = args.quick ? 1.5 : 6.0; /* 6: the harsh link's "bitwise within 5 s" */
+    fprintf(stderr, "%-6s %-8s %5s | %9s %9s %9s | %9s %9s %7s %7s %8s | %8s %8s | %7s %7s %6s %6s %6s %6s | %7s %7s\n",
+            "link", "mode", "hosts", "push med", "push p95", "push max", "stop+1s", "end", "bitwise",
+            "conv 0", "conv 1mm", "gap p95", "gap max", "replay", "cpu/fr", "fallb", "replays", "skip",
+            "near", "push:rep", "cpu/fr");
     if (only) np = 3;
+    if (outage_only) np = 0;
     for (p = 0; p < np; ++p)
         for (hh = 0; hh < nh; ++hh)
             for (m = 0; m < 3; ++m) {
                 result *r = &res[nr];
                 if (only && strcmp(only, profs[p].name) != 0) continue;
-                if (!run(&profs[p], m, hosts[hh], push, after, r)) {
+                if (!run(&profs[p], m, hosts[hh], push, after, 0, r)) {
                     fprintf(stderr, "sync_modes: a run failed to set up\n");
                     return 1;
                 }
-                fprintf(stderr,
-                        "%-6s %-8s %5d | %7.3fmm %7.3fmm %7.3fmm | %8.2em %8.2em %7s | %6.2fms %6.2fms | %6.1f%% %6.1f%% %6lu %6lu %6lu %6lu | %6.1f%% %6.1f%%\n",
-                        r->profile, r->mode, r->hosts, 1e3 * r->push_med, 1e3 * r->push_p95,
-                        1e3 * r->push_max, r->after_max, r->after_end,
-                        r->bitwise_after_1s ? "yes" : "no",
-                        1e3 * r->gap_p95, 1e3 * r->gap_max, 100.0 * r->replay_share,
-                        100.0 * r->replay_cpu_frame, (unsigned long)r->fallbacks,
-                        (unsigned long)r->replays, (unsigned long)r->skipped, (unsigned long)r->near,
-                        100.0 * r->replay_push_worst,
-                        100.0 * r->replay_push_worst * r->frame_cpu / FRAME);
+                print_row(r);
                 nr++;
             }
+    /* the outage: WAN, 2 and 4 hosts (2 in quick mode), in the full run,
+       or alone with --outage */
+    if (outage_only || (!only && !args.quick)) outages = 2;
+    for (hh = 0; hh < outages; ++hh)
+        for (m = 0; m < 3; ++m) {
+            result *r = &res[nr];
+            if (!run(&profs[1], m, hosts[hh], OUT_AT + OUT_LEN, 6.0, 1, r)) {
+                fprintf(stderr, "sync_modes: a run failed to set up\n");
+                return 1;
+            }
+            print_row(r);
+            nr++;
+        }
     j = bu_json_open(args.out);
     if (!j) return 1;
     bu_json_obj_begin(j, NULL);
@@ -289,8 +432,9 @@ int main(int argc, char **argv) {
     bu_json_str(j, "method",
                 "paper scene on the simnet, client/server rule; divergence at equal simulation time "
                 "(host k's samples interpolated to host 1's cloth time), p95 over the push; gap: "
-                "|target_k - target_1| at equal wall time; replay CPU = replayed share of steps x a host's "
-                "frame CPU / (1/60 s)");
+                "|target_k - target_1| at equal wall time; replay CPU = re-run steps per frame x CPU per "
+                "agent step (first runs and re-runs) / (1/60 s); convergence: s from the stop to bitwise "
+                "equal (or within 1 mm) for good; outage: links cut 5 s, both probes pushing");
     bu_json_arr_begin(j, "results");
     for (i = 0; i < nr; ++i) {
         result *r = &res[i];
@@ -308,13 +452,21 @@ int main(int argc, char **argv) {
         bu_json_num(j, "gap_max_s", r->gap_max);
         bu_json_num(j, "replay_step_share", r->replay_share);
         bu_json_num(j, "replay_step_share_push_worst_host", r->replay_push_worst);
-        bu_json_num(j, "replay_cpu_frame_share_push_worst_host",
-                    r->replay_push_worst * r->frame_cpu / FRAME);
+        bu_json_num(j, "replay_cpu_frame_share_push_worst_host", r->replay_cpu_push);
         bu_json_num(j, "replay_cpu_frame_share", r->replay_cpu_frame);
         bu_json_int(j, "replays", (long long)r->replays);
         bu_json_int(j, "replays_skipped", (long long)r->skipped);
         bu_json_int(j, "replays_skipped_near", (long long)r->near);
         bu_json_int(j, "fallbacks", (long long)r->fallbacks);
+        bu_json_num(j, "converged_bitwise_s", r->conv0 >= 0.0 ? r->conv0 : NAN);
+        bu_json_num(j, "converged_1mm_s", r->conv1mm >= 0.0 ? r->conv1mm : NAN);
+        bu_json_bool(j, "outage", r->outage);
+        if (r->outage) {
+            bu_json_num(j, "outage_s", OUT_LEN);
+            bu_json_num(j, "outage_pace", r->out_pace);
+            bu_json_num(j, "outage_lag_max_s", r->out_lag);
+            bu_json_num(j, "outage_frame_cpu_share", r->out_cpu);
+        }
         bu_json_obj_end(j);
     }
     bu_json_arr_end(j);
@@ -322,7 +474,7 @@ int main(int argc, char **argv) {
     for (i = 0; i < nr; ++i) {
         char key[96];
         result *r = &res[i];
-        if (r->hosts != 2) continue;
+        if (r->hosts != 2 || r->outage) continue;
         snprintf(key, sizeof key, "%s_%s_push_p95_m", r->profile, r->mode);
         bu_json_num(j, key, r->push_p95);
     }

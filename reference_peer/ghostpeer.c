@@ -41,7 +41,10 @@
    "replay" object: the mode, replays, agent steps replayed per second of
    wall time, fallbacks (snapshots older than the history or past the
    replay budget, blended at the present), the lag (s the slowest agent
-   is behind the target: this host not keeping pace) and the timekeeper.
+   is behind the target: this host not keeping pace), the timekeeper,
+   replays_skipped (replays whose blends changed no state, or moved states
+   within the replay tolerance: the present stood) and replays_near (of
+   those, the ones within the tolerance).
    --clock session puts the present blend on the session clock too; local
    keeps each host's target its own seconds advanced (--sync replay always
    runs on the session clock).
@@ -566,10 +569,12 @@ static void print_line(peer_host *h, int final) {
         memset(&st, 0, sizeof st);
         gs_world_sync_stats(h->w, &st);
         printf(", \"replay\": {\"mode\": \"%s\", \"replays\": %llu, \"steps_per_s\": %.1f, "
-               "\"fallbacks\": %llu, \"lag\": %.6f, \"timekeeper\": %u}",
+               "\"fallbacks\": %llu, \"lag\": %.6f, \"timekeeper\": %u, "
+               "\"replays_skipped\": %llu, \"replays_near\": %llu}",
                h->o.replay ? "replay" : "present", (unsigned long long)st.replays,
                wall > 0.0 ? (double)st.replay_steps / wall : 0.0,
-               (unsigned long long)st.fallbacks, st.lag, (unsigned)st.timekeeper);
+               (unsigned long long)st.fallbacks, st.lag, (unsigned)st.timekeeper,
+               (unsigned long long)st.replays_skipped, (unsigned long long)st.replays_near);
     }
     printf(", \"frame_lock\": %s, \"t_since\": %.6f, \"t_done\": %.6f",
            h->o.frame_lock ? "true" : "false", h->t_since, h->t_done);

@@ -17,6 +17,19 @@
 
 #include "helpers.h"
 
+/* The simulation times of the snapshots a datagram holds (one per
+   snapshot: its first chunk's, acknowledgements left out), at most max of
+   them in t; returns how many, 0 for one that does not decode. */
+static GS_TEST_UNUSED int wire_snapshot_times(const void *data, size_t size, double *t, int max) {
+    static gs_wire_view v; /* large; one test at a time */
+    gs_reject why;
+    int i, n = 0;
+    if (gs_wire_decode((const unsigned char *)data, size, &v, &why) != GS_OK) return 0;
+    for (i = 0; i < v.chunk_count && n < max; ++i)
+        if (v.chunks[i].index == 0 && !(v.chunks[i].flags & GS_WIRE_CHUNK_ACK)) t[n++] = v.chunks[i].time;
+    return n;
+}
+
 /* The world's net on the simnet (desc NULL: the defaults; its transport
    is filled here): the host is linked to every host joined before. */
 static GS_TEST_UNUSED gs_result test_join(gs_simnet *sim, gs_world *w, const gs_net_desc *desc,

@@ -213,17 +213,12 @@ typedef struct sent_log {
 
 static gs_result log_send(void *user, uint32_t host, const void *data, size_t size) {
     sent_log *s = (sent_log *)user;
-    static gs_wire_view v; /* large; one test at a time */
-    gs_reject why;
-    int i;
+    double t[GS_WIRE_MAX_CHUNKS];
+    int n = wire_snapshot_times(data, size, t, GS_WIRE_MAX_CHUNKS);
     (void)host;
     s->datagrams++;
-    if (gs_wire_decode((const unsigned char *)data, size, &v, &why) != GS_OK) return GS_OK;
-    for (i = 0; i < v.chunk_count; ++i)
-        if (v.chunks[i].index == 0 && !(v.chunks[i].flags & GS_WIRE_CHUNK_ACK)) {
-            s->snapshots++;
-            s->last_time = v.chunks[i].time;
-        }
+    s->snapshots += n;
+    if (n > 0) s->last_time = t[n - 1];
     return GS_OK;
 }
 

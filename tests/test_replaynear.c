@@ -37,7 +37,8 @@ static double dist(gs_vec3 a, gs_vec3 b) {
     return sqrt((a.x - b.x) * (a.x - b.x) + (a.y - b.y) * (a.y - b.y) + (a.z - b.z) * (a.z - b.z));
 }
 
-static void run(double tol, near_run *out) {
+/* every: gs_sync_desc.replay_every (0: the default) */
+static void run(double tol, int every, near_run *out) {
     gs_simnet *sim;
     gs_world *w[2];
     gs_scene sc[2];
@@ -51,6 +52,7 @@ static void run(double tol, near_run *out) {
     wd.sync.mode = GS_SYNC_REPLAY;
     wd.sync.clock = GS_SYNC_CLOCK_SESSION;
     wd.sync.replay_tolerance = tol;
+    wd.sync.replay_every = every;
     assert_int_equal(gs_simnet_create(NULL, &sim), GS_OK);
     assert_int_equal(test_scene_pair(sim, &wd, w, sc), GS_OK);
     assert_int_equal(gs_simnet_link(sim, 1, 2, &link), GS_OK);
@@ -91,8 +93,8 @@ static void run(double tol, near_run *out) {
 static void test_near_skips_and_rests(void **state) {
     near_run off, on;
     (void)state;
-    run(-1.0, &off);
-    run(0.0, &on);
+    run(-1.0, 0, &off);
+    run(0.0, 0, &on);
     printf("follower, no tolerance: %llu replays, %llu steps re-run, %.3g m apart at the end\n",
            (unsigned long long)off.st.replays, (unsigned long long)off.st.replay_steps, off.apart);
     printf("follower, default tolerance: %llu replays, %llu skipped within it, %llu steps re-run, "
@@ -133,10 +135,55 @@ static void test_near_bad_tolerance(void **state) {
     gs_world_destroy(w);
 }
 
+/* Snapshots taken every third advance (gs_sync_desc.replay_every): each
+   replay spans about the latency as before, so the follower re-runs fewer
+   steps; the history still re-runs bit for bit (run() checks) and the
+   copies still come to rest bitwise equal. */
+static void test_replay_every(void **state) {
+    near_run one, three;
+    (void)state;
+    run(0.0, 1, &one);
+    run(0.0, 3, &three);
+    printf("follower, replay_every 1: %llu replays, %llu steps re-run; 3: %llu replays, %llu steps "
+           "re-run, %.3g m apart at the end\n", (unsigned long long)one.st.replays,
+           (unsigned long long)one.st.replay_steps, (unsigned long long)three.st.replays,
+           (unsigned long long)three.st.replay_steps, three.apart);
+    assert_true(three.st.replays + three.st.replays_skipped < one.st.replays + one.st.replays_skipped);
+    assert_true(three.st.replay_steps < one.st.replay_steps);
+    assert_int_equal(three.st.fallbacks, 0); /* the wait stays within the history */
+    /* as in test_near_skips_and_rests: measured 0; 1 um for another
+       compiler's rounding */
+    assert_true(three.apart < 1e-6);
+}
+
+/* replay_every outside 1..GS_REPLAY_EVERY_MAX is refused; 0 is the
+   default. */
+static void test_replay_every_bad(void **state) {
+    gs_world_desc wd = gs_world_desc_default();
+    gs_world *w = NULL;
+    int bad[3] = {-1, GS_REPLAY_EVERY_MAX + 1, 1 << 30}, i;
+    (void)state;
+    assert_int_equal(gs_sync_desc_default().replay_every, GS_REPLAY_EVERY);
+    wd.sync.mode = GS_SYNC_REPLAY;
+    for (i = 0; i < 3; ++i) {
+        wd.sync.replay_every = bad[i];
+        assert_int_equal(gs_world_create(&wd, &w), GS_ERR_INVALID_ARG);
+        assert_null(w);
+    }
+    wd.sync.replay_every = 0;
+    assert_int_equal(gs_world_create(&wd, &w), GS_OK);
+    gs_world_destroy(w);
+    wd.sync.replay_every = GS_REPLAY_EVERY_MAX;
+    assert_int_equal(gs_world_create(&wd, &w), GS_OK);
+    gs_world_destroy(w);
+}
+
 int main(void) {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_near_skips_and_rests),
         cmocka_unit_test(test_near_bad_tolerance),
+        cmocka_unit_test(test_replay_every),
+        cmocka_unit_test(test_replay_every_bad),
     };
     return cmocka_run_group_tests_name("replaynear", tests, NULL, NULL);
 }
