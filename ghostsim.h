@@ -1582,7 +1582,7 @@ GS_API gs_result gs_world_sync_test(gs_world *w, int frames, int *bad_agent);
        said), send time f64 (s, sender's clock), echo time f64 (the latest
        send time received from the destination), echo hold f64 (s it was
        held since)
-     chunk: a header of 3 to GS_WIRE_CHUNK_HEADER bytes, coded against the
+     chunk: a header of 1 to GS_WIRE_CHUNK_HEADER bytes, coded against the
        datagram's chunk before it (an acknowledgement chunk aside: nothing
        before the first), then its payload, whose length its contents
        imply. Varints are unsigned LEB128; "zigzag" maps a signed
@@ -1590,7 +1590,8 @@ GS_API gs_result gs_world_sync_test(gs_world *w, int frames, int *bad_agent);
        kind u8: bits 0-1 the chunk's kind (0 values, 1 delta, 2 heartbeat,
          3 acknowledgements), bit 2 a time follows, bits 3-4 the encoding
          (1 f64, 2 f32, 3 GS_ENCODING_QUANT), bit 5 the state is split
-         (index, count and first follow), bits 6-7 0;
+         (index, count and first follow), bit 6 the next chunk (below),
+         bit 7 0;
        object id: zigzag(id - the chunk before's) varint (at most 5 bytes);
        snapshot sequence: zigzag(sequence - the chunk before's) varint;
        the simulation time f64 (exact) if bit 2, else the chunk before's
@@ -1604,8 +1605,24 @@ GS_API gs_result gs_world_sync_test(gs_world *w, int frames, int *bad_agent);
          encoding 3), the host it is for as a varint and its entry count
          (1..GS_WIRE_MAX_ACKS), nothing else: the chunk after it is coded
          against the chunk before it.
-       A chunk of 10 f64 after one of the same time and sequence: 4 bytes
-       of header; a heartbeat 3. The payload: count values as f64 or f32,
+       The next chunk (bit 6; not a heartbeat or an acknowledgement): the
+         chunk continues the chunk before's snapshot: its object id,
+         sequence and time, chunk index + 1 (< its count), the same count,
+         first element = the chunk before's first + its element count (at
+         most 2^32 - 1), and its element count, unless bit 5 is set: then
+         the element count varint alone follows (not the chunk before's).
+         Bit 2 says, in a delta chunk after a delta chunk, that its
+         baseline is the chunk before's: its payload then starts at the
+         width and coding byte (no baseline distance); else bit 2 is
+         clear. A chunk that continues the chunk before so says it with
+         bit 6 and only so, and a delta against the chunk before's
+         baseline with bit 2 and only so (the long forms are refused: one
+         datagram, one meaning); each further chunk of a cut snapshot in
+         a datagram takes 1 byte of header, a last shorter one 2 or 3.
+       A chunk of 10 f64 after one of the same time and sequence (and not
+       its next chunk): 4 bytes of header; a heartbeat 3. (Bit 6 is new in
+       this revision of v3: a ghostsim before it refuses its datagram as
+       GS_REJECT_LAYOUT.) The payload: count values as f64 or f32,
        or in
        GS_ENCODING_QUANT a segment count u8 (1..GS_WIRE_MAX_SEGMENTS) and
        segments whose value counts add up to the element count:
@@ -1646,7 +1663,8 @@ GS_API gs_result gs_world_sync_test(gs_world *w, int frames, int *bad_agent);
        a delta is decoded only against the very state it was coded from,
        so the receiver's state is the sender's quantized state bit for
        bit. Payload: sequence - baseline sequence (u32 arithmetic) as an
-       unsigned LEB128 varint, 1..2^31; one byte: the width w (0..32) in
+       unsigned LEB128 varint, 1..2^31 (left out after bit 6 and 2 of the
+       kind byte: the chunk before's); one byte: the width w (0..32) in
        bits 0-5 and the coding in bits 6-7; then
          coding 0 (packed): element-count zigzag differences of w bits,
            packed as above;
@@ -1822,6 +1840,9 @@ typedef struct gs_wire_chunk {
     int delta_restart;            /* decode, coding 3: where its
                                      neighbours start again (0: nowhere) */
     uint16_t payload_bytes;       /* decode: the payload's length */
+    uint8_t delta_skip;           /* decode, delta: the payload's bytes
+                                     before its coding byte (the baseline
+                                     distance; 0: the chunk before's) */
 } gs_wire_chunk;
 
 /* One entry of an acknowledgement chunk (GS_WIRE_CHUNK_ACK). */
@@ -9268,12 +9289,17 @@ typedef struct gs__peer {
 } gs__peer;
 
 /* A chunk's header is coded against the datagram's chunk before it (see
-   >>wire): its object id, sequence and time. Nothing before the first
-   (any 0): its time is always written. */
+   >>wire): its object id, sequence and time, and for the next chunk of the
+   same snapshot its index, count, first element and element count.
+   Nothing before the first (any 0): its time is always written. */
 typedef struct gs__wire_ctx {
     uint32_t id, seq;
     double time;
     int any;
+    uint16_t index, count, elements;
+    uint32_t first;
+    int delta;         /* the chunk before was a delta, against baseline */
+    uint32_t baseline;
 } gs__wire_ctx;
 
 struct gs_net {
@@ -12273,10 +12299,8 @@ typedef struct gs__dread {
     int coding, width;
 } gs__dread;
 GS__PRIVATE void gs__dread_init(const gs_wire_chunk *c, gs__dread *d) {
-    const unsigned char *q = c->payload, *end = q + c->payload_bytes;
-    uint64_t dist = 0;
+    const unsigned char *q = c->payload + c->delta_skip, *end = c->payload + c->payload_bytes;
     size_t bm = ((size_t)c->elements + 7) / 8;
-    gs__varint_get(&q, end, 5, &dist);
     q++; /* width and coding: in c already */
     d->coding = c->delta_coding;
     d->width = c->delta_width;
@@ -12295,7 +12319,8 @@ GS__PRIVATE int64_t gs__dread_next(gs__dread *d) {
 
 /* Checks a delta payload (within len bytes) and fills c's baseline,
    coding and width: its length, or 0. */
-GS__PRIVATE size_t gs__delta_parse(gs_wire_chunk *c, const unsigned char *p, size_t len) {
+GS__PRIVATE size_t gs__delta_parse(gs_wire_chunk *c, const unsigned char *p, size_t len,
+                                   int same_base) {
     const unsigned char *q = p, *end = p + len;
     uint64_t dist = 0;
     size_t need, bm, i;
@@ -12303,8 +12328,11 @@ GS__PRIVATE size_t gs__delta_parse(gs_wire_chunk *c, const unsigned char *p, siz
     if (c->encoding != GS_ENCODING_QUANT || c->elements == 0 ||
         c->elements > GS_WIRE_QUANT_CHUNK)
         return 0;
-    if (!gs__varint_get(&q, end, 5, &dist) || dist < 1 || dist > 0x80000000u || q >= end)
+    if (same_base) dist = c->sequence - c->baseline; /* checked as the chunk before's */
+    else if (!gs__varint_get(&q, end, 5, &dist) || dist < 1 || dist > 0x80000000u)
         return 0;
+    if (q >= end) return 0;
+    c->delta_skip = (uint8_t)(q - p);
     c->delta_coding = *q >> 6;
     /* Rice's k is at most 24: its bit 5 says predicted */
     c->delta_width = *q & (c->delta_coding >= 2 ? 0x1f : 0x3f);
@@ -12413,11 +12441,11 @@ GS_API int gs_wire_acks(const gs_wire_chunk *c, gs_wire_ack *out, int max) {
    receiving side's inner loop. 0 if a spatial coding's difference is
    past +-(2^31 - 1) (out is then all the same filled). */
 GS__PRIVATE int gs__delta_sum(const gs_wire_chunk *c, const int64_t *bk, int64_t *out) {
-    const unsigned char *q = c->payload, *end = q + c->payload_bytes, *map = NULL;
-    uint64_t dist = 0, acc = 0, mask, z;
+    const unsigned char *q = c->payload + c->delta_skip, *end = c->payload + c->payload_bytes,
+                        *map = NULL;
+    uint64_t acc = 0, mask, z;
     int i, n = 0, w;
-    gs__varint_get(&q, end, 5, &dist);
-    q++;
+    q++; /* width and coding: in c already */
     w = c->delta_width;
     mask = ((uint64_t)1 << w) - 1;
     if (c->delta_coding >= 2) {
@@ -12609,9 +12637,9 @@ GS__PRIVATE size_t gs__delta_put_rice(unsigned char *p, size_t room, const gs_wi
    fit. The differences are within +-2^31 (checked by the caller); st:
    what the choice reads of them (gs__dstat), NULL to make it here. */
 GS__PRIVATE size_t gs__delta_put(unsigned char *p, size_t room, const gs_wire_chunk *c,
-                                 const int64_t *d, const gs__dstat *st) {
+                                 const int64_t *d, const gs__dstat *st, int same_base) {
     unsigned char head[6];
-    size_t hn = gs__varint_put(head, (uint64_t)(uint32_t)(c->sequence - c->baseline));
+    size_t hn = same_base ? 0 : gs__varint_put(head, (uint64_t)(uint32_t)(c->sequence - c->baseline));
     size_t need0, need1, need;
     int i, w0 = 0, w1 = 0, coding, wd, rk = 0, row = c->delta_row;
     double rbits;
@@ -12755,8 +12783,12 @@ GS__PRIVATE gs_result gs__wire_put_quant(unsigned char *p, size_t room, const gs
 #define GS__KIND_REST 2u
 #define GS__KIND_ACK 3u
 #define GS__KIND_TIME 0x04u  /* a time follows; else the previous chunk's */
-#define GS__KIND_SPLIT 0x20u /* index, count and first follow; else 0, 1, 0 */
-#define GS__KIND_BITS 0x3fu  /* bits 6-7: 0 */
+#define GS__KIND_SPLIT 0x20u /* index, count and first follow; else 0, 1, 0;
+                                with GS__KIND_NEXT: the element count */
+#define GS__KIND_NEXT 0x40u  /* the next chunk of the chunk before's snapshot */
+#define GS__KIND_SAME_BASE 0x04u /* with GS__KIND_NEXT, a delta: the chunk
+                                    before's baseline (its distance not said) */
+#define GS__KIND_BITS 0x7fu  /* bit 7: 0 */
 
 /* The chunk flags of c as its kind (GS_WIRE_CHUNK_*: at most one). */
 GS__PRIVATE unsigned gs__chunk_kind(const gs_wire_chunk *c) {
@@ -12764,6 +12796,24 @@ GS__PRIVATE unsigned gs__chunk_kind(const gs_wire_chunk *c) {
            : c->flags & GS_WIRE_CHUNK_REST ? GS__KIND_REST
            : c->flags & GS_WIRE_CHUNK_ACK  ? GS__KIND_ACK
                                            : GS__KIND_VALUES;
+}
+
+/* Does c continue the chunk x says (its object, sequence and time, the
+   next index of the same count, from the element after x's last)? Its
+   header is then GS__KIND_NEXT's (see >>wire), and only that: encoder
+   and decoder ask the same question. */
+GS__PRIVATE int gs__chunk_is_next(const gs__wire_ctx *x, const gs_wire_chunk *c) {
+    return x->any && c->object_id == x->id && c->sequence == x->seq &&
+           memcmp(&c->time, &x->time, sizeof c->time) == 0 && c->count == x->count &&
+           (uint32_t)c->index == (uint32_t)x->index + 1u &&
+           (uint64_t)c->first == (uint64_t)x->first + x->elements;
+}
+
+/* Is delta chunk c, a next chunk, coded against the baseline of the chunk
+   before (a delta too)? Its payload then leaves the distance out. */
+GS__PRIVATE int gs__chunk_same_base(const gs__wire_ctx *x, const gs_wire_chunk *c) {
+    return (c->flags & GS_WIRE_CHUNK_DELTA) && x->delta && c->baseline == x->baseline &&
+           gs__chunk_is_next(x, c);
 }
 
 /* The header of c at p (at most GS_WIRE_CHUNK_HEADER bytes), coded
@@ -12775,6 +12825,15 @@ GS__PRIVATE size_t gs__chunk_head(unsigned char *p, const gs__wire_ctx *x,
     if (kind == GS__KIND_ACK) { /* the host it is for, and its entries */
         n += gs__varint_put(p + n, c->object_id);
         n += gs__varint_put(p + n, c->elements);
+        p[0] = (unsigned char)b;
+        return n;
+    }
+    if (kind != GS__KIND_REST && gs__chunk_is_next(x, c)) {
+        b |= GS__KIND_NEXT | (gs__chunk_same_base(x, c) ? GS__KIND_SAME_BASE : 0u);
+        if (c->elements != x->elements) {
+            b |= GS__KIND_SPLIT;
+            n += gs__varint_put(p + n, c->elements);
+        }
         p[0] = (unsigned char)b;
         return n;
     }
@@ -12812,6 +12871,20 @@ GS__PRIVATE gs_result gs__wire_room(const unsigned char *buf, size_t cap, const 
     return GS_OK;
 }
 
+/* x moved on to chunk c (not an acknowledgement). */
+GS__PRIVATE void gs__wire_ctx_move(gs__wire_ctx *x, const gs_wire_chunk *c) {
+    x->id = c->object_id;
+    x->seq = c->sequence;
+    x->time = c->time;
+    x->any = 1;
+    x->index = c->index;
+    x->count = c->count;
+    x->first = c->first;
+    x->elements = c->elements;
+    x->delta = (c->flags & GS_WIRE_CHUNK_DELTA) != 0;
+    x->baseline = c->baseline;
+}
+
 /* The chunk's header (head, hn bytes; its payload of vs bytes already
    written after it) at *size, the chunk counted and x moved on to it. */
 GS__PRIVATE void gs__wire_put_head(unsigned char *buf, size_t *size, gs__wire_ctx *x,
@@ -12821,10 +12894,7 @@ GS__PRIVATE void gs__wire_put_head(unsigned char *buf, size_t *size, gs__wire_ct
     *size += hn + vs;
     gs__hdr_set_chunks(buf, gs__hdr_chunks(buf) + 1);
     if (c->flags & GS_WIRE_CHUNK_ACK) return; /* it says no id, sequence or time */
-    x->id = c->object_id;
-    x->seq = c->sequence;
-    x->time = c->time;
-    x->any = 1;
+    gs__wire_ctx_move(x, c);
 }
 
 GS__PRIVATE int gs__wire_chunk(const unsigned char *buf, size_t end, size_t *off,
@@ -12914,7 +12984,7 @@ GS__PRIVATE gs_result gs__wire_add_delta_in(unsigned char *buf, size_t cap, size
     hn = gs__chunk_head(head, x, c);
     r = gs__wire_room(buf, cap, size, hn, &room);
     if (r != GS_OK) return r;
-    vs = gs__delta_put(buf + *size + hn, room, c, diff, st);
+    vs = gs__delta_put(buf + *size + hn, room, c, diff, st, gs__chunk_same_base(x, c));
     if (!vs) return GS_ERR_CAPACITY;
     gs__wire_put_head(buf, size, x, c, head, hn, vs);
     return GS_OK;
@@ -13077,19 +13147,40 @@ GS__PRIVATE int gs__chunk_head_get(const unsigned char *buf, size_t end, size_t 
                                    const gs__wire_ctx *x, gs_wire_chunk *c, unsigned *kind) {
     uint64_t id = 0, seq = 0, idx = 0, cnt = 1, first = 0, el = 0;
     unsigned b = buf[(*off)++], k = b & 3u;
-    *kind = k;
+    *kind = b;
     c->encoding = (gs_encoding)(b >> 3 & 3u);
     c->flags = k == GS__KIND_DELTA ? GS_WIRE_CHUNK_DELTA : k == GS__KIND_REST ? GS_WIRE_CHUNK_REST
                : k == GS__KIND_ACK ? GS_WIRE_CHUNK_ACK : 0u;
     if ((b & ~GS__KIND_BITS) || c->encoding == 0) return 0;
     if (k == GS__KIND_ACK) {
-        if (b & (GS__KIND_TIME | GS__KIND_SPLIT) || c->encoding != GS_ENCODING_QUANT ||
+        if (b & (GS__KIND_TIME | GS__KIND_SPLIT | GS__KIND_NEXT) ||
+            c->encoding != GS_ENCODING_QUANT ||
             !gs__head_varint(buf, end, off, 5, 0xffffffffu, &id) ||
             !gs__head_varint(buf, end, off, 2, GS_WIRE_MAX_ACKS, &el) || el < 1)
             return 0;
         c->object_id = (uint32_t)id;
         c->sequence = 0;
         c->time = 0.0;
+    } else if (b & GS__KIND_NEXT) {
+        /* the chunk before's snapshot, its next chunk: only bit 5 (an
+           element count of its own) may follow; past the snapshot's last
+           chunk or its 2^32 elements, refused */
+        if (((b & GS__KIND_SAME_BASE) && (k != GS__KIND_DELTA || !x->delta)) ||
+            k == GS__KIND_REST || !x->any ||
+            (uint32_t)x->index + 1u >= x->count ||
+            (uint64_t)x->first + x->elements > 0xffffffffu)
+            return 0;
+        el = x->elements;
+        if ((b & GS__KIND_SPLIT) &&
+            (!gs__head_varint(buf, end, off, 2, 0xffff, &el) || el == x->elements))
+            return 0; /* one meaning: the same count is not said again */
+        c->object_id = x->id;
+        c->sequence = x->seq;
+        c->time = x->time;
+        if (b & GS__KIND_SAME_BASE) c->baseline = x->baseline;
+        idx = (uint64_t)x->index + 1u;
+        cnt = x->count;
+        first = (uint64_t)x->first + x->elements;
     } else {
         if (!gs__head_varint(buf, end, off, 5, 0x1ffffffffull, &id) ||
             !gs__head_varint(buf, end, off, 5, 0x1ffffffffull, &seq))
@@ -13113,6 +13204,11 @@ GS__PRIVATE int gs__chunk_head_get(const unsigned char *buf, size_t end, size_t 
              (idx == 0 && cnt == 1 && first == 0))) /* one meaning: not split */
             return 0;
         if (k != GS__KIND_REST && !gs__head_varint(buf, end, off, 2, 0xffff, &el)) return 0;
+        c->index = (uint16_t)idx;
+        c->count = (uint16_t)cnt;
+        c->first = (uint32_t)first;
+        /* one meaning: a chunk that continues the one before says so */
+        if (k != GS__KIND_REST && gs__chunk_is_next(x, c)) return 0;
     }
     c->index = (uint16_t)idx;
     c->count = (uint16_t)cnt;
@@ -13126,16 +13222,18 @@ GS__PRIVATE int gs__chunk_head_get(const unsigned char *buf, size_t end, size_t 
 GS__PRIVATE int gs__wire_chunk(const unsigned char *buf, size_t end, size_t *off,
                                gs__wire_ctx *x, gs_wire_chunk *c, gs_reject *why) {
     size_t len, avail;
-    unsigned kind;
+    unsigned kind, b;
     c->segment_count = 0;
     c->baseline = 0;
     c->delta_coding = c->delta_width = 0;
+    c->delta_skip = 0;
     if (*off >= end) { *why = GS_REJECT_SHORT; return 0; }
-    if (!gs__chunk_head_get(buf, end, off, x, c, &kind)) {
+    if (!gs__chunk_head_get(buf, end, off, x, c, &b)) {
         /* cut short where the bytes ran out, else inconsistent */
         *why = *off >= end ? GS_REJECT_SHORT : GS_REJECT_LAYOUT;
         return 0;
     }
+    kind = b & 3u;
     if ((kind == GS__KIND_DELTA && c->encoding != GS_ENCODING_QUANT) ||
         (kind == GS__KIND_REST && c->index)) { *why = GS_REJECT_LAYOUT; return 0; }
     if (!gs__wire_time_ok(c->time)) { *why = GS_REJECT_TIME; return 0; }
@@ -13147,20 +13245,22 @@ GS__PRIVATE int gs__wire_chunk(const unsigned char *buf, size_t end, size_t *off
         len = gs__value_size(c->encoding) * c->elements;
         if (len > avail) { *why = GS_REJECT_SHORT; return 0; }
     } else {
-        len = kind == GS__KIND_DELTA ? gs__delta_parse(c, c->payload, avail)
+        len = kind == GS__KIND_DELTA
+                  ? gs__delta_parse(c, c->payload, avail, (b & GS__KIND_NEXT) &&
+                                                              (b & GS__KIND_SAME_BASE))
               : kind == GS__KIND_ACK ? gs__ack_parse(c, c->payload, avail)
                                      : gs__quant_parse(c, c->payload, avail);
         if (!len) { *why = GS_REJECT_LAYOUT; return 0; }
+        /* one meaning: the chunk before's baseline is not said again */
+        if (kind == GS__KIND_DELTA && !(b & GS__KIND_SAME_BASE) && gs__chunk_same_base(x, c)) {
+            *why = GS_REJECT_LAYOUT;
+            return 0;
+        }
     }
     c->payload_bytes = (uint16_t)len;
     if (!gs__wire_values_finite(c)) { *why = GS_REJECT_NOT_FINITE; return 0; }
     *off += len;
-    if (kind != GS__KIND_ACK) {
-        x->id = c->object_id;
-        x->seq = c->sequence;
-        x->time = c->time;
-        x->any = 1;
-    }
+    if (kind != GS__KIND_ACK) gs__wire_ctx_move(x, c);
     return 1;
 }
 

@@ -153,8 +153,8 @@ static int fuzz_decode(const unsigned char *buf, size_t size, gs_reject *why) {
             FUZZ_CHECK(len == (size_t)c->elements * (c->encoding == GS_ENCODING_F32 ? 4u : 8u));
         FUZZ_CHECK(c->index < c->count);
         FUZZ_CHECK(isfinite(c->time) && c->time >= 0.0);
-        /* a header of 3..GS_WIRE_CHUNK_HEADER bytes after the chunk before */
-        FUZZ_CHECK(c->payload >= at + 3 && c->payload <= at + GS_WIRE_CHUNK_HEADER);
+        /* a header of 1..GS_WIRE_CHUNK_HEADER bytes after the chunk before */
+        FUZZ_CHECK(c->payload >= at + 1 && c->payload <= at + GS_WIRE_CHUNK_HEADER);
         FUZZ_CHECK(c->payload + len <= buf + size - 4);
         for (k = 0; k < c->elements; ++k) FUZZ_CHECK(isfinite(gs_wire_value(c, k)));
         at = c->payload + len;

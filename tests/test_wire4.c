@@ -149,10 +149,9 @@ static void forge_predicted(link2 *l, msg *m) {
         if (!(c->flags & GS_WIRE_CHUNK_DELTA) || (c->flags & GS_WIRE_CHUNK_PREDICT) ||
             c->object_id != CLOTH_ID || c->index != 1 || c->delta_coding != 2)
             continue;
-        /* payload: the baseline distance varint, then the width byte */
-        wb = m->d + (size_t)(c->payload - m->d);
-        while (*wb & 0x80) ++wb;
-        ++wb;
+        /* payload: the baseline distance varint (none when the chunk
+           before's, see >>wire), then the width byte */
+        wb = m->d + (size_t)(c->payload - m->d) + c->delta_skip;
         *wb |= 0x20;
         hit = 1;
     }
