@@ -92,6 +92,9 @@ static const char *sc_name[SC_COUNT] = {"paper-push", "paper-rest", "cloth64-pus
 /* the issue's targets, kbit/s per host (0: none) */
 static const double sc_target[SC_COUNT] = {256.0, 16.0, 2000.0, 256.0};
 
+/* --adopt 0|1: gs_ghost_desc.adopt_sent in every encoding (-1: the default) */
+static int adopt = -1;
+
 static gs_ghost_desc ghost_desc(int enc) {
     gs_ghost_desc gd = gs_ghost_desc_default();
     gd.encoding = enc == ENC_F64 ? GS_ENCODING_F64 : enc == ENC_F32 ? GS_ENCODING_F32
@@ -103,6 +106,7 @@ static gs_ghost_desc ghost_desc(int enc) {
        along its velocity (both hosts predict alike) */
     gd.rest_extrapolate = enc == ENC_PREDICT;
     gd.weight = gs_weight_cs;
+    if (adopt >= 0) gd.adopt_sent = adopt;
     return gd;
 }
 
@@ -378,6 +382,7 @@ static int pick_args(int *argc, char **argv, unsigned *sc, unsigned *en, int *no
     for (i = 1; i < *argc; ++i) {
         int is_sc = strcmp(argv[i], "--scene") == 0, is_en = strcmp(argv[i], "--encoding") == 0;
         if (strcmp(argv[i], "--no-cpu") == 0) { *no_cpu = 1; continue; }
+        if (strcmp(argv[i], "--adopt") == 0 && i + 1 < *argc) { adopt = atoi(argv[++i]); continue; }
         if (!is_sc && !is_en) { argv[o++] = argv[i]; continue; }
         if (i + 1 >= *argc) break;
         ++i;
