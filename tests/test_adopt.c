@@ -120,6 +120,8 @@ static void test_adopt_sent_checked(void **state) {
     gs_ghost_desc gd = gs_ghost_desc_default();
     gs_world_desc wd = gs_world_desc_default();
     (void)state;
+    rd.shape.type = GS_SHAPE_SPHERE;
+    rd.shape.radius = 0.1;
     assert_int_equal(gs_world_create(&wd, &w), GS_OK);
     assert_int_equal(gs_rigid_create(w, &rd, &a), GS_OK);
     gd.object_id = 7;
