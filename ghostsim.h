@@ -1421,19 +1421,28 @@ typedef struct gs_ghost_desc {
                               probe, which follows its target): a copy
                               stepped on its own from the values it was
                               sent then runs from the same bits as the
-                              sender, where from the values it did not get
-                              the chaotic contacts of a resting scene
+                              sender, where from values the sender never
+                              held the chaotic contacts of a resting scene
                               (spheres on a cloth) take the quantization's
-                              half step apart, and send on change stays
-                              quiet. It moves the agent by at most half a
-                              step a publish (velocities too); the history
-                              logs each one (re-runs stay bitwise). In
-                              replay mode two hosts at rest then end bit for
-                              bit equal; in present mode the snapped
-                              contacts keep a resting scene moving past
-                              rest_threshold (the paper scene at rest,
-                              quant + send on change: 1046 kbit/s against
-                              7.9). 1 or 0; default 0 (docs/sync-notes.md) */
+                              half step apart. It moves the agent by up to
+                              half a step a publish (velocities too); the
+                              history logs each one (re-runs stay
+                              bitwise). A trade, hence default 0: in
+                              replay mode two hosts then end bit for bit
+                              equal, but the snaps keep a stiff cloth
+                              moving (its springs turn a 25 um snap into
+                              velocities past rest_threshold), so send on
+                              change no longer rests: the paper scene at
+                              rest, quant + send on change, 1068 kbit/s
+                              against 59.9 (divergence 0 against 3.5e-5 m;
+                              present mode 1045 against 7.9, 2.3e-4 m
+                              against 8.1e-3), quant + delta 318 against
+                              97. Pushed (the scene moving anyway), replay
+                              mode gains: every quantized encoding at f64's
+                              divergence (5.2e-4 m against 1.2e-3 to 2.2e-3)
+                              for 3% more bytes; present mode loses (quant
+                              0.0147 m against 0.0060). 1 or 0
+                              (docs/sync-notes.md) */
 } gs_ghost_desc;
 
 /* The ghost desc with its defaults (what zero fields become); object_id

@@ -36,15 +36,11 @@ typedef struct host {
 
 static void host_open(host *h, gs_simnet *sim, uint32_t id, int adopt, gs_sync_mode mode) {
     gs_world_desc wd = gs_world_desc_default();
-    gs_scene_desc sd = gs_scene_desc_default();
     gs_ghost_desc gd = gs_ghost_desc_default();
     wd.host_id = id;
     wd.sync.mode = mode;
     assert_int_equal(gs_world_create(&wd, &h->w), GS_OK);
-    sd.cloth_n = 8; /* small enough for a test under ASan */
-    sd.sphere_count = 1;
-    sd.probe_count = 2;
-    assert_int_equal(gs_scene_create(h->w, &sd, &h->sc), GS_OK);
+    assert_int_equal(test_small_scene(h->w, &h->sc), GS_OK);
     gd.encoding = GS_ENCODING_QUANT;
     gd.rest_threshold = 1e-4; /* bench/bandwidth's quant+rest */
     gd.weight = gs_weight_cs;
