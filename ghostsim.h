@@ -1429,10 +1429,10 @@ typedef struct gs_ghost_desc {
                               history logs each one (re-runs stay
                               bitwise). A trade, hence default 0: in
                               replay mode two hosts then end bit for bit
-                              equal, but the snaps keep a stiff cloth
-                              moving (its springs turn a 25 um snap into
-                              velocities past rest_threshold), so send on
-                              change no longer rests: the paper scene at
+                              equal, but the snaps keep a resting scene
+                              moving past rest_threshold (the spheres'
+                              snaps alone too), so send on change no
+                              longer rests: the paper scene at
                               rest, quant + send on change, 1068 kbit/s
                               against 59.9 (divergence 0 against 3.5e-5 m;
                               present mode 1045 against 7.9, 2.3e-4 m
