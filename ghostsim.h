@@ -1435,6 +1435,34 @@ typedef struct gs_ghost_desc {
                               A kind without dead reckoning (custom agents)
                               is compared as with 0. Default 0: the last
                               snapshot sent, as it was */
+    int adopt_sent;        /* f32 and GS_ENCODING_QUANT: 1 makes the agent
+                              take, at each publish, its state as the
+                              peers decode it (a cloth, a rigid body; not a
+                              probe, which follows its target): a copy
+                              stepped on its own from the values it was
+                              sent then runs from the same bits as the
+                              sender, where from values the sender never
+                              held the chaotic contacts of a resting scene
+                              (spheres on a cloth) take the quantization's
+                              half step apart. It moves the agent by up to
+                              half a step a publish (velocities too); the
+                              history logs each one (re-runs stay
+                              bitwise). A trade, hence default 0: in
+                              replay mode two hosts then end bit for bit
+                              equal, but the snaps keep a resting scene
+                              moving past rest_threshold (the spheres'
+                              snaps alone too), so send on change no
+                              longer rests: the paper scene at
+                              rest, quant + send on change, 1068 kbit/s
+                              against 59.9 (divergence 0 against 3.5e-5 m;
+                              present mode 1045 against 7.9, 2.3e-4 m
+                              against 8.1e-3), quant + delta 318 against
+                              97. Pushed (the scene moving anyway), replay
+                              mode gains: every quantized encoding at f64's
+                              divergence (5.2e-4 m against 1.2e-3 to 2.2e-3)
+                              for 3% more bytes; present mode loses (quant
+                              0.0147 m against 0.0060). 1 or 0
+                              (docs/sync-notes.md) */
 } gs_ghost_desc;
 
 /* The ghost desc with its defaults (what zero fields become); object_id
@@ -9529,6 +9557,7 @@ GS__PRIVATE gs_result gs__ghost_check(gs_world *w, const gs_ghost_desc *d) {
     gs__check_positive(&c, "importance", d->importance);
     gs__check_int(&c, "delta", d->delta, 0, 1);
     gs__check_int(&c, "rest_extrapolate", d->rest_extrapolate, 0, 1);
+    gs__check_int(&c, "adopt_sent", d->adopt_sent, 0, 1);
     if (d->delta && d->encoding != GS_ENCODING_QUANT)
         gs__check_fail(&c, GS_ERR_INVALID_ARG, "delta is 1 but the encoding is not "
                        "GS_ENCODING_QUANT (deltas are of quantized integers)");
@@ -9619,7 +9648,8 @@ GS_API gs_result gs_ghost_attach(gs_agent *a, const gs_ghost_desc *desc) {
         g->gp[i].newest = g->gp[i].lead_at = g->gp[i].heard_at = -HUGE_VAL;
     a->ghost = g;
     r = gs__ghost_queues(g);
-    if (r == GS_OK && (d.delta || (d.rest_extrapolate && d.encoding == GS_ENCODING_QUANT))) {
+    if (r == GS_OK && (d.delta || ((d.rest_extrapolate || d.adopt_sent) &&
+                                   d.encoding == GS_ENCODING_QUANT))) {
         g->ring = d.delta ? gs__ring_new(w, g) : NULL;
         g->kbuf = (int64_t *)gs__alloc(w, 2 * (size_t)g->per_chunk * sizeof(int64_t));
         /* a row past a chunk's triples never has one above in the chunk */
@@ -9734,8 +9764,34 @@ GS_API gs_result gs_scene_attach_ghosts(gs_scene *sc, const gs_ghost_desc *share
     return r;
 }
 
+GS__PRIVATE void gs__ghost_decoded(gs__ghost *g, const double *S, double *out);
+GS__PRIVATE void gs__sync_log_adopt(gs_agent *a);
+
+/* adopt_sent: does the ghost's agent take what it sends? A probe does
+   not: its state is set from its target each step, and set by hand it
+   would lose the target. */
+GS__PRIVATE int gs__ghost_adopts(const gs__ghost *g) {
+    const gs_agent *a = g->agent;
+    const gs__rigid *r = gs__as_rigid(a);
+    return g->d.adopt_sent && g->d.encoding != GS_ENCODING_F64 &&
+           (a->kind == &gs__mesh_kind || a->kind == &gs__cloth_kind || (r && !r->probe));
+}
+
+/* adopt_sent: the agent's values (not its time, not its sleep) become the
+   decoded ones of state S, as a peer's blend of weight 1 sets them. S may
+   be g->B; g->scratch takes the decoded state, and B too if to_b (in the
+   net's lock: its send reads B and shares kbuf). */
+GS__PRIVATE void gs__ghost_adopt(gs__ghost *g, const double *S, gs_net *net, int to_b) {
+    gs__lock(net);
+    gs__ghost_decoded(g, S, g->scratch);
+    if (to_b) memcpy(g->B, g->scratch, g->n * sizeof(double));
+    gs__unlock(net);
+    g->agent->kind->set_state(g->agent, g->scratch + 1);
+}
+
 /* After a step: the latest state goes to B at the ghost's rate (simulation
-   time stands in for wall time here: the world keeps pace with it). */
+   time stands in for wall time here: the world keeps pace with it);
+   adopt_sent: B is what the peers decode, and the agent takes it. */
 GS__PRIVATE void gs__ghost_publish_now(gs__ghost *g, gs_net *net) {
     double t = gs__agent_time(g->agent);
     gs__lock(net);
@@ -9743,6 +9799,10 @@ GS__PRIVATE void gs__ghost_publish_now(gs__ghost *g, gs_net *net) {
     g->b_seq++;
     if (net) net->published = 1;
     gs__unlock(net);
+    if (gs__ghost_adopts(g)) {
+        gs__ghost_adopt(g, g->B, net, 1);
+        gs__sync_log_adopt(g->agent);
+    }
     g->next_publish = t + 1.0 / g->d.send_rate;
 }
 
@@ -10786,6 +10846,17 @@ GS__PRIVATE void gs__sync_log(gs_agent *a, const double *in) {
     gs__log_put(sy, sy->seq, GS__SYNC_NONE, 0.0, a->index, in, gs_agent_state_size(a));
 }
 
+/* An adopt_sent publish, at the dispatch it followed (or the advance's
+   end, the session clock's: the re-run's last dispatch, nothing stepping
+   between): logged without values, since a re-run adopts its own state
+   decoded (a function of the state: the same bits where the re-run is the
+   run; a replay's corrected state is then what the next publish sends). */
+GS__PRIVATE void gs__sync_log_adopt(gs_agent *a) {
+    gs__sync *sy = a->world->sync;
+    if (!sy->cap || !a->world->busy || sy->replaying || sy->seq == 0) return;
+    gs__log_put(sy, sy->seq - 1, a->world->dispatches, 0.0, a->index, NULL, 0);
+}
+
 /* A blend, at the dispatch it followed: an input of the frame running
    (in a replay, of the frame re-run). */
 GS__PRIVATE void gs__sync_log_blend(gs_agent *a, const double *in) {
@@ -10814,6 +10885,13 @@ GS__PRIVATE void gs__sync_apply_log(gs_world *w, uint64_t frame, uint64_t dispat
         if (f != frame || d != dispatch || ai < 0 || ai >= w->agent_count) continue;
         if (d == GS__SYNC_SPLIT && gs__log_get(sy, at + 4) != when) continue;
         a = w->agents[ai];
+        if (n == 0 && a->ghost) { /* an adopt_sent publish */
+            gs__ghost *g = gs__ghost_of(a);
+            double *s = g->local;
+            gs_agent_get_state(a, s, g->n);
+            gs__ghost_adopt(g, s, w->net, 0);
+            continue;
+        }
         if (n != gs_agent_state_size(a)) continue;
         /* an entry that wraps around the ring is put together in the
            last slot of the ring (a re-run's end, free until then) */

@@ -34,6 +34,9 @@
    only the scenes and encodings named (the others' rows are null; f64's
    row is what the divergence targets compare against); a --scene, or
    --no-cpu, leaves the CPU timing out (its figures are then null).
+   --adopt 0|1 sets gs_ghost_desc.adopt_sent in every encoding (else its
+   default); --mode present|replay the hosts' gs_sync_desc.mode (default
+   present).
 
    Figures: kbit/s that host 1 sent to host 2 (its gs_peer_stats
    bytes_sent, datagram bytes, no UDP/IP headers) over the measured span;
@@ -92,6 +95,12 @@ static const char *sc_name[SC_COUNT] = {"paper-push", "paper-rest", "cloth64-pus
 /* the issue's targets, kbit/s per host (0: none) */
 static const double sc_target[SC_COUNT] = {256.0, 16.0, 2000.0, 256.0};
 
+/* --adopt 0|1: gs_ghost_desc.adopt_sent in every encoding (-1: the default) */
+static int adopt = -1;
+/* --mode present|replay: gs_sync_desc.mode of both hosts (the default's:
+   present) */
+static gs_sync_mode sync_mode = GS_SYNC_PRESENT;
+
 static gs_ghost_desc ghost_desc(int enc) {
     gs_ghost_desc gd = gs_ghost_desc_default();
     gd.encoding = enc == ENC_F64 ? GS_ENCODING_F64 : enc == ENC_F32 ? GS_ENCODING_F32
@@ -103,6 +112,7 @@ static gs_ghost_desc ghost_desc(int enc) {
        along its velocity (both hosts predict alike) */
     gd.rest_extrapolate = enc == ENC_PREDICT;
     gd.weight = gs_weight_cs;
+    if (adopt >= 0) gd.adopt_sent = adopt;
     return gd;
 }
 
@@ -119,6 +129,7 @@ static int host_scene(host *h, uint32_t id, int scene, int enc) {
     gs_world_desc wd = gs_world_desc_default();
     gs_ghost_desc gd = ghost_desc(enc);
     wd.host_id = id;
+    wd.sync.mode = sync_mode;
     if (gs_world_create(&wd, &h->w) != GS_OK) return -1;
     if (scene == SC_SPHERES) {
         int i;
@@ -378,6 +389,16 @@ static int pick_args(int *argc, char **argv, unsigned *sc, unsigned *en, int *no
     for (i = 1; i < *argc; ++i) {
         int is_sc = strcmp(argv[i], "--scene") == 0, is_en = strcmp(argv[i], "--encoding") == 0;
         if (strcmp(argv[i], "--no-cpu") == 0) { *no_cpu = 1; continue; }
+        if (strcmp(argv[i], "--adopt") == 0 && i + 1 < *argc) { adopt = atoi(argv[++i]); continue; }
+        if (strcmp(argv[i], "--mode") == 0 && i + 1 < *argc) {
+            ++i;
+            if (strcmp(argv[i], "replay") == 0) sync_mode = GS_SYNC_REPLAY;
+            else if (strcmp(argv[i], "present") != 0) {
+                fprintf(stderr, "bandwidth: unknown mode '%s' (present, replay)\n", argv[i]);
+                return -1;
+            }
+            continue;
+        }
         if (!is_sc && !is_en) { argv[o++] = argv[i]; continue; }
         if (i + 1 >= *argc) break;
         ++i;

@@ -42,6 +42,16 @@ static GS_TEST_UNUSED gs_result test_join(gs_simnet *sim, gs_world *w, const gs_
     return gs_net_create(w, &nd, out);
 }
 
+/* The paper scene small enough for a test under ASan, in w: an 8 x 8
+   cloth, a sphere, two probes (no ghosts yet). */
+static GS_TEST_UNUSED gs_result test_small_scene(gs_world *w, gs_scene *sc) {
+    gs_scene_desc sd = gs_scene_desc_default();
+    sd.cloth_n = 8;
+    sd.sphere_count = 1;
+    sd.probe_count = 2;
+    return gs_scene_create(w, &sd, sc);
+}
+
 /* Two hosts (ids 1 and 2) of a small paper scene on sim: a 6 x 6 cloth,
    2 spheres and a probe each, client/server ghosts, the spheres landed
    (0.5 s), each joined; wd: their world desc but for the host id. The

@@ -37,14 +37,10 @@ typedef struct host {
 
 static void host_open(host *h, gs_simnet *sim, uint32_t id) {
     gs_world_desc wd = gs_world_desc_default();
-    gs_scene_desc sd = gs_scene_desc_default();
     gs_ghost_desc gd = gs_ghost_desc_default();
     wd.host_id = id;
     assert_int_equal(gs_world_create(&wd, &h->w), GS_OK);
-    sd.cloth_n = 8; /* small enough for a test under ASan */
-    sd.sphere_count = 1;
-    sd.probe_count = 2;
-    assert_int_equal(gs_scene_create(h->w, &sd, &h->sc), GS_OK);
+    assert_int_equal(test_small_scene(h->w, &h->sc), GS_OK);
     gd.encoding = GS_ENCODING_QUANT;
     gd.delta = 1;
     /* the paper scene's steps (0.05 mm, 0.1 mm) scaled up tenfold and
