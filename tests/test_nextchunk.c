@@ -72,24 +72,11 @@ static gs_wire_chunk delta_piece(int index, int count, int first, int n, uint32_
     return c;
 }
 
-/* Decodes an exact-size copy (ASan sees a read past it): the refusal's
-   reason, or GS_REJECT_COUNT when taken (*v then points into *keep). */
-static unsigned char *keep;
-static gs_reject decode(const unsigned char *buf, size_t n, gs_wire_view *v) {
-    gs_reject why = GS_REJECT_COUNT;
-    free(keep);
-    keep = (unsigned char *)malloc(n ? n : 1);
-    assert_non_null(keep);
-    memcpy(keep, buf, n);
-    if (gs_wire_decode(keep, n, v, &why) == GS_OK) return GS_REJECT_COUNT;
-    return why;
-}
-
 /* The offset of chunk i's first (kind) byte in the datagram v came from:
    right after the chunk before's payload. */
 static size_t head_at(const gs_wire_view *v, int i) {
     if (i == 0) return GS_WIRE_HEADER;
-    return (size_t)(v->chunks[i - 1].payload - keep) + v->chunks[i - 1].payload_bytes;
+    return (size_t)(v->chunks[i - 1].payload - wire_copy) + v->chunks[i - 1].payload_bytes;
 }
 
 /* A snapshot of 35 f64 in chunks 0..3 (10, 10, 10, 5), then chunk 0 of
@@ -110,11 +97,11 @@ static void test_next_round_trip(void **state) {
     assert_int_equal(gs_wire_begin(buf, sizeof buf, &h, &size), GS_OK);
     for (i = 0; i < 5; ++i) assert_int_equal(gs_wire_add(buf, sizeof buf, &size, &c[i], vals), GS_OK);
     n = gs_wire_end(buf, size);
-    assert_int_equal(decode(buf, n, &v), GS_REJECT_COUNT);
+    assert_int_equal(wire_decode_copy(buf, n, &v), GS_REJECT_COUNT);
     assert_int_equal(v.chunk_count, 5);
     for (i = 0; i < 5; ++i) {
         const gs_wire_chunk *d = &v.chunks[i];
-        size_t at = head_at(&v, i), hn = (size_t)(d->payload - keep) - at;
+        size_t at = head_at(&v, i), hn = (size_t)(d->payload - wire_copy) - at;
         assert_int_equal(d->object_id, c[i].object_id);
         assert_int_equal(d->sequence, c[i].sequence);
         assert_true(d->time == c[i].time);
@@ -127,7 +114,7 @@ static void test_next_round_trip(void **state) {
            4 (another object) and 0: the long form */
         if (i == 1 || i == 2) assert_int_equal(hn, 1);
         if (i == 3) assert_int_equal(hn, 2);
-        assert_int_equal((keep[at] & NEXT_BIT) != 0, i >= 1 && i <= 3);
+        assert_int_equal((wire_copy[at] & NEXT_BIT) != 0, i >= 1 && i <= 3);
     }
 }
 
@@ -152,10 +139,10 @@ static void test_next_only_when_continuing(void **state) {
     assert_int_equal(gs_wire_begin(buf, sizeof buf, &h, &size), GS_OK);
     for (i = 0; i < 5; ++i) assert_int_equal(gs_wire_add(buf, sizeof buf, &size, &c[i], vals), GS_OK);
     n = gs_wire_end(buf, size);
-    assert_int_equal(decode(buf, n, &v), GS_REJECT_COUNT);
+    assert_int_equal(wire_decode_copy(buf, n, &v), GS_REJECT_COUNT);
     assert_int_equal(v.chunk_count, 5);
     for (i = 0; i < 5; ++i) {
-        assert_int_equal(keep[head_at(&v, i)] & NEXT_BIT, 0);
+        assert_int_equal(wire_copy[head_at(&v, i)] & NEXT_BIT, 0);
         assert_int_equal(v.chunks[i].first, c[i].first);
         assert_int_equal(v.chunks[i].index, c[i].index);
     }
@@ -177,9 +164,9 @@ static void test_next_across_ack(void **state) {
     assert_int_equal(gs_wire_add_ack(buf, sizeof buf, &size, 1, &ack, 1), GS_OK);
     assert_int_equal(gs_wire_add(buf, sizeof buf, &size, &b, vals), GS_OK);
     n = gs_wire_end(buf, size);
-    assert_int_equal(decode(buf, n, &v), GS_REJECT_COUNT);
+    assert_int_equal(wire_decode_copy(buf, n, &v), GS_REJECT_COUNT);
     assert_int_equal(v.chunk_count, 3);
-    assert_true(keep[head_at(&v, 2)] & NEXT_BIT);
+    assert_true(wire_copy[head_at(&v, 2)] & NEXT_BIT);
     assert_int_equal(v.chunks[2].index, 1);
     assert_int_equal(v.chunks[2].first, 10);
     assert_int_equal(v.chunks[2].sequence, 9);
@@ -198,9 +185,9 @@ static size_t two_chunks(unsigned char *buf, int count, size_t *at) {
     *at = size;
     assert_int_equal(gs_wire_add(buf, GS_WIRE_MAX_DATAGRAM, &size, &b, vals), GS_OK);
     n = gs_wire_end(buf, size);
-    assert_int_equal(decode(buf, n, &v), GS_REJECT_COUNT);
+    assert_int_equal(wire_decode_copy(buf, n, &v), GS_REJECT_COUNT);
     assert_int_equal(head_at(&v, 1), *at);
-    assert_int_equal((size_t)(v.chunks[1].payload - keep), *at + 1);
+    assert_int_equal((size_t)(v.chunks[1].payload - wire_copy), *at + 1);
     return n;
 }
 
@@ -230,23 +217,23 @@ static void test_next_refused(void **state) {
         unsigned char lf[] = {0x08 | 0x20, 0, 0, 1, 3, 10, 10};
         memcpy(buf, good, n);
         m = reheader(buf, n, at, lf, sizeof lf);
-        assert_int_equal(decode(buf, m, &v), GS_REJECT_LAYOUT);
+        assert_int_equal(wire_decode_copy(buf, m, &v), GS_REJECT_LAYOUT);
         lf[5] = 11; /* from 11: not the next chunk, taken */
         memcpy(buf, good, n);
         m = reheader(buf, n, at, lf, sizeof lf);
-        assert_int_equal(decode(buf, m, &v), GS_REJECT_COUNT);
+        assert_int_equal(wire_decode_copy(buf, m, &v), GS_REJECT_COUNT);
         assert_int_equal(v.chunks[1].first, 11);
     }
     {   /* an element count said again, the same: refused; another: taken */
         unsigned char ec[] = {0x08 | NEXT_BIT | 0x20, 10};
         memcpy(buf, good, n);
         m = reheader(buf, n, at, ec, sizeof ec);
-        assert_int_equal(decode(buf, m, &v), GS_REJECT_LAYOUT);
+        assert_int_equal(wire_decode_copy(buf, m, &v), GS_REJECT_LAYOUT);
         ec[1] = 9; /* 9 values: the last one's 8 bytes cut off */
         memcpy(buf, good, n);
         m = reheader(buf, n, at, ec, sizeof ec) - 8;
         recrc(buf, m);
-        assert_int_equal(decode(buf, m, &v), GS_REJECT_COUNT);
+        assert_int_equal(wire_decode_copy(buf, m, &v), GS_REJECT_COUNT);
         assert_int_equal(v.chunks[1].elements, 9);
         assert_int_equal(v.chunks[1].first, 10);
     }
@@ -257,7 +244,7 @@ static void test_next_refused(void **state) {
         for (i = 0; i < 4; ++i) {
             memcpy(buf, good, n);
             m = reheader(buf, n, at, bad[i], 1);
-            assert_int_equal(decode(buf, m, &v), GS_REJECT_LAYOUT);
+            assert_int_equal(wire_decode_copy(buf, m, &v), GS_REJECT_LAYOUT);
         }
     }
     /* past the snapshot's last chunk: chunk 1 of 1 */
@@ -277,13 +264,13 @@ static void test_next_refused(void **state) {
         gs__hdr_set_chunks(buf, 2);
         m = size + 1 + 80 + 4;
         recrc(buf, m);
-        assert_int_equal(decode(buf, m, &w), GS_REJECT_LAYOUT);
+        assert_int_equal(wire_decode_copy(buf, m, &w), GS_REJECT_LAYOUT);
         /* as the first chunk of a datagram: nothing to continue */
         memmove(buf + GS_WIRE_HEADER, buf + size, 81);
         gs__hdr_set_chunks(buf, 1);
         m = GS_WIRE_HEADER + 81 + 4;
         recrc(buf, m);
-        assert_int_equal(decode(buf, m, &w), GS_REJECT_LAYOUT);
+        assert_int_equal(wire_decode_copy(buf, m, &w), GS_REJECT_LAYOUT);
     }
 }
 
@@ -308,13 +295,13 @@ static void test_next_delta(void **state) {
         assert_int_equal(gs_wire_add_delta(buf, sizeof buf, &size, &c, d[i]), GS_OK);
     }
     n = gs_wire_end(buf, size);
-    assert_int_equal(decode(buf, n, &v), GS_REJECT_COUNT);
+    assert_int_equal(wire_decode_copy(buf, n, &v), GS_REJECT_COUNT);
     assert_int_equal(v.chunk_count, 4);
     for (i = 0; i < 4; ++i) {
         const gs_wire_chunk *c = &v.chunks[i];
         int same = i == 1 || i == 2;
-        assert_int_equal((keep[head_at(&v, i)] & NEXT_BIT) != 0, i > 0);
-        if (i) assert_int_equal((keep[head_at(&v, i)] & 0x04) != 0, same); /* 0: its time */
+        assert_int_equal((wire_copy[head_at(&v, i)] & NEXT_BIT) != 0, i > 0);
+        if (i) assert_int_equal((wire_copy[head_at(&v, i)] & 0x04) != 0, same); /* 0: its time */
         assert_int_equal(c->delta_skip, same ? 0 : 1); /* distance 3 or 4: 1 byte */
         assert_int_equal(c->first, i == 3 ? 165 : 60 * i);
         assert_int_equal(c->elements, i >= 2 ? 45 : 60);
@@ -343,17 +330,17 @@ static void test_next_same_base_refused(void **state) {
         assert_int_equal(gs_wire_add_delta(good, sizeof good, &size, &c, d), GS_OK);
     }
     n = gs_wire_end(good, size);
-    assert_int_equal(decode(good, n, &v), GS_REJECT_COUNT);
+    assert_int_equal(wire_decode_copy(good, n, &v), GS_REJECT_COUNT);
     assert_int_equal(good[at], 0x19 | NEXT_BIT | 0x04); /* delta, quant, next, same base */
     {   /* the distance said again (3), bit 2 clear: refused */
         unsigned char lf[] = {0x19 | NEXT_BIT, 3};
         memcpy(buf, good, n);
         m = reheader(buf, n, at, lf, sizeof lf);
-        assert_int_equal(decode(buf, m, &v), GS_REJECT_LAYOUT);
+        assert_int_equal(wire_decode_copy(buf, m, &v), GS_REJECT_LAYOUT);
         lf[1] = 4; /* another baseline (36): taken */
         memcpy(buf, good, n);
         m = reheader(buf, n, at, lf, sizeof lf);
-        assert_int_equal(decode(buf, m, &v), GS_REJECT_COUNT);
+        assert_int_equal(wire_decode_copy(buf, m, &v), GS_REJECT_COUNT);
         assert_int_equal(v.chunks[1].baseline, 36);
         assert_int_equal(v.chunks[1].delta_skip, 1);
     }
@@ -374,13 +361,13 @@ static void test_next_same_base_refused(void **state) {
         gs__hdr_set_chunks(buf, 2);
         m = size + (n - 4 - at) + 4;
         recrc(buf, m);
-        assert_int_equal(decode(buf, m, &w), GS_REJECT_LAYOUT);
+        assert_int_equal(wire_decode_copy(buf, m, &w), GS_REJECT_LAYOUT);
     }
     /* bit 2 on a values chunk after a delta chunk: refused */
     memcpy(buf, good, n);
     buf[at] = 0x18 | NEXT_BIT | 0x04;
     recrc(buf, n);
-    assert_int_equal(decode(buf, n, &v), GS_REJECT_LAYOUT);
+    assert_int_equal(wire_decode_copy(buf, n, &v), GS_REJECT_LAYOUT);
 }
 
 /* The pushed 12x12 cloth of delta_pair.h (4 chunks a snapshot) over a
@@ -406,12 +393,12 @@ static void test_next_chain_lossy(void **state) {
         gs_world_advance(pr->w[0], FRAME, NULL);
         for (i = 0; i < 2; ++i) gs_net_update(pr->net[i], pr->now);
         for (i = 0; i < pr->nq; ++i) {
-            if (pr->q[i].to != 1 || decode(pr->q[i].d, pr->q[i].size, &v) != GS_REJECT_COUNT)
+            if (pr->q[i].to != 1 || wire_decode_copy(pr->q[i].d, pr->q[i].size, &v) != GS_REJECT_COUNT)
                 continue;
             for (j = 0; j < v.chunk_count; ++j) {
                 if (v.chunks[j].flags & GS_WIRE_CHUNK_ACK) continue;
                 chunks++;
-                next += (keep[head_at(&v, j)] & NEXT_BIT) != 0;
+                next += (wire_copy[head_at(&v, j)] & NEXT_BIT) != 0;
             }
         }
         deliver(pr);
@@ -432,8 +419,8 @@ static void test_next_chain_lossy(void **state) {
 
 static int teardown(void **state) {
     (void)state;
-    free(keep);
-    keep = NULL;
+    free(wire_copy);
+    wire_copy = NULL;
     return 0;
 }
 

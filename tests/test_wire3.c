@@ -47,20 +47,6 @@ static gs_wire_chunk chunk(uint32_t id, uint32_t seq, double t, gs_encoding e, i
     return c;
 }
 
-/* Decodes an exact-size copy (ASan sees a read past it); the refusal's
-   reason, or GS_REJECT_COUNT when taken (then *v holds it, its payloads
-   in the copy, which is kept in *keep until the next call). */
-static unsigned char *keep;
-static gs_reject decode(const unsigned char *buf, size_t n, gs_wire_view *v) {
-    gs_reject why = GS_REJECT_COUNT;
-    free(keep);
-    keep = (unsigned char *)malloc(n ? n : 1);
-    assert_non_null(keep);
-    memcpy(keep, buf, n);
-    if (gs_wire_decode(keep, n, v, &why) == GS_OK) return GS_REJECT_COUNT;
-    return why;
-}
-
 /* Every kind of chunk in one datagram, with ids that go down and wrap,
    times shared and not, split and whole: every field back as it went. */
 static void test_wire3_roundtrip(void **state) {
@@ -110,7 +96,7 @@ static void test_wire3_roundtrip(void **state) {
     assert_int_equal(size - n, 3);
     assert_int_equal(gs_wire_add_delta(buf, sizeof buf, &size, &d, diff), GS_OK);
     n = gs_wire_end(buf, size);
-    assert_int_equal(decode(buf, n, v), GS_REJECT_COUNT);
+    assert_int_equal(wire_decode_copy(buf, n, v), GS_REJECT_COUNT);
     assert_int_equal(v->chunk_count, 6);
     for (i = 0; i < 6; ++i) {
         const gs_wire_chunk *e = i == 2 ? NULL : i < 2 ? &c[i] : i == 5 ? &d : &c[i - 1];
@@ -188,7 +174,7 @@ static void test_wire3_header_sizes(void **state) {
         assert_int_equal(size, GS_WIRE_HEADER + 11 + 3 * (GS_WIRE_MAX_CHUNKS - 1));
         assert_int_equal(gs_wire_add(buf, sizeof buf, &size, &r, NULL), GS_ERR_CAPACITY);
         size = gs_wire_end(buf, size);
-        assert_int_equal(decode(buf, size, v), GS_REJECT_COUNT);
+        assert_int_equal(wire_decode_copy(buf, size, v), GS_REJECT_COUNT);
         assert_int_equal(v->chunk_count, GS_WIRE_MAX_CHUNKS);
         assert_int_equal(v->chunks[GS_WIRE_MAX_CHUNKS - 1].object_id, GS_WIRE_MAX_CHUNKS);
         free(v);
@@ -228,7 +214,7 @@ static void test_wire3_old_versions(void **state) {
         for (ver = 1; ver <= 2; ++ver) {
             buf[4] = (unsigned char)ver;
             recrc(buf, n);
-            assert_int_equal(decode(buf, n, v), GS_REJECT_OLD_VERSION);
+            assert_int_equal(wire_decode_copy(buf, n, v), GS_REJECT_OLD_VERSION);
             assert_int_equal(gs_net_deliver(net, buf, n, 1.0, &why), GS_ERR_REJECTED);
             assert_int_equal(why, GS_REJECT_OLD_VERSION);
         }
@@ -238,7 +224,7 @@ static void test_wire3_old_versions(void **state) {
         assert_non_null(strstr(gs_reject_str(GS_REJECT_OLD_VERSION), "v3"));
         buf[4] = 4; /* a later one is unknown, not old */
         recrc(buf, n);
-        assert_int_equal(decode(buf, n, v), GS_REJECT_VERSION);
+        assert_int_equal(wire_decode_copy(buf, n, v), GS_REJECT_VERSION);
         gs_net_destroy(net);
         gs_simnet_destroy(sim);
     }
@@ -285,20 +271,20 @@ static void test_wire3_hostile(void **state) {
     (void)state;
     assert_non_null(v);
     n = forge(buf, ok, sizeof ok, 1.0, 2);
-    assert_int_equal(decode(buf, n, v), GS_REJECT_COUNT);
+    assert_int_equal(wire_decode_copy(buf, n, v), GS_REJECT_COUNT);
     assert_int_equal(v->chunks[0].object_id, 1);
     n = forge(buf, long_id, sizeof long_id - 1, 1.0, 2); /* a 6-byte varint */
-    assert_int_equal(decode(buf, n, v), GS_REJECT_LAYOUT);
+    assert_int_equal(wire_decode_copy(buf, n, v), GS_REJECT_LAYOUT);
     n = forge(buf, overlong, sizeof overlong - 1, 1.0, 2);
-    assert_int_equal(decode(buf, n, v), GS_REJECT_LAYOUT);
+    assert_int_equal(wire_decode_copy(buf, n, v), GS_REJECT_LAYOUT);
     n = forge(buf, no_time, sizeof no_time, -1.0, 2);
-    assert_int_equal(decode(buf, n, v), GS_REJECT_LAYOUT);
+    assert_int_equal(wire_decode_copy(buf, n, v), GS_REJECT_LAYOUT);
     n = forge(buf, reserved, sizeof reserved, 1.0, 2);
-    assert_int_equal(decode(buf, n, v), GS_REJECT_LAYOUT);
+    assert_int_equal(wire_decode_copy(buf, n, v), GS_REJECT_LAYOUT);
     n = forge(buf, no_enc, sizeof no_enc, 1.0, 2);
-    assert_int_equal(decode(buf, n, v), GS_REJECT_LAYOUT);
+    assert_int_equal(wire_decode_copy(buf, n, v), GS_REJECT_LAYOUT);
     n = forge(buf, big_count, sizeof big_count - 1, -1.0, 2); /* count 65536 */
-    assert_int_equal(decode(buf, n, v), GS_REJECT_LAYOUT);
+    assert_int_equal(wire_decode_copy(buf, n, v), GS_REJECT_LAYOUT);
     /* an element count of 3 varint bytes (more than a chunk can hold) */
     {
         static const unsigned char e3[] = {0x0c, 2, 0};
@@ -306,7 +292,7 @@ static void test_wire3_hostile(void **state) {
         buf[GS_WIRE_HEADER + 11] = 0x81;
         buf[GS_WIRE_HEADER + 12] = 0x81; /* ... and on: cut off by the values' zeros */
         recrc(buf, n);
-        assert_int_equal(decode(buf, n, v), GS_REJECT_LAYOUT);
+        assert_int_equal(wire_decode_copy(buf, n, v), GS_REJECT_LAYOUT);
     }
     /* a second chunk saying the time the first said: one meaning, refused */
     {
@@ -328,11 +314,11 @@ static void test_wire3_hostile(void **state) {
             memcpy(buf + at + 3, &t, 8);
             buf[at + 11] = 2;
             recrc(buf, n + 8);
-            assert_int_equal(decode(buf, n + 8, v), GS_REJECT_LAYOUT);
+            assert_int_equal(wire_decode_copy(buf, n + 8, v), GS_REJECT_LAYOUT);
             t = 1.25; /* a time of its own is fine */
             memcpy(buf + at + 3, &t, 8);
             recrc(buf, n + 8);
-            assert_int_equal(decode(buf, n + 8, v), GS_REJECT_COUNT);
+            assert_int_equal(wire_decode_copy(buf, n + 8, v), GS_REJECT_COUNT);
         }
     }
     /* Rice: an escape for a value unary could say, a run past its end,
@@ -349,13 +335,13 @@ static void test_wire3_hostile(void **state) {
         assert_int_equal(gs_wire_begin(good, sizeof good, &h, &size), GS_OK);
         assert_int_equal(gs_wire_add_delta(good, sizeof good, &size, &d, diff), GS_OK);
         n = gs_wire_end(good, size);
-        assert_int_equal(decode(good, n, v), GS_REJECT_COUNT);
+        assert_int_equal(wire_decode_copy(good, n, v), GS_REJECT_COUNT);
         assert_int_equal(v->chunks[0].delta_coding, 2);
-        pay = (size_t)(v->chunks[0].payload - keep); /* distance, then k */
+        pay = (size_t)(v->chunks[0].payload - wire_copy); /* distance, then k */
         memcpy(buf, good, n);
         buf[pay + 1] = (unsigned char)(2 << 6 | 25);
         recrc(buf, n);
-        assert_int_equal(decode(buf, n, v), GS_REJECT_LAYOUT);
+        assert_int_equal(wire_decode_copy(buf, n, v), GS_REJECT_LAYOUT);
         { /* the run's bits (>>wire), then a padding bit set */
             int k = good[pay + 1] & 0x3f;
             size_t bits = 0;
@@ -368,23 +354,23 @@ static void test_wire3_hostile(void **state) {
                 memcpy(buf, good, n);
                 buf[n - 5] |= 0x80;
                 recrc(buf, n);
-                assert_int_equal(decode(buf, n, v), GS_REJECT_LAYOUT);
+                assert_int_equal(wire_decode_copy(buf, n, v), GS_REJECT_LAYOUT);
             }
         }
         memcpy(buf, good, n);
         memset(buf + pay + 2, 0, n - 4 - pay - 2); /* all 0 bits: escapes of 0 */
         recrc(buf, n);
-        assert_int_equal(decode(buf, n, v), GS_REJECT_LAYOUT);
+        assert_int_equal(wire_decode_copy(buf, n, v), GS_REJECT_LAYOUT);
         memcpy(buf, good, n);
         memset(buf + pay + 2, 0xff, n - 4 - pay - 2); /* all ones: too short a run */
         recrc(buf, n);
-        assert_true(decode(buf, n, v) == GS_REJECT_LAYOUT);
+        assert_true(wire_decode_copy(buf, n, v) == GS_REJECT_LAYOUT);
     }
     /* every cut of a good datagram, the CRC made good: refused */
     for (k = GS_WIRE_HEADER + 4; k < n; ++k) {
         memcpy(buf, good, n);
         recrc(buf, k);
-        assert_true(decode(buf, k, v) != GS_REJECT_COUNT);
+        assert_true(wire_decode_copy(buf, k, v) != GS_REJECT_COUNT);
     }
     free(v);
 }
