@@ -376,7 +376,7 @@ bench-build: $(BENCH_BINS)
 
 # Benchmarks in Python (standard library only) that drive ghostpeer
 # processes; bench/run.sh runs them as it runs the programs.
-BENCH_PY := bench/process_gap.py
+BENCH_PY := bench/process_gap.py bench/peer_cpu.py
 
 # Runs every program (a failure does not stop the others, but fails the
 # target), then bench/report.py draws the report and the plots.
