@@ -1619,7 +1619,7 @@ GS_API gs_result gs_world_sync_test(gs_world *w, int frames, int *bad_agent);
          3 acknowledgements), bit 2 a time follows, bits 3-4 the encoding
          (1 f64, 2 f32, 3 GS_ENCODING_QUANT), bit 5 the state is split
          (index, count and first follow), bit 6 the next chunk (below),
-         bit 7 0;
+         bit 7 the same row (below; else 0);
        object id: zigzag(id - the chunk before's) varint (at most 5 bytes);
        snapshot sequence: zigzag(sequence - the chunk before's) varint;
        the simulation time f64 (exact) if bit 2, else the chunk before's
@@ -1647,6 +1647,13 @@ GS_API gs_result gs_world_sync_test(gs_world *w, int frames, int *bad_agent);
          baseline with bit 2 and only so (the long forms are refused: one
          datagram, one meaning); each further chunk of a cut snapshot in
          a datagram takes 1 byte of header, a last shorter one 2 or 3.
+         Bit 7 says, in a delta chunk with bit 6 after a chunk of coding 3
+         (spatial, below), that this one is of coding 3 too, of the chunk
+         before's row R and of restart 0: its payload then has no row and
+         restart bytes. It is set only so (elsewhere refused), and a next
+         chunk after a spatial one of row R that would say R and restart
+         0 itself is refused (one meaning); the cloth's chunks of
+         positions, of the same row, so save 2 bytes each.
        A chunk of 10 f64 after one of the same time and sequence (and not
        its next chunk): 4 bytes of header; a heartbeat 3. (Bit 6 is new in
        this revision of v3: a ghostsim before it refuses its datagram as
@@ -1706,7 +1713,8 @@ GS_API gs_result gs_world_sync_test(gs_world *w, int frames, int *bad_agent);
            the run padded with 0 bits to a whole byte.
          coding 3 (spatial Rice; k and bit 5 as coding 2): the row R u8
            (1..GS_WIRE_SPATIAL_ROW), the restart r u8 (0..element count -
-           1), then coding 2's run of the residuals e_i = difference i -
+           1) (both left out with kind bit 7: the chunk before's R, r 0),
+           then coding 2's run of the residuals e_i = difference i -
            P_i, each within [-2^31, 2^31 - 1]. P_i comes from the chunk's
            differences before i (decoded first, in order; all in int64):
            with lo = r if r > 0 and i >= r, else 0, P_i = 0 if i - 3 < lo,
