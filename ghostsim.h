@@ -1619,7 +1619,7 @@ GS_API gs_result gs_world_sync_test(gs_world *w, int frames, int *bad_agent);
          3 acknowledgements), bit 2 a time follows, bits 3-4 the encoding
          (1 f64, 2 f32, 3 GS_ENCODING_QUANT), bit 5 the state is split
          (index, count and first follow), bit 6 the next chunk (below),
-         bit 7 0;
+         bit 7 the same row (below; else 0);
        object id: zigzag(id - the chunk before's) varint (at most 5 bytes);
        snapshot sequence: zigzag(sequence - the chunk before's) varint;
        the simulation time f64 (exact) if bit 2, else the chunk before's
@@ -1647,6 +1647,13 @@ GS_API gs_result gs_world_sync_test(gs_world *w, int frames, int *bad_agent);
          baseline with bit 2 and only so (the long forms are refused: one
          datagram, one meaning); each further chunk of a cut snapshot in
          a datagram takes 1 byte of header, a last shorter one 2 or 3.
+         Bit 7 says, in a delta chunk with bit 6 after a chunk of coding 3
+         (spatial, below), that this one is of coding 3 too, of the chunk
+         before's row R and of restart 0: its payload then has no row and
+         restart bytes. It is set only so (elsewhere refused), and a next
+         chunk after a spatial one of row R that would say R and restart
+         0 itself is refused (one meaning); the cloth's chunks of
+         positions, of the same row, so save 2 bytes each.
        A chunk of 10 f64 after one of the same time and sequence (and not
        its next chunk): 4 bytes of header; a heartbeat 3. (Bit 6 is new in
        this revision of v3: a ghostsim before it refuses its datagram as
@@ -1706,7 +1713,8 @@ GS_API gs_result gs_world_sync_test(gs_world *w, int frames, int *bad_agent);
            the run padded with 0 bits to a whole byte.
          coding 3 (spatial Rice; k and bit 5 as coding 2): the row R u8
            (1..GS_WIRE_SPATIAL_ROW), the restart r u8 (0..element count -
-           1), then coding 2's run of the residuals e_i = difference i -
+           1) (both left out with kind bit 7: the chunk before's R, r 0),
+           then coding 2's run of the residuals e_i = difference i -
            P_i, each within [-2^31, 2^31 - 1]. P_i comes from the chunk's
            differences before i (decoded first, in order; all in int64):
            with lo = r if r > 0 and i >= r, else 0, P_i = 0 if i - 3 < lo,
@@ -1870,7 +1878,15 @@ typedef struct gs_wire_chunk {
     uint16_t payload_bytes;       /* decode: the payload's length */
     uint8_t delta_skip;           /* decode, delta: the payload's bytes
                                      before its coding byte (the baseline
-                                     distance; 0: the chunk before's) */
+                                     distance's varint; 0 when the kind
+                                     byte's bit 2 says the chunk before's,
+                                     see >>wire); 0 otherwise */
+    uint8_t delta_data;           /* decode, delta: the payload's bytes
+                                     before its coded differences (the
+                                     distance, the coding byte, and in
+                                     coding 3 its row and restart unless
+                                     the kind byte's bit 7 says them);
+                                     0 otherwise */
 } gs_wire_chunk;
 
 /* One entry of an acknowledgement chunk (GS_WIRE_CHUNK_ACK). */
@@ -9328,6 +9344,8 @@ typedef struct gs__wire_ctx {
     uint32_t first;
     int delta;         /* the chunk before was a delta, against baseline */
     uint32_t baseline;
+    int row;           /* the chunk before's row if it was a spatial delta
+                          (coding 3), else 0: what kind bit 7 says again */
 } gs__wire_ctx;
 
 struct gs_net {
@@ -12377,9 +12395,8 @@ typedef struct gs__dread {
     int coding, width;
 } gs__dread;
 GS__PRIVATE void gs__dread_init(const gs_wire_chunk *c, gs__dread *d) {
-    const unsigned char *q = c->payload + c->delta_skip, *end = c->payload + c->payload_bytes;
+    const unsigned char *q = c->payload + c->delta_data, *end = c->payload + c->payload_bytes;
     size_t bm = ((size_t)c->elements + 7) / 8;
-    q++; /* width and coding: in c already */
     d->coding = c->delta_coding;
     d->width = c->delta_width;
     d->map.p = q; d->map.end = q + bm; d->map.acc = 0; d->map.n = 0;
@@ -12396,9 +12413,11 @@ GS__PRIVATE int64_t gs__dread_next(gs__dread *d) {
 }
 
 /* Checks a delta payload (within len bytes) and fills c's baseline,
-   coding and width: its length, or 0. */
+   coding and width: its length, or 0. same_base and same_row: the kind
+   byte's bits 2 and 7 (see >>wire); row_before: the chunk before's
+   spatial row if c is its next chunk, else 0. */
 GS__PRIVATE size_t gs__delta_parse(gs_wire_chunk *c, const unsigned char *p, size_t len,
-                                   int same_base) {
+                                   int same_base, int same_row, int row_before) {
     const unsigned char *q = p, *end = p + len;
     uint64_t dist = 0;
     size_t need, bm, i;
@@ -12418,13 +12437,19 @@ GS__PRIVATE size_t gs__delta_parse(gs_wire_chunk *c, const unsigned char *p, siz
     if (c->delta_width > (c->delta_coding >= 2 ? GS__RICE_MAX_K : 32)) return 0;
     ++q;
     c->delta_row = c->delta_restart = 0;
-    if (c->delta_coding == 3) {
+    if (same_row) { /* kind bit 7: the chunk before's row, restart 0 */
+        if (c->delta_coding != 3) return 0;
+        c->delta_row = row_before;
+    } else if (c->delta_coding == 3) {
         if (end - q < 2 || q[0] < 1 || q[0] > GS_WIRE_SPATIAL_ROW || q[1] >= c->elements)
             return 0;
+        /* one meaning: what bit 7 says is not said again */
+        if (q[0] == row_before && q[1] == 0) return 0;
         c->delta_row = q[0];
         c->delta_restart = q[1];
         q += 2;
     }
+    c->delta_data = (uint8_t)(q - p);
     c->baseline = c->sequence - (uint32_t)dist;
     if (c->delta_coding >= 2) { /* walked: its length is where it ends */
         gs__rice r;
@@ -12519,17 +12544,15 @@ GS_API int gs_wire_acks(const gs_wire_chunk *c, gs_wire_ack *out, int max) {
    receiving side's inner loop. 0 if a spatial coding's difference is
    past +-(2^31 - 1) (out is then all the same filled). */
 GS__PRIVATE int gs__delta_sum(const gs_wire_chunk *c, const int64_t *bk, int64_t *out) {
-    const unsigned char *q = c->payload + c->delta_skip, *end = c->payload + c->payload_bytes,
+    const unsigned char *q = c->payload + c->delta_data, *end = c->payload + c->payload_bytes,
                         *map = NULL;
     uint64_t acc = 0, mask, z;
     int i, n = 0, w;
-    q++; /* width and coding: in c already */
     w = c->delta_width;
     mask = ((uint64_t)1 << w) - 1;
     if (c->delta_coding >= 2) {
         gs__rice r;
         int esc;
-        if (c->delta_coding == 3) q += 2; /* the row and restart: in c already */
         gs__rice_init(&r, q, end);
         if (c->delta_coding == 2) {
             for (i = 0; i < c->elements; ++i)
@@ -12660,19 +12683,20 @@ GS__PRIVATE long gs__dstat_bits(gs__dstat *st, const int64_t *d, int n, int row,
 
 /* A delta payload in the Rice coding of parameter k at p (room bytes,
    the head of hn bytes first): coding 2, or with row > 0 coding 3 (d
-   then the residuals). Its size, or 0 if it does not fit. */
+   then the residuals; said is 0 when kind bit 7 says its row and restart).
+   Its size, or 0 if it does not fit. */
 GS__PRIVATE size_t gs__delta_put_rice(unsigned char *p, size_t room, const gs_wire_chunk *c,
                                       const int64_t *d, const unsigned char *head, size_t hn,
-                                      int k, int row, int restart) {
+                                      int k, int row, int restart, int said) {
     gs__bitw w;
     unsigned char *o, *end;
     uint64_t acc = 0, low = ((uint64_t)1 << k) - 1;
     int i, n = 0, over = 0;
-    size_t at = hn + 1 + (row ? 2 : 0);
+    size_t at = hn + 1 + (row && said ? 2 : 0);
     if (at > room) return 0;
     memcpy(p, head, hn);
     p[hn] = (unsigned char)(k | (c->flags & GS_WIRE_CHUNK_PREDICT ? 0x20 : 0) | (row ? 3 : 2) << 6);
-    if (row) {
+    if (row && said) {
         p[hn + 1] = (unsigned char)row;
         p[hn + 2] = (unsigned char)restart;
     }
@@ -12713,9 +12737,13 @@ GS__PRIVATE size_t gs__delta_put_rice(unsigned char *p, size_t room, const gs_wi
 
 /* Writes a delta payload at p (room bytes): its size, or 0 if it does not
    fit. The differences are within +-2^31 (checked by the caller); st:
-   what the choice reads of them (gs__dstat), NULL to make it here. */
+   what the choice reads of them (gs__dstat), NULL to make it here.
+   same_row: the row kind bit 7 would say again (the chunk before's, c its
+   next chunk; else 0); *row_out the spatial row written (0: another
+   coding) and *row_said 0 when bit 7 says it instead. */
 GS__PRIVATE size_t gs__delta_put(unsigned char *p, size_t room, const gs_wire_chunk *c,
-                                 const int64_t *d, const gs__dstat *st, int same_base) {
+                                 const int64_t *d, const gs__dstat *st, int same_base,
+                                 int same_row, int *row_out, int *row_said) {
     unsigned char head[6];
     size_t hn = same_base ? 0 : gs__varint_put(head, (uint64_t)(uint32_t)(c->sequence - c->baseline));
     size_t need0, need1, need;
@@ -12724,6 +12752,8 @@ GS__PRIVATE size_t gs__delta_put(unsigned char *p, size_t room, const gs_wire_ch
     int64_t e[GS_WIRE_QUANT_CHUNK];
     gs__dstat own;
     if (row < 1 || row > GS_WIRE_SPATIAL_ROW) row = 0;
+    *row_out = 0;
+    *row_said = 1;
     if (!st) {
         memset(&own, 0, sizeof own);
         for (i = 0; i < c->elements; ++i) gs__dstat_add(&own, d[i]);
@@ -12738,16 +12768,19 @@ GS__PRIVATE size_t gs__delta_put(unsigned char *p, size_t room, const gs_wire_ch
     wd = coding ? w1 : w0;
     rbits = gs__rice_pick(st->hist, c->elements, &rk);
     /* spatial, when its residuals (none past a Rice escape's 32 bits)
-       cost 2 bytes fewer than the rest */
+       and its row and restart (none when bit 7 says them) cost less than
+       the rest */
     if (row && st->e && !st->sh[33]) {
-        int sk;
-        double sbits = gs__rice_pick(st->sh, c->elements, &sk);
-        if (sbits / 8.0 + 2.0 < (double)(coding ? need1 : need0) && sbits / 8.0 + 2.0 < rbits / 8.0)
-            return gs__delta_put_rice(p, room, c, st->e, head, hn, sk, row,
-                                      gs__spatial_restart(c));
+        int sk, rs = gs__spatial_restart(c), said = !(row == same_row && rs == 0);
+        double sbits = gs__rice_pick(st->sh, c->elements, &sk) / 8.0 + (said ? 2.0 : 0.0);
+        if (sbits < (double)(coding ? need1 : need0) && sbits < rbits / 8.0) {
+            *row_out = row;
+            *row_said = said;
+            return gs__delta_put_rice(p, room, c, st->e, head, hn, sk, row, rs, said);
+        }
     }
     if ((c->flags & GS_WIRE_CHUNK_PREDICT) || rbits / 8.0 + 1.0 < (double)(coding ? need1 : need0))
-        return gs__delta_put_rice(p, room, c, d, head, hn, rk, 0, 0);
+        return gs__delta_put_rice(p, room, c, d, head, hn, rk, 0, 0, 1);
     need = hn + 1 + (coding ? need1 : need0);
     if (need > room) return 0;
     memcpy(p, head, hn);
@@ -12866,7 +12899,9 @@ GS__PRIVATE gs_result gs__wire_put_quant(unsigned char *p, size_t room, const gs
 #define GS__KIND_NEXT 0x40u  /* the next chunk of the chunk before's snapshot */
 #define GS__KIND_SAME_BASE 0x04u /* with GS__KIND_NEXT, a delta: the chunk
                                     before's baseline (its distance not said) */
-#define GS__KIND_BITS 0x7fu  /* bit 7: 0 */
+#define GS__KIND_SAME_ROW 0x80u /* with GS__KIND_NEXT, a delta after a
+                                   spatial one: coding 3, the chunk
+                                   before's row, restart 0 (not said) */
 
 /* The chunk flags of c as its kind (GS_WIRE_CHUNK_*: at most one). */
 GS__PRIVATE unsigned gs__chunk_kind(const gs_wire_chunk *c) {
@@ -12961,6 +12996,7 @@ GS__PRIVATE void gs__wire_ctx_move(gs__wire_ctx *x, const gs_wire_chunk *c) {
     x->elements = c->elements;
     x->delta = (c->flags & GS_WIRE_CHUNK_DELTA) != 0;
     x->baseline = c->baseline;
+    x->row = 0; /* a spatial delta's caller says its row after the move */
 }
 
 /* The chunk's header (head, hn bytes; its payload of vs bytes already
@@ -13051,6 +13087,7 @@ GS__PRIVATE gs_result gs__wire_add_delta_in(unsigned char *buf, size_t cap, size
     size_t vs, room, hn;
     uint32_t dist;
     gs_result r;
+    int row, said, next;
     if (c->elements == 0 || c->elements > GS_WIRE_QUANT_CHUNK) return GS_ERR_INVALID_ARG;
     dist = c->sequence - c->baseline;
     if (c->encoding != GS_ENCODING_QUANT ||
@@ -13062,9 +13099,13 @@ GS__PRIVATE gs_result gs__wire_add_delta_in(unsigned char *buf, size_t cap, size
     hn = gs__chunk_head(head, x, c);
     r = gs__wire_room(buf, cap, size, hn, &room);
     if (r != GS_OK) return r;
-    vs = gs__delta_put(buf + *size + hn, room, c, diff, st, gs__chunk_same_base(x, c));
+    next = gs__chunk_is_next(x, c);
+    vs = gs__delta_put(buf + *size + hn, room, c, diff, st, gs__chunk_same_base(x, c),
+                       next ? x->row : 0, &row, &said);
     if (!vs) return GS_ERR_CAPACITY;
+    if (!said) head[0] = (unsigned char)(head[0] | GS__KIND_SAME_ROW);
     gs__wire_put_head(buf, size, x, c, head, hn, vs);
+    x->row = row;
     return GS_OK;
 }
 
@@ -13229,7 +13270,10 @@ GS__PRIVATE int gs__chunk_head_get(const unsigned char *buf, size_t end, size_t 
     c->encoding = (gs_encoding)(b >> 3 & 3u);
     c->flags = k == GS__KIND_DELTA ? GS_WIRE_CHUNK_DELTA : k == GS__KIND_REST ? GS_WIRE_CHUNK_REST
                : k == GS__KIND_ACK ? GS_WIRE_CHUNK_ACK : 0u;
-    if ((b & ~GS__KIND_BITS) || c->encoding == 0) return 0;
+    if (c->encoding == 0) return 0;
+    /* bit 7 only in the next chunk after a spatial delta, a delta */
+    if ((b & GS__KIND_SAME_ROW) && (!(b & GS__KIND_NEXT) || k != GS__KIND_DELTA || !x->row))
+        return 0;
     if (k == GS__KIND_ACK) {
         if (b & (GS__KIND_TIME | GS__KIND_SPLIT | GS__KIND_NEXT) ||
             c->encoding != GS_ENCODING_QUANT ||
@@ -13304,7 +13348,7 @@ GS__PRIVATE int gs__wire_chunk(const unsigned char *buf, size_t end, size_t *off
     c->segment_count = 0;
     c->baseline = 0;
     c->delta_coding = c->delta_width = 0;
-    c->delta_skip = 0;
+    c->delta_skip = c->delta_data = 0;
     if (*off >= end) { *why = GS_REJECT_SHORT; return 0; }
     if (!gs__chunk_head_get(buf, end, off, x, c, &b)) {
         /* cut short where the bytes ran out, else inconsistent */
@@ -13324,8 +13368,10 @@ GS__PRIVATE int gs__wire_chunk(const unsigned char *buf, size_t end, size_t *off
         if (len > avail) { *why = GS_REJECT_SHORT; return 0; }
     } else {
         len = kind == GS__KIND_DELTA
-                  ? gs__delta_parse(c, c->payload, avail, (b & GS__KIND_NEXT) &&
-                                                              (b & GS__KIND_SAME_BASE))
+                  ? gs__delta_parse(c, c->payload, avail,
+                                    (b & GS__KIND_NEXT) && (b & GS__KIND_SAME_BASE),
+                                    (b & GS__KIND_SAME_ROW) != 0,
+                                    (b & GS__KIND_NEXT) ? x->row : 0)
               : kind == GS__KIND_ACK ? gs__ack_parse(c, c->payload, avail)
                                      : gs__quant_parse(c, c->payload, avail);
         if (!len) { *why = GS_REJECT_LAYOUT; return 0; }
@@ -13339,6 +13385,7 @@ GS__PRIVATE int gs__wire_chunk(const unsigned char *buf, size_t end, size_t *off
     if (!gs__wire_values_finite(c)) { *why = GS_REJECT_NOT_FINITE; return 0; }
     *off += len;
     if (kind != GS__KIND_ACK) gs__wire_ctx_move(x, c);
+    if (kind == GS__KIND_DELTA && c->delta_coding == 3) x->row = c->delta_row;
     return 1;
 }
 

@@ -370,6 +370,87 @@ static void test_next_same_base_refused(void **state) {
     assert_int_equal(wire_decode_copy(buf, n, &v), GS_REJECT_LAYOUT);
 }
 
+/* Kind bit 7: the next chunks of a spatial delta (coding 3) of the same
+   row and restart 0 leave their row and restart bytes out (2 bytes each
+   fewer) and decode bit for bit with the row; the bit where it cannot
+   hold and the long form (row and restart said again) are refused. */
+static void test_next_same_row(void **state) {
+    static gs_wire_view v;
+    unsigned char good[GS_WIRE_MAX_DATAGRAM + 16], buf[GS_WIRE_MAX_DATAGRAM + 16];
+    gs_wire_header h = header();
+    int64_t d[3][60], got[GS_WIRE_QUANT_CHUNK];
+    size_t size, n, m, at;
+    int i, k;
+    (void)state;
+    assert_int_equal(gs_wire_begin(good, sizeof good, &h, &size), GS_OK);
+    for (i = 0; i < 3; ++i) {
+        gs_wire_chunk c = delta_piece(i, 3, 60 * i, 60, 37);
+        c.delta_row = 5; /* rows of 5 particles: 15 values */
+        /* a plane of slopes 40 and 25 steps per coordinate, a little noise */
+        for (k = 0; k < 60; ++k) {
+            int p = (60 * i + k) / 3;
+            d[i][k] = 900 + 40 * (p % 5) + 25 * (p / 5) + 7 * (k % 3) + (k * 7 % 5);
+        }
+        assert_int_equal(gs_wire_add_delta(good, sizeof good, &size, &c, d[i]), GS_OK);
+    }
+    n = gs_wire_end(good, size);
+    assert_int_equal(wire_decode_copy(good, n, &v), GS_REJECT_COUNT);
+    assert_int_equal(v.chunk_count, 3);
+    for (i = 0; i < 3; ++i) {
+        const gs_wire_chunk *c = &v.chunks[i];
+        assert_int_equal(c->delta_coding, 3);
+        assert_int_equal(c->delta_row, 5);
+        assert_int_equal(c->delta_restart, 0);
+        assert_int_equal((wire_copy[head_at(&v, i)] & 0x80) != 0, i > 0);
+        /* the distance (1 byte) in chunk 0, then the coding byte, then
+           the row and restart unless bit 7 says them */
+        assert_int_equal(c->delta_data, i ? 1 : 4);
+        gs_wire_deltas(c, got);
+        for (k = 0; k < 60; ++k) assert_int_equal(got[k], d[i][k]);
+    }
+    at = head_at(&v, 1);
+    assert_int_equal(good[at], 0x19 | NEXT_BIT | 0x04 | 0x80); /* 1 byte of header */
+    {   /* the long form: bit 7 clear, row 5 and restart 0 said: refused */
+        unsigned char lf[3];
+        memcpy(buf, good, n);
+        buf[at] = (unsigned char)(buf[at] & 0x7f);
+        lf[0] = buf[at + 1];
+        lf[1] = 5;
+        lf[2] = 0;
+        m = reheader(buf, n, at + 1, lf, sizeof lf);
+        assert_int_equal(wire_decode_copy(buf, m, &v), GS_REJECT_LAYOUT);
+        lf[1] = 4; /* another row: taken (chunk 2's bit 7 then says row 4) */
+        memcpy(buf, good, n);
+        buf[at] = (unsigned char)(buf[at] & 0x7f);
+        m = reheader(buf, n, at + 1, lf, sizeof lf);
+        assert_int_equal(wire_decode_copy(buf, m, &v), GS_REJECT_COUNT);
+        assert_int_equal(v.chunks[1].delta_row, 4);
+        assert_int_equal(v.chunks[2].delta_row, 4);
+    }
+    /* bit 7 on the first chunk (no chunk before), and on a next chunk
+       after a chunk that was not spatial: refused */
+    memcpy(buf, good, n);
+    buf[GS_WIRE_HEADER] = (unsigned char)(buf[GS_WIRE_HEADER] | 0x80);
+    recrc(buf, n);
+    assert_int_equal(wire_decode_copy(buf, n, &v), GS_REJECT_LAYOUT);
+    assert_int_equal(gs_wire_begin(buf, sizeof buf, &h, &size), GS_OK);
+    for (i = 0; i < 2; ++i) {
+        gs_wire_chunk c = delta_piece(i, 2, 60 * i, 60, 37);
+        c.delta_row = i ? 5 : 0; /* chunk 0 in coding 2 */
+        assert_int_equal(gs_wire_add_delta(buf, sizeof buf, &size, &c, d[i]), GS_OK);
+    }
+    n = gs_wire_end(buf, size);
+    assert_int_equal(wire_decode_copy(buf, n, &v), GS_REJECT_COUNT);
+    assert_true(v.chunks[0].delta_coding != 3);
+    assert_int_equal(v.chunks[1].delta_coding, 3);
+    at = head_at(&v, 1);
+    assert_int_equal(wire_copy[at] & 0x80, 0); /* said: row and restart */
+    memcpy(good, wire_copy, n);
+    good[at] = (unsigned char)(good[at] | 0x80);
+    recrc(good, n);
+    assert_int_equal(wire_decode_copy(good, n, &v), GS_REJECT_LAYOUT);
+}
+
 /* The pushed 12x12 cloth of delta_pair.h (4 chunks a snapshot) over a
    link losing 15%, duplicating 10% and holding back 20% of datagrams:
    next chunks go, and every value queued is the sender's. */
@@ -432,6 +513,7 @@ int main(void) {
         cmocka_unit_test_teardown(test_next_refused, teardown),
         cmocka_unit_test_teardown(test_next_delta, teardown),
         cmocka_unit_test_teardown(test_next_same_base_refused, teardown),
+        cmocka_unit_test_teardown(test_next_same_row, teardown),
         cmocka_unit_test_teardown(test_next_chain_lossy, teardown),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
