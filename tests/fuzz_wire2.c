@@ -55,15 +55,16 @@ typedef struct harness {
     gs_wire_view view, again;
 } harness;
 
-static uint32_t crc32_bits(const unsigned char *p, size_t n) {
-    uint32_t c = 0xffffffffu;
+/* The next "GSIM" (the magic) in data at or after from, or size: a plain
+   scan, left out of coverage (tests/fuzz_ignore.txt) because a memcmp at
+   every byte went through libFuzzer's memcmp hook and took a tenth of the
+   harness's time, and the splitting tells the fuzzer nothing. */
+static size_t fuzz2_next_magic(const uint8_t *data, size_t size, size_t from) {
     size_t i;
-    int k;
-    for (i = 0; i < n; ++i) {
-        c ^= p[i];
-        for (k = 0; k < 8; ++k) c = (c >> 1) ^ (0xedb88320u & (0u - (c & 1u)));
-    }
-    return c ^ 0xffffffffu;
+    for (i = from; i + 4 <= size; ++i)
+        if (data[i] == 'G' && data[i + 1] == 'S' && data[i + 2] == 'I' && data[i + 3] == 'M')
+            return i;
+    return size;
 }
 static void put32(unsigned char *p, uint32_t v) {
     p[0] = (unsigned char)v; p[1] = (unsigned char)(v >> 8);
@@ -373,11 +374,10 @@ static int fuzz_wire2_one(const uint8_t *data, size_t size) {
     harness *h = harness_get();
     if (size >= 4 && memcmp(data, "GSIM", 4) == 0) {
         size_t start = 0, i;
-        for (i = 4; i + 4 <= size; ++i)
-            if (memcmp(data + i, "GSIM", 4) == 0) {
-                one_datagram(h, data + start, i - start);
-                start = i;
-            }
+        for (i = fuzz2_next_magic(data, size, 4); i < size; i = fuzz2_next_magic(data, size, i + 1)) {
+            one_datagram(h, data + start, i - start);
+            start = i;
+        }
         one_datagram(h, data + start, size - start);
     } else if (size >= 1) {
         unsigned char buf[GS_WIRE_MAX_DATAGRAM];
@@ -386,7 +386,7 @@ static int fuzz_wire2_one(const uint8_t *data, size_t size) {
         memcpy(buf, h->tpl[t], n);
         put32(buf + 16, h->seq++); /* the datagram sequence */
         for (i = 1; i + 3 <= size; i += 3) buf[(data[i] | data[i + 1] << 8) % n] = data[i + 2];
-        if (!(data[0] & 0x80)) put32(buf + n - 4, crc32_bits(buf, n - 4));
+        if (!(data[0] & 0x80)) gs_wire_end(buf, n - 4); /* the checksum again */
         one_datagram(h, buf, n);
     }
     if (++h->inputs % 4096 == 0) {
