@@ -17,7 +17,9 @@
      et_samples s;  et_alloc(&s, frames, points, mesh_n)  ...  et_free(&s)
      gs_vec3 *row = et_push(&s, t)   the next frame's points (NULL: full)
      double d = et_diverge_at(&a, ka, &b)   -1 when b did not sample
-                                            around a's time */
+                                            around a's time
+     double e = et_equal_at(&a, ka, &b)     the same at a time b sampled
+                                            too, -1 else (bitwise checks) */
 #ifndef BENCH_EQUAL_TIME_H
 #define BENCH_EQUAL_TIME_H
 
@@ -70,9 +72,10 @@ BU__UNUSED static double et_dist(gs_vec3 a, gs_vec3 b)
     return sqrt(x * x + y * y + z * z);
 }
 
-/* Host a's frame ka against host b at a's time (see the top). Frames must
-   be kept in time order. */
-BU__UNUSED static double et_diverge_at(const et_samples *a, int ka, const et_samples *b)
+/* Host a's frame ka against host b at a's time (see the top); exact: only
+   where b sampled a's time itself (-1 else). Frames must be kept in time
+   order. */
+BU__UNUSED static double et_diverge_(const et_samples *a, int ka, const et_samples *b, int exact)
 {
     double t = a->t[ka], f, sum = 0.0, worst = 0.0;
     const gs_vec3 *pa = et_row(a, ka), *lo_p, *hi_p;
@@ -83,7 +86,9 @@ BU__UNUSED static double et_diverge_at(const et_samples *a, int ka, const et_sam
         if (b->t[m] <= t) lo = m;
         else hi = m;
     }
+    if (b->t[hi] == t) lo = hi;
     if (b->t[lo] == t) hi = lo;
+    else if (exact) return -1.0;
     f = hi == lo ? 0.0 : (t - b->t[lo]) / (b->t[hi] - b->t[lo]);
     lo_p = et_row(b, lo);
     hi_p = et_row(b, hi);
@@ -99,6 +104,24 @@ BU__UNUSED static double et_diverge_at(const et_samples *a, int ka, const et_sam
     }
     if (a->mesh_n > 0 && sqrt(sum / a->mesh_n) > worst) worst = sqrt(sum / a->mesh_n);
     return worst;
+}
+
+BU__UNUSED static double et_diverge_at(const et_samples *a, int ka, const et_samples *b)
+{
+    return et_diverge_(a, ka, b, 0);
+}
+
+/* As et_diverge_at, but only at a time b sampled too: -1 when b's frames
+   lie either side of a's time. Whether two copies are bitwise equal is
+   told only there: b's samples interpolated across the step it ended
+   short of a's time (a host whose target fell just below a step boundary
+   at a frame's end) differ from a's by what the scene moves in the
+   interpolation's error even when the copies are equal bit for bit at
+   every time both reach (4 hosts at rest on the harsh link: 8.9e-7 m,
+   docs/sync-notes.md, 2026-12-05). */
+BU__UNUSED static double et_equal_at(const et_samples *a, int ka, const et_samples *b)
+{
+    return et_diverge_(a, ka, b, 1);
 }
 
 #endif

@@ -18,7 +18,10 @@
      distance (spheres), the largest over hosts 2..n. While pushing: the
      samples of the push; after: whether the copies are bitwise equal
      (divergence exactly 0 at equal time: compared at a time both hosts
-     sampled) from 1 s after the stop to the end, and the last figure;
+     sampled: bench/equal_time.h's et_equal_at, not interpolated; a
+     host whose target fell just short of a step boundary at a frame's
+     end is a step behind there and is not compared at that frame) from
+     1 s after the stop to the end, and the last figure;
    - the simulation-time gap at equal wall time: |target_k - target_1| at
      the end of every frame (gs_world_time), p95 over the run from the push;
    - replay CPU: the agent steps that replays re-ran
@@ -34,8 +37,12 @@
      the load-independent part: the busiest host's re-run steps over its
      first-run steps while the probe pushes;
    - convergence after the stop: the time from the stop after which every
-     compared sample is bitwise equal (`conv 0`), or within 1 mm
-     (`conv 1mm`), to the end of the run; "never" when the last one is not;
+     compared sample is bitwise equal (`conv 0`, at the times both hosts
+     sampled, as above; the JSON also has the interpolated figure, which
+     an equal pair one step apart at a frame's end leaves at the scene's
+     interpolation error, ~1e-6 m at rest), or within 1 mm (`conv 1mm`,
+     interpolated), to the end of the run; "never" when the last one is
+     not;
    - the outage (`--outage`, WAN link, 2 hosts): host 1's probe pushes from
      the start, the links are cut OUT_AT..OUT_AT+OUT_LEN s, host 2's probe
      pushes during the cut too, both park when it ends; pace during the
@@ -101,6 +108,11 @@ typedef struct result {
     double conv0, conv1mm;        /* s from the stop (or the reconnection)
                                      to bitwise equal / within 1 mm for
                                      good; -1: not by the end */
+    double conv0_interp;          /* conv0 with host k interpolated to
+                                     host 1's time at every frame */
+    double exact_share;           /* of the host pairs and frames from 1 s
+                                     after the stop: those compared at a
+                                     time both sampled */
     int outage;                   /* the outage scenario */
     double out_pace;              /* the least of a host's simulation time
                                      advanced during the cut over its s */
@@ -170,7 +182,7 @@ static int replay_every; /* gs_sync_desc.replay_every; 0: the default */
 /* outage: the outage scenario (see the top), push is then the cut's end */
 static int run(const profile *pr, int mode, int nhosts, double push, double after, int outage,
                result *r) {
-    static double push_div[MAX_FRAMES], gaps[MAX_FRAMES], divs[MAX_FRAMES];
+    static double push_div[MAX_FRAMES], gaps[MAX_FRAMES], divs[MAX_FRAMES], eqs[MAX_FRAMES];
     gs_simnet *sim = NULL;
     gs_simnet_desc simd;
     host h[MAX_HOSTS];
@@ -178,7 +190,7 @@ static int run(const profile *pr, int mode, int nhosts, double push, double afte
     double cpu = 0.0, out_cpu = 0.0, out_t0[MAX_HOSTS];
     uint64_t steps = 0, rsteps = 0, push_steps[MAX_HOSTS], push_rsteps[MAX_HOSTS];
     uint64_t loop_steps = 0, loop_rsteps = 0, worst_rsteps = 0;
-    int out_frames = 0;
+    int out_frames = 0, pairs = 0, exact = 0;
     memset(r, 0, sizeof *r);
     memset(h, 0, sizeof h);
     memset(&simd, 0, sizeof simd);
@@ -264,25 +276,30 @@ static int run(const profile *pr, int mode, int nhosts, double push, double afte
         }
     }
     for (i = 0; i < frames; ++i) {
-        double now = (i + 1) * FRAME, d = 0.0;
+        double now = (i + 1) * FRAME, d = 0.0, e = -1.0;
         int any = 0;
         for (k = 1; k < nhosts; ++k) {
-            double dk = et_diverge_at(&h[0].s, i, &h[k].s);
+            double dk = et_diverge_at(&h[0].s, i, &h[k].s), ek = et_equal_at(&h[0].s, i, &h[k].s);
             if (dk >= 0.0) { any = 1; if (dk > d) d = dk; }
+            if (ek >= 0.0 && ek > e) e = ek;
+            if (now >= push + 1.0) pairs++, exact += ek >= 0.0;
         }
         divs[i] = any ? d : -1.0;
+        eqs[i] = e;
         if (!any) continue;
         if (now <= push && !(outage && now > OUT_AT)) push_div[np++] = d;
         if (now >= push + 1.0 && d > r->after_max) r->after_max = d;
-        if (now >= push + 1.0 && d != 0.0) r->bitwise_after_1s = 0;
+        if (now >= push + 1.0 && e > 0.0) r->bitwise_after_1s = 0;
         r->after_end = d;
     }
+    r->exact_share = pairs ? (double)exact / pairs : 0.0;
     r->push_med = bu_quantile(push_div, np, 0.5);
     r->push_p95 = bu_quantile(push_div, np, 0.95);
     r->push_max = bu_quantile(push_div, np, 1.0);
     r->gap_p95 = bu_quantile(gaps, ng, 0.95);
     r->gap_max = bu_quantile(gaps, ng, 1.0);
-    r->conv0 = converged(divs, frames, push, 0.0);
+    r->conv0 = converged(eqs, frames, push, 0.0);
+    r->conv0_interp = converged(divs, frames, push, 0.0);
     r->conv1mm = converged(divs, frames, push, 1e-3);
     for (k = 0; k < nhosts; ++k) {
         gs_sync_stats st;
@@ -434,7 +451,8 @@ int main(int argc, char **argv) {
                 "(host k's samples interpolated to host 1's cloth time), p95 over the push; gap: "
                 "|target_k - target_1| at equal wall time; replay CPU = re-run steps per frame x CPU per "
                 "agent step (first runs and re-runs) / (1/60 s); convergence: s from the stop to bitwise "
-                "equal (or within 1 mm) for good; outage: links cut 5 s, both probes pushing");
+                "equal (at the times both hosts sampled; also interpolated) or within 1 mm "
+                "(interpolated) for good; outage: links cut 5 s, both probes pushing");
     bu_json_arr_begin(j, "results");
     for (i = 0; i < nr; ++i) {
         result *r = &res[i];
@@ -460,6 +478,8 @@ int main(int argc, char **argv) {
         bu_json_int(j, "fallbacks", (long long)r->fallbacks);
         bu_json_num(j, "converged_bitwise_s", r->conv0 >= 0.0 ? r->conv0 : NAN);
         bu_json_num(j, "converged_1mm_s", r->conv1mm >= 0.0 ? r->conv1mm : NAN);
+        bu_json_num(j, "converged_bitwise_interpolated_s", r->conv0_interp >= 0.0 ? r->conv0_interp : NAN);
+        bu_json_num(j, "bitwise_compared_share", r->exact_share);
         bu_json_bool(j, "outage", r->outage);
         if (r->outage) {
             bu_json_num(j, "outage_s", OUT_LEN);
