@@ -1,0 +1,104 @@
+/* pile_profile.c - bench/physics's sphere pile (the same box, lattice,
+   jitter, materials and dt), stepped a fixed number of steps after a
+   settle, for counting under callgrind: instructions per sphere-step do not
+   depend on the machine's load, and they say which function grows with n.
+
+     gcc -std=c99 -D_POSIX_C_SOURCE=200809L -O2 -DNDEBUG -g -I. \
+       bench/tools/pile_profile.c -o build/pile_profile $(pkg-config --cflags --libs ccd) -lm
+     valgrind --tool=callgrind --instr-atstart=no --callgrind-out-file=cg.N \
+       build/pile_profile N SETTLE STEPS
+     callgrind_annotate --inclusive=yes cg.N
+
+   Only the STEPS steps after SETTLE steps (1 ms each) are instrumented. It
+   prints the substeps per sphere-step over the instrumented steps. Not in bench/ itself: make bench does not
+   run it (its figures are instruction counts, taken by hand). */
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <valgrind/callgrind.h>
+
+#define GHOSTSIM_IMPLEMENTATION
+#include "ghostsim.h"
+
+#define R 0.05
+#define SPACING 0.12
+#define DT 0.001
+
+static void die(gs_world *w) {
+    fprintf(stderr, "pile_profile: %s\n", gs_world_error(w));
+    exit(1);
+}
+
+int main(int argc, char **argv) {
+    int n = argc > 1 ? atoi(argv[1]) : 1000;
+    int settle = argc > 2 ? atoi(argv[2]) : 1000;
+    int steps = argc > 3 ? atoi(argv[3]) : 20;
+    int side = (int)ceil(cbrt((double)n) - 1e-9), k, s;
+    double half = 0.5 * (side - 1) * SPACING + R + 0.03, height = side * SPACING + 0.4;
+    double sub0 = 0.0, sub1 = 0.0, y = 0.0;
+    uint32_t rng = 12345;
+    gs_world_desc wd = gs_world_desc_default();
+    gs_material m;
+    gs_world *w = NULL;
+    gs_agent **balls = (gs_agent **)malloc((size_t)n * sizeof *balls);
+    m.stiffness = 1e5;
+    m.damping = 100.0;
+    m.friction = 0.5;
+    if (!balls || gs_world_create(&wd, &w) != GS_OK) return 1;
+    gs_world_set_ground(w, 1, 0.0, m);
+    for (s = 0; s < 4; ++s) { /* the box: four kinematic walls */
+        gs_probe_desc pd = gs_probe_desc_default();
+        gs_agent *wall;
+        double off = half + 0.05;
+        pd.shape.type = GS_SHAPE_BOX;
+        pd.shape.half_extents.x = s < 2 ? 0.05 : off + 0.05;
+        pd.shape.half_extents.y = 0.5 * height;
+        pd.shape.half_extents.z = s < 2 ? off + 0.05 : 0.05;
+        pd.position.x = s == 0 ? -off : s == 1 ? off : 0.0;
+        pd.position.y = 0.5 * height;
+        pd.position.z = s == 2 ? -off : s == 3 ? off : 0.0;
+        pd.material = m;
+        pd.dt = DT;
+        if (gs_probe_create(w, &pd, &wall) != GS_OK) die(w);
+    }
+    for (k = 0; k < n; ++k) {
+        gs_rigid_desc rd = gs_rigid_desc_default();
+        int i = k % side, j = (k / side) % side, l = k / (side * side);
+        double jx, jz;
+        rng = rng * 1664525u + 1013904223u;
+        jx = ((rng >> 8) / 16777216.0 - 0.5) * 0.01;
+        rng = rng * 1664525u + 1013904223u;
+        jz = ((rng >> 8) / 16777216.0 - 0.5) * 0.01;
+        rd.shape.type = GS_SHAPE_SPHERE;
+        rd.shape.radius = R;
+        rd.density = 1000.0;
+        rd.position.x = (i - 0.5 * (side - 1)) * SPACING + jx;
+        rd.position.z = (j - 0.5 * (side - 1)) * SPACING + jz;
+        rd.position.y = R + 0.05 + l * SPACING;
+        rd.material = m;
+        rd.solver.dt = DT;
+        if (gs_rigid_create(w, &rd, &balls[k]) != GS_OK) die(w);
+    }
+    for (s = 0; s < settle; ++s)
+        if (gs_world_advance(w, DT, NULL) != GS_OK) die(w);
+    for (k = 0; k < n; ++k) {
+        gs_agent_stats st = {0, 0, 0, 0, 0, 0, 0, 0};
+        gs_agent_get_stats(balls[k], &st);
+        sub0 += (double)st.substeps;
+    }
+    CALLGRIND_START_INSTRUMENTATION;
+    for (s = 0; s < steps; ++s)
+        if (gs_world_advance(w, DT, NULL) != GS_OK) die(w);
+    CALLGRIND_STOP_INSTRUMENTATION;
+    for (k = 0; k < n; ++k) {
+        gs_agent_stats st = {0, 0, 0, 0, 0, 0, 0, 0};
+        gs_agent_get_stats(balls[k], &st);
+        sub1 += (double)st.substeps;
+        y += gs_rigid_position(balls[k]).y;
+    }
+    printf("n %d settle %d steps %d: %.3f substeps per sphere-step, mean height %.4f m\n", n,
+           settle, steps, (sub1 - sub0) / ((double)n * steps), y / n);
+    gs_world_destroy(w);
+    free(balls);
+    return 0;
+}
