@@ -1375,7 +1375,10 @@ typedef struct gs_ghost_desc {
     double position_resolution; /* m; step of positions (and of any value
                               of a custom agent's state); default 5e-5 */
     double velocity_resolution; /* m/s (rad/s for angular velocities);
-                              default 1e-3 */
+                              default 3e-3: a velocity is off by at most
+                              1.5 mm/s, which over one send period at the
+                              default 60 Hz moves a point 0.025 mm, half
+                              the default position step */
     int orientation_bits;  /* bits per smallest-three component, 8..24;
                               default 16 */
     /* Send on change, in every encoding: */
@@ -1679,7 +1682,11 @@ GS_API gs_result gs_world_sync_test(gs_world *w, int frames, int *bad_agent);
        doubles the step until it fits (then the error is half of that). A
        quaternion of a rotation is sent normalized, each of its three
        components off by at most sqrt(2) / (2 (2^bits - 1)) (1.1e-5 at 16
-       bits), its rotation by about twice that in radians.
+       bits), its rotation by about twice that in radians. At
+       gs_ghost_desc's defaults a position is off by at most 0.025 mm
+       and a velocity by 1.5 mm/s (rad/s): over one 60 Hz send period
+       that velocity error moves a point 0.025 mm, no more than the
+       position's own.
      The chunk kinds are the chunk flags of gs_wire_chunk:
      Kind 2 (GS_WIRE_CHUNK_REST): a heartbeat: no values
        (element count 0, payload 0 bytes, chunk index 0); the object is at
@@ -9424,7 +9431,7 @@ GS_API gs_ghost_desc gs_ghost_desc_default(void) {
     d.catchup = GS_CATCHUP_NONE;
     d.catchup_max = 0.05;
     d.position_resolution = 5e-5;
-    d.velocity_resolution = 1e-3;
+    d.velocity_resolution = 3e-3;
     d.orientation_bits = 16;
     d.heartbeat_rate = 4.0;
     d.importance = 1.0;

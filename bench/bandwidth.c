@@ -18,7 +18,7 @@
      spheres900   900 spheres in a 30 x 30 grid, no gravity, no contacts
                   (1 m apart), 90 of them (one in ten) drifting at 0.2 m/s,
                   the rest at rest
-   Encodings: f64, f32, quant (0.05 mm, 1 mm/s, 16-bit smallest three),
+   Encodings: f64, f32, quant (0.05 mm, 3 mm/s, 16-bit smallest three),
    quant+rest (send on change: rest threshold 0.1 mm, heartbeats at 4 Hz),
    quant+delta (gs_ghost_desc.delta: each chunk as its differences from
    the newest snapshot the peer acknowledged), delta+rest (both),

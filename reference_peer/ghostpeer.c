@@ -10,7 +10,8 @@
                [--frame-lock on|off]
 
    --encoding quant sends positions at --resolution metres (default 5e-5),
-   velocities at 1 mm/s and orientations as smallest three (wire v2);
+   velocities at the library's default step (3 mm/s) and orientations as
+   smallest three (wire v2);
    --encoding quant-delta the same, each snapshot coded as its differences
    from the newest one the peers acknowledged (gs_ghost_desc.delta);
    --rest-threshold M (default 0: off) sends a ghost that moved less than M

@@ -36,7 +36,7 @@ static gs_result keep_send(void *user, uint32_t to, const void *data, size_t siz
 }
 
 /* Host id with one sphere (object 7, owned by host 1, its state taken
-   whole by host 2) at 0.2 m/s along x without gravity; quantized, send on
+   whole by host 2) at 0.21 m/s along x without gravity; quantized, send on
    change at THRESHOLD, against the prediction if predict. The follower's
    own copy starts still: only what it is sent moves it. */
 static host *host_new(uint32_t id, int predict) {
@@ -52,7 +52,7 @@ static host *host_new(uint32_t id, int predict) {
     rd.shape.type = GS_SHAPE_SPHERE;
     rd.shape.radius = 0.1;
     rd.position = v3(0.0, 1.0, 0.0);
-    if (id == 1) rd.velocity = v3(0.2, 0.0, 0.0);
+    if (id == 1) rd.velocity = v3(0.21, 0.0, 0.0);
     rd.solver.dt = 0.01;
     assert_int_equal(gs_rigid_create(h->w, &rd, &h->ball), GS_OK);
     gd.object_id = 7;
@@ -114,7 +114,7 @@ static uint64_t snapshots(const host *s) {
     return ps.snapshots_sent;
 }
 
-/* Moving at a steady 0.2 m/s (on the 1 mm/s velocity grid, so the
+/* Moving at a steady 0.21 m/s (on the default 3 mm/s velocity grid, so the
    prediction from the quantized state is the motion itself): the first
    snapshot and its two repeats, then heartbeats only, and the follower
    within the threshold all along. Then a change of course is sent at
@@ -130,7 +130,7 @@ static void test_steady_motion_sends_heartbeats(void **state) {
     n = snapshots(s);
     assert_int_equal(gs_net_peer_stats(s->net, 2, &ps), GS_OK);
     assert_int_equal(gs_net_peer_stats(r->net, 1, &pr), GS_OK);
-    print_message("2 s at 0.2 m/s: %llu snapshots, %llu heartbeats, follower within %.3g m\n",
+    print_message("2 s at 0.21 m/s: %llu snapshots, %llu heartbeats, follower within %.3g m\n",
                   (unsigned long long)n, (unsigned long long)ps.heartbeats_sent, worst);
     assert_int_equal(n, 3); /* the first, then two repeats */
     assert_in_range(ps.heartbeats_sent, 5, 7); /* 4 Hz over 2 s, less the repeats */
@@ -142,7 +142,7 @@ static void test_steady_motion_sends_heartbeats(void **state) {
        nothing beyond rounding. */
     assert_true(worst <= THRESHOLD + 2.5e-5);
     /* the follower knocked off: the next heartbeat puts it back where the
-       sender's prediction is now, not where the last snapshot was (0.4 m
+       sender's prediction is now, not where the last snapshot was (0.42 m
        behind by now) */
     assert_int_equal(gs_agent_get_state(r->ball, st, 14), GS_OK);
     st[3] += 0.5;
@@ -177,7 +177,7 @@ static void test_default_sends_every_change(void **state) {
     (void)state;
     assert_int_equal(d.rest_extrapolate, 0);
     run(s, r, &now, 120, 6);
-    print_message("2 s at 0.2 m/s without the prediction: %llu snapshots\n",
+    print_message("2 s at 0.21 m/s without the prediction: %llu snapshots\n",
                   (unsigned long long)snapshots(s));
     assert_true(snapshots(s) >= 95);
     host_free(s);

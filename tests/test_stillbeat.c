@@ -120,7 +120,7 @@ static void test_still_beats(void **state) {
     for (k = 0; k < 2; ++k) {
         gs_vec3 v = gs_rigid_velocity(pr->ball[k][0]);
         /* a copy keeps drifting (a held copy would stop) */
-        assert_true(fabs(v.z - 0.2) < 1e-3); /* 1 mm/s: the velocity step */
+        assert_true(fabs(v.z - 0.2) <= 1.5e-3 + 1e-12); /* half the 3 mm/s velocity step */
     }
     pair_close(pr);
 }

@@ -145,6 +145,25 @@ static void test_quant_scalar_edges(void **state) {
     check_scalars(v, 240, res, res);
 }
 
+/* The defaults' bounds as >>wire states them: a position within 0.025 mm,
+   a velocity within 1.5 mm/s, and that velocity error over one send
+   period no more than the position's own (the reason for its step). */
+static void test_quant_default_steps(void **state) {
+    const gs_ghost_desc gd = gs_ghost_desc_default();
+    double v[240];
+    int i;
+    (void)state;
+    assert_true(0.5 * gd.position_resolution <= 2.5e-5);
+    assert_true(0.5 * gd.velocity_resolution <= 1.5e-3);
+    assert_true(0.5 * gd.velocity_resolution / gd.send_rate <=
+                0.5 * gd.position_resolution * (1.0 + 1e-12));
+    /* a cloth's velocities (a push: up to 3 m/s), then its positions */
+    for (i = 0; i < 240; ++i) v[i] = 6.0 * rnd() - 3.0;
+    check_scalars(v, 240, gd.velocity_resolution, gd.velocity_resolution);
+    for (i = 0; i < 240; ++i) v[i] = 2.0 * rnd() - 1.0;
+    check_scalars(v, 240, gd.position_resolution, gd.position_resolution);
+}
+
 static void test_quant_quaternion_edges(void **state) {
     static const int bits_list[3] = {8, 16, 24};
     unsigned char buf[GS_WIRE_MAX_DATAGRAM];
@@ -668,7 +687,7 @@ static void test_ghost_desc_quant(void **state) {
     gs_ghost_desc gd = gs_ghost_desc_default();
     (void)state;
     assert_true(gd.position_resolution == 5e-5);
-    assert_true(gd.velocity_resolution == 1e-3);
+    assert_true(gd.velocity_resolution == 3e-3);
     assert_int_equal(gd.orientation_bits, 16);
     assert_true(gd.heartbeat_rate == 4.0);
     assert_true(gd.rest_threshold == 0.0);
@@ -697,6 +716,7 @@ static void test_ghost_desc_quant(void **state) {
 int main(int argc, char **argv) {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_quant_scalar_edges),
+        cmocka_unit_test(test_quant_default_steps),
         cmocka_unit_test(test_quant_quaternion_edges),
         cmocka_unit_test(test_quant_idempotent),
         cmocka_unit_test(test_quant_rejects),
