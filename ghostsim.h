@@ -7709,7 +7709,10 @@ GS__PRIVATE int64_t gs__grid_coord(const gs_world *w, double x) {
 }
 
 GS__PRIVATE size_t gs__grid_bucket(const gs_world *w, const int64_t c[3]) {
-    uint64_t h = (uint64_t)c[0] * 73856093u ^ (uint64_t)c[1] * 19349663u ^ (uint64_t)c[2] * 83492791u;
+    /* cells next to each other on x in buckets next to each other: a
+       query's row of cells reads one or two lines of the table, not one
+       each */
+    uint64_t h = ((uint64_t)c[1] * 19349663u ^ (uint64_t)c[2] * 83492791u) + (uint64_t)c[0];
     /* bodies_cap is a power of two (16, doubled): a mask, not a division,
        for each of the 27 cells of a query */
     return (size_t)(h & (2 * (uint64_t)w->bodies_cap - 1));
@@ -8051,19 +8054,23 @@ GS__PRIVATE int gs__sap_query_near(gs_world *w, const gs__rigid *r, double lag) 
     {   /* gs__sap_meets3 with what is the same for every body found once
            (the same operations: the same answer, bit for bit) */
         double eps = 1e-12 * (fabs(lo) + fabs(hi)), hi_e = hi + eps, lo_e = lo - eps;
-        double own_e = own * (1.0 + 1e-9);
-        for (c[0] = a[0]; c[0] <= b[0]; ++c[0])
+        double own_e = own * (1.0 + 1e-9), ry = r->x.y, rz = r->x.z;
+        const gs__grec *grec = w->grec;
+        const int *grid = w->grid, *gnext = w->gnext;
+        gs__rigid **bodies = w->bodies, **cand = w->cand;
+        /* x innermost: a row of cells has its buckets side by side */
+        for (c[2] = a[2]; c[2] <= b[2]; ++c[2])
             for (c[1] = a[1]; c[1] <= b[1]; ++c[1])
-                for (c[2] = a[2]; c[2] <= b[2]; ++c[2]) {
-                    for (i = w->grid[gs__grid_bucket(w, c)]; i >= 0; i = w->gnext[i]) {
-                        const gs__grec *o = &w->grec[i];
+                for (c[0] = a[0]; c[0] <= b[0]; ++c[0]) {
+                    for (i = grid[gs__grid_bucket(w, c)]; i >= 0; i = gnext[i]) {
+                        const gs__grec *o = &grec[i];
                         double reach, both;
                         if (o->cell[0] != c[0] || o->cell[1] != c[1] || o->cell[2] != c[2]) continue;
                         reach = gs__reach_of(o->bound, o->speed, lag);
                         both = reach + own_e;
                         if (o->x - reach <= hi_e && o->x + reach >= lo_e &&
-                            fabs(r->x.y - o->y) <= both && fabs(r->x.z - o->z) <= both)
-                            w->cand[n++] = w->bodies[i];
+                            fabs(ry - o->y) <= both && fabs(rz - o->z) <= both)
+                            cand[n++] = bodies[i];
                     }
                 }
     }
