@@ -7019,40 +7019,23 @@ typedef struct gs__lead {
 
 typedef struct gs__rigid {
     gs_agent base;
-    int probe;                 /* kinematic: moved by the application */
-    double mass, inv_mass;     /* kg, 1/kg (0 for a probe) */
-    gs__sym3 inertia_body, inv_inertia_body;
-    gs_vec3 x, v, w;           /* m, m/s, rad/s (world) */
-    /* While another body steps, what its contacts have done to this one so
-       far (see gs__rigid_vs_rigid): the change of velocity (m/s), of
-       position (m) and of angular velocity (rad/s), and the force (N) and
-       torque (N m) of the current substep. Zero between steps. */
-    gs_vec3 sh_dv, sh_dx, sh_dw, sh_f, sh_t;
-    int touched;               /* in world->touched */
+    /* What only its own step reads (or nothing in a step) first; what
+       other bodies' contacts read of it after, together and next to the
+       shape's head: a neighbour costs a few cache lines of its struct,
+       not one per field. */
+    double mass;               /* kg */
+    gs__sym3 inertia_body;
     gs_vec3 late;              /* N s; the forces of this substep that act
                                   from later in it, times how much later
                                   (the part of a pair after the other
                                   body's time) */
     int probe_touch;           /* in this step a probe that moves touched
                                   it: it does not rest (see gs__rigid_rest) */
-    gs_vec3 a_own;             /* m/s^2; the change of v over its last step,
-                                  of its own forces and gravity (pushes
-                                  land between its steps) */
-    int sap;                   /* index in world->bodies */
-    int near;                  /* index in world->near */
-    int wide;                  /* index in world->wide, -1 if not wide */
-    double speed;              /* m/s, |v| + |a_own| dt when the broad phase saw it
-                                  (0 for a probe) */
     double near_key;           /* m; x - bound, the sort key of near */
-    int in_grid;               /* in world->grid (its cell: world->grec) */
     double sweep;              /* m; bound + the travel of world->wide_lag
                                   (what makes it wide) */
-    gs_quat q;
     gs_vec3 force, torque;     /* contact sums for the current substep */
     double k_sum, c_sum;       /* N/m, N s/m of the contacts touching it */
-    double reach2;             /* 1/kg: 1/m + bound^2 / smallest inertia,
-                                  how hard a contact at the surface moves it */
-    gs_material mat;
     gs_solver_desc solver;
     int continuous;
     double stable_dt;          /* s; contact spring-damper bound */
@@ -7064,6 +7047,29 @@ typedef struct gs__rigid {
     double max_speed;          /* probe, m/s */
     gs__lead lead;             /* a peer's probe, replay mode */
     uint32_t owner;
+    int probe;                 /* kinematic: moved by the application */
+    double inv_mass;           /* 1/kg (0 for a probe) */
+    gs_vec3 x, v, w;           /* m, m/s, rad/s (world) */
+    gs_quat q;
+    gs_vec3 a_own;             /* m/s^2; the change of v over its last step,
+                                  of its own forces and gravity (pushes
+                                  land between its steps) */
+    /* While another body steps, what its contacts have done to this one so
+       far (see gs__rigid_vs_rigid): the change of velocity (m/s), of
+       position (m) and of angular velocity (rad/s), and the force (N) and
+       torque (N m) of the current substep. Zero between steps. */
+    gs_vec3 sh_dv, sh_dx, sh_dw, sh_f, sh_t;
+    int touched;               /* in world->touched */
+    int sap;                   /* index in world->bodies */
+    int near;                  /* index in world->near */
+    int wide;                  /* index in world->wide, -1 if not wide */
+    int in_grid;               /* in world->grid (its cell: world->grec) */
+    double speed;              /* m/s, |v| + |a_own| dt when the broad phase saw it
+                                  (0 for a probe) */
+    double reach2;             /* 1/kg: 1/m + bound^2 / smallest inertia,
+                                  how hard a contact at the surface moves it */
+    gs_material mat;
+    gs__sym3 inv_inertia_body;
     gs__shape shape;           /* last: see its vertex arrays */
 } gs__rigid;
 
