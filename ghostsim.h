@@ -2897,8 +2897,14 @@ struct gs_world {
                                    push, whose push lands when its step
                                    ends (bodies_cap) */
     int ntouched;
-    struct gs__rigid **grid;   /* a uniform grid of the bodies not wide:
-                                  2 * bodies_cap hashed cells */
+    /* A uniform grid of the bodies not wide: 2 * bodies_cap hashed cells,
+       each the sap index of its first body (-1: none), chained through
+       gnext and gprev (bodies_cap each). A query walks the bodies' compact
+       records (grec, in the order of bodies), not the bodies: a body's
+       fields are spread over several cache lines of a struct of 0.9 kB or
+       more, a record is one line. */
+    int *grid, *gnext, *gprev;
+    struct gs__grec *grec;
     double cell;         /* m; its cell size, 0 when unused */
     double wide_at;      /* m; a sweep over this makes a body wide */
     double wide_lag;     /* s; the travel time a sweep counts: the lag the
@@ -7038,42 +7044,23 @@ typedef struct gs__lead {
 
 typedef struct gs__rigid {
     gs_agent base;
-    int probe;                 /* kinematic: moved by the application */
-    double mass, inv_mass;     /* kg, 1/kg (0 for a probe) */
-    gs__sym3 inertia_body, inv_inertia_body;
-    gs_vec3 x, v, w;           /* m, m/s, rad/s (world) */
-    /* While another body steps, what its contacts have done to this one so
-       far (see gs__rigid_vs_rigid): the change of velocity (m/s), of
-       position (m) and of angular velocity (rad/s), and the force (N) and
-       torque (N m) of the current substep. Zero between steps. */
-    gs_vec3 sh_dv, sh_dx, sh_dw, sh_f, sh_t;
-    int touched;               /* in world->touched */
+    /* What only its own step reads (or nothing in a step) first; what
+       other bodies' contacts read of it after, together and next to the
+       shape's head: a neighbour costs a few cache lines of its struct,
+       not one per field. */
+    double mass;               /* kg */
+    gs__sym3 inertia_body;
     gs_vec3 late;              /* N s; the forces of this substep that act
                                   from later in it, times how much later
                                   (the part of a pair after the other
                                   body's time) */
     int probe_touch;           /* in this step a probe that moves touched
                                   it: it does not rest (see gs__rigid_rest) */
-    gs_vec3 a_own;             /* m/s^2; the change of v over its last step,
-                                  of its own forces and gravity (pushes
-                                  land between its steps) */
-    int sap;                   /* index in world->bodies */
-    int near;                  /* index in world->near */
-    int wide;                  /* index in world->wide, -1 if not wide */
-    double speed;              /* m/s, |v| + |a_own| dt when the broad phase saw it
-                                  (0 for a probe) */
     double near_key;           /* m; x - bound, the sort key of near */
-    int64_t cell[3];           /* its cell in world->grid, if in_grid */
-    int in_grid;
-    struct gs__rigid *gnext, *gprev; /* in its grid bucket */
     double sweep;              /* m; bound + the travel of world->wide_lag
                                   (what makes it wide) */
-    gs_quat q;
     gs_vec3 force, torque;     /* contact sums for the current substep */
     double k_sum, c_sum;       /* N/m, N s/m of the contacts touching it */
-    double reach2;             /* 1/kg: 1/m + bound^2 / smallest inertia,
-                                  how hard a contact at the surface moves it */
-    gs_material mat;
     gs_solver_desc solver;
     int continuous;
     double stable_dt;          /* s; contact spring-damper bound */
@@ -7088,6 +7075,29 @@ typedef struct gs__rigid {
     double t_set;              /* probe, s: its time at that last move */
     gs__lead lead;             /* a peer's probe, replay mode */
     uint32_t owner;
+    int probe;                 /* kinematic: moved by the application */
+    double inv_mass;           /* 1/kg (0 for a probe) */
+    gs_vec3 x, v, w;           /* m, m/s, rad/s (world) */
+    gs_quat q;
+    gs_vec3 a_own;             /* m/s^2; the change of v over its last step,
+                                  of its own forces and gravity (pushes
+                                  land between its steps) */
+    /* While another body steps, what its contacts have done to this one so
+       far (see gs__rigid_vs_rigid): the change of velocity (m/s), of
+       position (m) and of angular velocity (rad/s), and the force (N) and
+       torque (N m) of the current substep. Zero between steps. */
+    gs_vec3 sh_dv, sh_dx, sh_dw, sh_f, sh_t;
+    int touched;               /* in world->touched */
+    int sap;                   /* index in world->bodies */
+    int near;                  /* index in world->near */
+    int wide;                  /* index in world->wide, -1 if not wide */
+    int in_grid;               /* in world->grid (its cell: world->grec) */
+    double speed;              /* m/s, |v| + |a_own| dt when the broad phase saw it
+                                  (0 for a probe) */
+    double reach2;             /* 1/kg: 1/m + bound^2 / smallest inertia,
+                                  how hard a contact at the surface moves it */
+    gs_material mat;
+    gs__sym3 inv_inertia_body;
     gs__shape shape;           /* last: see its vertex arrays */
 } gs__rigid;
 
@@ -7751,6 +7761,22 @@ GS__PRIVATE void gs__sap_classify(gs_world *w, gs__rigid *r) {
    a body's query looks at the few cells around it instead of the slab of
    the world its x range crosses (O(n^(2/3)) bodies in a pile). ---- */
 #define GS__GRID_SPAN 1e15 /* cells either side of 0 (keeps int64 exact) */
+
+/* What a grid query reads of each body it looks at, in one cache line
+   (world->grec, aligned to 64 bytes, in the order of bodies): copies of
+   the body's x, bound and speed as gs__sap_sweep last saw them, and its
+   cell. A body's x changes only in its own step, which ends in
+   gs__sap_update, or with its state (gs__sap_update too): the copy is the
+   body's x whenever another body asks. Walking the bodies themselves cost
+   four cache lines of a large struct per body looked at, and in a pile
+   of 4096 those no longer fit the cache. */
+typedef struct gs__grec {
+    double x, y, z;  /* m; the centre */
+    double bound;    /* m */
+    double speed;    /* m/s; as gs__rigid.speed */
+    int64_t cell[3]; /* if in the grid */
+} gs__grec;
+
 GS__PRIVATE int64_t gs__grid_coord(const gs_world *w, double x) {
     double c = floor(x / w->cell);
     if (!(c >= -GS__GRID_SPAN)) c = -GS__GRID_SPAN; /* and NaN */
@@ -7759,23 +7785,30 @@ GS__PRIVATE int64_t gs__grid_coord(const gs_world *w, double x) {
 }
 
 GS__PRIVATE size_t gs__grid_bucket(const gs_world *w, const int64_t c[3]) {
-    uint64_t h = (uint64_t)c[0] * 73856093u ^ (uint64_t)c[1] * 19349663u ^ (uint64_t)c[2] * 83492791u;
+    /* cells next to each other on x in buckets next to each other: a
+       query's row of cells reads one or two lines of the table, not one
+       each */
+    uint64_t h = ((uint64_t)c[1] * 19349663u ^ (uint64_t)c[2] * 83492791u) + (uint64_t)c[0];
     /* bodies_cap is a power of two (16, doubled): a mask, not a division,
        for each of the 27 cells of a query */
     return (size_t)(h & (2 * (uint64_t)w->bodies_cap - 1));
 }
 
 GS__PRIVATE void gs__grid_unlink(gs_world *w, gs__rigid *r) {
+    int i = r->sap, prev, next;
     if (!r->in_grid) return;
-    if (r->gprev) r->gprev->gnext = r->gnext;
-    else w->grid[gs__grid_bucket(w, r->cell)] = r->gnext;
-    if (r->gnext) r->gnext->gprev = r->gprev;
+    prev = w->gprev[i];
+    next = w->gnext[i];
+    if (prev >= 0) w->gnext[prev] = next;
+    else w->grid[gs__grid_bucket(w, w->grec[i].cell)] = next;
+    if (next >= 0) w->gprev[next] = prev;
     r->in_grid = 0;
 }
 
 /* Keeps r in the cell of its centre, or out of the grid if it is wide. */
 GS__PRIVATE void gs__grid_place(gs_world *w, gs__rigid *r) {
-    int64_t c[3];
+    int64_t c[3], *cell = w->grec[r->sap].cell;
+    int i = r->sap;
     size_t b;
     if (w->cell <= 0.0 || r->wide >= 0) {
         gs__grid_unlink(w, r);
@@ -7784,23 +7817,35 @@ GS__PRIVATE void gs__grid_place(gs_world *w, gs__rigid *r) {
     c[0] = gs__grid_coord(w, r->x.x);
     c[1] = gs__grid_coord(w, r->x.y);
     c[2] = gs__grid_coord(w, r->x.z);
-    if (r->in_grid && c[0] == r->cell[0] && c[1] == r->cell[1] && c[2] == r->cell[2]) return;
+    if (r->in_grid && c[0] == cell[0] && c[1] == cell[1] && c[2] == cell[2]) return;
     gs__grid_unlink(w, r);
-    memcpy(r->cell, c, sizeof c);
+    memcpy(cell, c, sizeof c);
     b = gs__grid_bucket(w, c);
-    r->gprev = NULL;
-    r->gnext = w->grid[b];
-    if (r->gnext) r->gnext->gprev = r;
-    w->grid[b] = r;
+    w->gprev[i] = -1;
+    w->gnext[i] = w->grid[b];
+    if (w->gnext[i] >= 0) w->gprev[w->gnext[i]] = i;
+    w->grid[b] = i;
     r->in_grid = 1;
 }
 
-/* Every body again (a new cell size, a bigger table). */
+/* Every body again (a new cell size, a bigger table, bodies renumbered).
+   The order of a cell's list does not matter: every query puts its
+   candidates in the order of bodies. */
 GS__PRIVATE void gs__grid_rebuild(gs_world *w) {
     int i;
-    memset(w->grid, 0, 2 * (size_t)w->bodies_cap * sizeof *w->grid);
+    for (i = 0; i < 2 * w->bodies_cap; ++i) w->grid[i] = -1;
     for (i = 0; i < w->nbodies; ++i) w->bodies[i]->in_grid = 0;
     for (i = 0; i < w->nbodies; ++i) gs__grid_place(w, w->bodies[i]);
+}
+
+/* r's record from r (its x, bound and speed). */
+GS__PRIVATE void gs__grec_load(gs_world *w, const gs__rigid *r) {
+    gs__grec *g = &w->grec[r->sap];
+    g->x = r->x.x;
+    g->y = r->x.y;
+    g->z = r->x.z;
+    g->bound = r->shape.bound;
+    g->speed = r->speed;
 }
 
 /* A body's speed for the broad phase: what its carried position moves by
@@ -7812,6 +7857,7 @@ GS__PRIVATE void gs__sap_sweep(gs_world *w, gs__rigid *r) {
     r->speed = r->probe ? 0.0 : v;
     r->near_key = r->x.x - r->shape.bound;
     w->near_keys[r->near] = r->near_key;
+    gs__grec_load(w, r);
 }
 
 GS__PRIVATE void gs__sap_update(gs__rigid *r) {
@@ -7854,36 +7900,51 @@ GS__PRIVATE void gs__sap_sort(gs_world *w) {
     w->sap_dirty = 0;
 }
 
+/* The broad phase's lists for cap bodies, in one block (freed as
+   w->bodies): 6 lists of pointers, near's keys, the grid's 2 cap cells and
+   its 2 cap links, then the records on a line of their own each. */
+GS__PRIVATE gs_result gs__sap_grow(gs_world *w) {
+    int cap = w->bodies_cap ? 2 * w->bodies_cap : 16;
+    size_t head, per = 6 * sizeof(struct gs__rigid *) + sizeof(double) + 4 * sizeof(int) +
+                       sizeof(gs__grec);
+    struct gs__rigid **list;
+    char *block;
+    if (w->bodies_cap > INT_MAX / 4 || (size_t)cap > (SIZE_MAX - 64) / per)
+        return gs__fail(w, GS_ERR_CAPACITY, "broad phase: too many bodies");
+    block = (char *)gs__alloc(w, (size_t)cap * per + 64);
+    if (!block) return gs__fail(w, GS_ERR_NO_MEMORY, "broad phase: out of memory");
+    list = (struct gs__rigid **)(void *)block;
+    head = (size_t)cap * (per - sizeof(gs__grec));
+    head += (64 - (size_t)((uintptr_t)(block + head) % 64)) % 64;
+    if (w->nbodies) {
+        memcpy(list, w->bodies, (size_t)w->nbodies * sizeof *list);
+        memcpy(list + cap, w->near, (size_t)w->nbodies * sizeof *list);
+        memcpy((void *)(list + 6 * cap), w->near_keys, (size_t)w->nbodies * sizeof(double));
+        memcpy(block + head, w->grec, (size_t)w->nbodies * sizeof(gs__grec));
+    }
+    if (w->nwide) memcpy(list + 2 * cap, w->wide, (size_t)w->nwide * sizeof *list);
+    gs__free(w, w->bodies);
+    w->bodies = list;
+    w->near = list + cap;
+    w->wide = list + 2 * cap;
+    w->cand = list + 3 * cap;
+    w->touched = list + 4 * cap;
+    w->cand_tmp = list + 5 * cap;
+    w->near_keys = (double *)(void *)(list + 6 * cap);
+    w->grid = (int *)(void *)(w->near_keys + cap);
+    w->gnext = w->grid + 2 * cap;
+    w->gprev = w->gnext + cap;
+    w->grec = (gs__grec *)(void *)(block + head);
+    w->bodies_cap = cap;
+    gs__grid_rebuild(w);
+    return GS_OK;
+}
+
 GS__PRIVATE gs_result gs__sap_add(gs_world *w, gs__rigid *r) {
     int sorted;
     if (w->nbodies == w->bodies_cap) {
-        int cap = w->bodies_cap ? 2 * w->bodies_cap : 16;
-        if (w->bodies_cap > INT_MAX / 2 ||
-            (size_t)cap > SIZE_MAX / (8 * sizeof(struct gs__rigid *) + sizeof(double)))
-            return gs__fail(w, GS_ERR_CAPACITY, "broad phase: too many bodies");
-        /* 8 lists of pointers, then near's keys (8 cap pointers keep
-           them aligned) */
-        struct gs__rigid **list = (struct gs__rigid **)gs__alloc(
-            w, 8 * (size_t)cap * sizeof *list + (size_t)cap * sizeof(double));
-        if (!list) return gs__fail(w, GS_ERR_NO_MEMORY, "broad phase: out of memory");
-        if (w->nbodies) {
-            memcpy(list, w->bodies, (size_t)w->nbodies * sizeof *list);
-            memcpy(list + cap, w->near, (size_t)w->nbodies * sizeof *list);
-        }
-        if (w->nwide) memcpy(list + 2 * cap, w->wide, (size_t)w->nwide * sizeof *list);
-        if (w->nbodies)
-            memcpy((void *)(list + 8 * cap), w->near_keys, (size_t)w->nbodies * sizeof(double));
-        gs__free(w, w->bodies);
-        w->bodies = list;
-        w->near = list + cap;
-        w->wide = list + 2 * cap;
-        w->cand = list + 3 * cap;
-        w->grid = list + 4 * cap;
-        w->touched = list + 6 * cap;
-        w->cand_tmp = list + 7 * cap;
-        w->near_keys = (double *)(void *)(list + 8 * cap);
-        w->bodies_cap = cap;
-        gs__grid_rebuild(w);
+        gs_result res = gs__sap_grow(w);
+        if (res != GS_OK) return res;
     }
     r->sap = r->near = w->nbodies;
     r->wide = -1;
@@ -7898,9 +7959,10 @@ GS__PRIVATE gs_result gs__sap_add(gs_world *w, gs__rigid *r) {
     return GS_OK;
 }
 
+/* The bodies after r move down one (in bodies, near and the records),
+   and the grid, which links them by index, is built again. */
 GS__PRIVATE void gs__sap_remove(gs_world *w, gs__rigid *r) {
     int i;
-    gs__grid_unlink(w, r);
     if (r->wide >= 0) {
         w->wide[r->wide] = w->wide[--w->nwide];
         w->wide[r->wide]->wide = r->wide;
@@ -7908,6 +7970,7 @@ GS__PRIVATE void gs__sap_remove(gs_world *w, gs__rigid *r) {
     for (i = r->sap + 1; i < w->nbodies; ++i) {
         w->bodies[i - 1] = w->bodies[i];
         w->bodies[i - 1]->sap = i - 1;
+        w->grec[i - 1] = w->grec[i];
     }
     for (i = r->near + 1; i < w->nbodies; ++i) {
         w->near[i - 1] = w->near[i];
@@ -7915,6 +7978,7 @@ GS__PRIVATE void gs__sap_remove(gs_world *w, gs__rigid *r) {
         w->near[i - 1]->near = i - 1;
     }
     w->nbodies--;
+    gs__grid_rebuild(w);
 }
 
 /* Takes an agent out of the contact bookkeeping before it is destroyed. */
@@ -7954,8 +8018,11 @@ GS__PRIVATE void gs__sap_refresh(gs_world *w) {
 
 /* How far o reaches from its centre on any axis when its state is taken
    up to lag seconds from its time (m), with a slack for rounding. */
+GS__PRIVATE double gs__reach_of(double bound, double speed, double lag) {
+    return (bound + speed * lag) * (1.0 + 1e-9) + 1e-12;
+}
 GS__PRIVATE double gs__sap_reach(const gs__rigid *o, double lag) {
-    return (o->shape.bound + o->speed * lag) * (1.0 + 1e-9) + 1e-12;
+    return gs__reach_of(o->shape.bound, o->speed, lag);
 }
 
 /* Does o's reach meet [lo, hi] on x? */
@@ -8063,19 +8130,23 @@ GS__PRIVATE int gs__sap_query_near(gs_world *w, const gs__rigid *r, double lag) 
     {   /* gs__sap_meets3 with what is the same for every body found once
            (the same operations: the same answer, bit for bit) */
         double eps = 1e-12 * (fabs(lo) + fabs(hi)), hi_e = hi + eps, lo_e = lo - eps;
-        double own_e = own * (1.0 + 1e-9);
-        for (c[0] = a[0]; c[0] <= b[0]; ++c[0])
+        double own_e = own * (1.0 + 1e-9), ry = r->x.y, rz = r->x.z;
+        const gs__grec *grec = w->grec;
+        const int *grid = w->grid, *gnext = w->gnext;
+        gs__rigid **bodies = w->bodies, **cand = w->cand;
+        /* x innermost: a row of cells has its buckets side by side */
+        for (c[2] = a[2]; c[2] <= b[2]; ++c[2])
             for (c[1] = a[1]; c[1] <= b[1]; ++c[1])
-                for (c[2] = a[2]; c[2] <= b[2]; ++c[2]) {
-                    gs__rigid *o;
-                    for (o = w->grid[gs__grid_bucket(w, c)]; o; o = o->gnext) {
+                for (c[0] = a[0]; c[0] <= b[0]; ++c[0]) {
+                    for (i = grid[gs__grid_bucket(w, c)]; i >= 0; i = gnext[i]) {
+                        const gs__grec *o = &grec[i];
                         double reach, both;
                         if (o->cell[0] != c[0] || o->cell[1] != c[1] || o->cell[2] != c[2]) continue;
-                        reach = gs__sap_reach(o, lag);
+                        reach = gs__reach_of(o->bound, o->speed, lag);
                         both = reach + own_e;
-                        if (o->x.x - reach <= hi_e && o->x.x + reach >= lo_e &&
-                            fabs(r->x.y - o->x.y) <= both && fabs(r->x.z - o->x.z) <= both)
-                            w->cand[n++] = o;
+                        if (o->x - reach <= hi_e && o->x + reach >= lo_e &&
+                            fabs(ry - o->y) <= both && fabs(rz - o->z) <= both)
+                            cand[n++] = bodies[i];
                     }
                 }
     }
@@ -8083,14 +8154,19 @@ GS__PRIVATE int gs__sap_query_near(gs_world *w, const gs__rigid *r, double lag) 
     return n;
 }
 
-/* Does o's reach meet [lo, hi] on all three axes? */
-GS__PRIVATE int gs__sap_meets_box(const gs__rigid *o, gs_vec3 lo, gs_vec3 hi, double lag) {
-    double reach = gs__sap_reach(o, lag);
+/* Does the reach of a body at p (its bound and speed) meet [lo, hi] on
+   all three axes? */
+GS__PRIVATE int gs__meets_box(gs_vec3 p, double bound, double speed, gs_vec3 lo, gs_vec3 hi,
+                              double lag) {
+    double reach = gs__reach_of(bound, speed, lag);
     double ex = 1e-12 * (fabs(lo.x) + fabs(hi.x)), ey = 1e-12 * (fabs(lo.y) + fabs(hi.y));
     double ez = 1e-12 * (fabs(lo.z) + fabs(hi.z));
-    return o->x.x - reach <= hi.x + ex && o->x.x + reach >= lo.x - ex &&
-           o->x.y - reach <= hi.y + ey && o->x.y + reach >= lo.y - ey &&
-           o->x.z - reach <= hi.z + ez && o->x.z + reach >= lo.z - ez;
+    return p.x - reach <= hi.x + ex && p.x + reach >= lo.x - ex &&
+           p.y - reach <= hi.y + ey && p.y + reach >= lo.y - ey &&
+           p.z - reach <= hi.z + ez && p.z + reach >= lo.z - ez;
+}
+GS__PRIVATE int gs__sap_meets_box(const gs__rigid *o, gs_vec3 lo, gs_vec3 hi, double lag) {
+    return gs__meets_box(o->x, o->shape.bound, o->speed, lo, hi, lag);
 }
 
 /* The first body of near from i on whose near_key is over top. */
@@ -8130,11 +8206,14 @@ GS__PRIVATE int gs__sap_query_box(gs_world *w, gs_vec3 lo, gs_vec3 hi, double la
             for (c[0] = a[0]; c[0] <= b[0]; ++c[0])
                 for (c[1] = a[1]; c[1] <= b[1]; ++c[1])
                     for (c[2] = a[2]; c[2] <= b[2]; ++c[2]) {
-                        gs__rigid *o;
-                        for (o = w->grid[gs__grid_bucket(w, c)]; o; o = o->gnext)
+                        int k;
+                        for (k = w->grid[gs__grid_bucket(w, c)]; k >= 0; k = w->gnext[k]) {
+                            const gs__grec *o = &w->grec[k];
                             if (o->cell[0] == c[0] && o->cell[1] == c[1] && o->cell[2] == c[2] &&
-                                gs__sap_meets_box(o, lo, hi, lag))
-                                w->cand[n++] = o;
+                                gs__meets_box(gs__v3(o->x, o->y, o->z), o->bound, o->speed, lo,
+                                              hi, lag))
+                                w->cand[n++] = w->bodies[k];
+                        }
                     }
             gs__sap_order(w, n);
             return n;
@@ -10897,6 +10976,9 @@ GS__PRIVATE void gs__sync_load(gs_world *w, const double *p) {
         w->near[i] = n;
         n->near = i;
     }
+    /* the records and the grid follow the bodies' indices */
+    for (i = 0; i < w->nbodies; ++i) gs__grec_load(w, w->bodies[i]);
+    if (w->nbodies) gs__grid_rebuild(w);
 }
 
 /* ---- the input log: entries [frame, dispatch, agent, n, at, n values]:

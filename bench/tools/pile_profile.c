@@ -11,10 +11,20 @@
 
    Only the STEPS steps after SETTLE steps (1 ms each) are instrumented. It
    prints the substeps per sphere-step over the instrumented steps. Not in bench/ itself: make bench does not
-   run it (its figures are instruction counts, taken by hand). */
+   run it (its figures are instruction counts, taken by hand).
+
+     build/pile_profile cpu [SIZES...]
+
+   times bench/physics's schedule instead (25 batches of 40 steps from the
+   drop, at 27, 125, 343, 1000 and 4096 spheres unless given) in this
+   thread's CPU time, not the wall clock's, so that other processes on a
+   shared machine inflate it less, and prints the median per step and the
+   exponent fitted as bench/physics fits it. */
 #include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
+#include <string.h>
+#include <time.h>
 #include <valgrind/callgrind.h>
 
 #define GHOSTSIM_IMPLEMENTATION
@@ -29,22 +39,18 @@ static void die(gs_world *w) {
     exit(1);
 }
 
-int main(int argc, char **argv) {
-    int n = argc > 1 ? atoi(argv[1]) : 1000;
-    int settle = argc > 2 ? atoi(argv[2]) : 1000;
-    int steps = argc > 3 ? atoi(argv[3]) : 20;
+/* bench/physics's pile of n spheres in its box (balls: n agents). */
+static gs_world *make_pile(int n, gs_agent **balls) {
     int side = (int)ceil(cbrt((double)n) - 1e-9), k, s;
     double half = 0.5 * (side - 1) * SPACING + R + 0.03, height = side * SPACING + 0.4;
-    double sub0 = 0.0, sub1 = 0.0, y = 0.0;
     uint32_t rng = 12345;
     gs_world_desc wd = gs_world_desc_default();
     gs_material m;
     gs_world *w = NULL;
-    gs_agent **balls = (gs_agent **)malloc((size_t)n * sizeof *balls);
     m.stiffness = 1e5;
     m.damping = 100.0;
     m.friction = 0.5;
-    if (!balls || gs_world_create(&wd, &w) != GS_OK) return 1;
+    if (gs_world_create(&wd, &w) != GS_OK) exit(1);
     gs_world_set_ground(w, 1, 0.0, m);
     for (s = 0; s < 4; ++s) { /* the box: four kinematic walls */
         gs_probe_desc pd = gs_probe_desc_default();
@@ -79,6 +85,70 @@ int main(int argc, char **argv) {
         rd.solver.dt = DT;
         if (gs_rigid_create(w, &rd, &balls[k]) != GS_OK) die(w);
     }
+    return w;
+}
+
+static double cpu_now(void) {
+    struct timespec ts;
+    clock_gettime(CLOCK_THREAD_CPUTIME_ID, &ts);
+    return (double)ts.tv_sec + (double)ts.tv_nsec * 1e-9;
+}
+
+static int cmp_double(const void *a, const void *b) {
+    double x = *(const double *)a, y = *(const double *)b;
+    return x < y ? -1 : x > y;
+}
+
+#define BATCHES 25
+/* bench/physics's spheres timing in thread CPU time: us per step at each
+   size and the least-squares exponent over them. */
+static int cpu_mode(int nsizes, const int *sizes) {
+    double lx[16], ly[16], sx = 0, sy = 0, sxx = 0, sxy = 0;
+    int i, b, s;
+    for (i = 0; i < nsizes; ++i) {
+        gs_agent **balls = (gs_agent **)malloc((size_t)sizes[i] * sizeof *balls);
+        gs_world *w = make_pile(sizes[i], balls);
+        double t[BATCHES];
+        for (b = 0; b < BATCHES; ++b) {
+            double t0 = cpu_now();
+            for (s = 0; s < 1000 / BATCHES; ++s)
+                if (gs_world_advance(w, DT, NULL) != GS_OK) die(w);
+            t[b] = (cpu_now() - t0) / (1000 / BATCHES);
+        }
+        qsort(t, BATCHES, sizeof *t, cmp_double);
+        lx[i] = log((double)sizes[i]);
+        ly[i] = log(t[BATCHES / 2]);
+        printf("n %5d: %10.1f us per step (CPU), %.3f us per sphere-step\n", sizes[i],
+               1e6 * t[BATCHES / 2], 1e6 * t[BATCHES / 2] / sizes[i]);
+        gs_world_destroy(w);
+        free(balls);
+    }
+    for (i = 0; i < nsizes; ++i) {
+        sx += lx[i]; sy += ly[i]; sxx += lx[i] * lx[i]; sxy += lx[i] * ly[i];
+    }
+    printf("cost ~ n^e: e = %.3f (least squares), %.3f (ends)\n",
+           (nsizes * sxy - sx * sy) / (nsizes * sxx - sx * sx),
+           (ly[nsizes - 1] - ly[0]) / (lx[nsizes - 1] - lx[0]));
+    return 0;
+}
+
+int main(int argc, char **argv) {
+    int n, settle, steps, k, s;
+    double sub0 = 0.0, sub1 = 0.0, y = 0.0;
+    gs_world *w;
+    gs_agent **balls;
+    if (argc > 1 && strcmp(argv[1], "cpu") == 0) {
+        int sizes[16] = {27, 125, 343, 1000, 4096}, ns = 5;
+        if (argc > 2)
+            for (ns = 0; ns < 16 && ns + 2 < argc; ++ns) sizes[ns] = atoi(argv[ns + 2]);
+        return cpu_mode(ns, sizes);
+    }
+    n = argc > 1 ? atoi(argv[1]) : 1000;
+    settle = argc > 2 ? atoi(argv[2]) : 1000;
+    steps = argc > 3 ? atoi(argv[3]) : 20;
+    balls = (gs_agent **)malloc((size_t)n * sizeof *balls);
+    if (!balls) return 1;
+    w = make_pile(n, balls);
     for (s = 0; s < settle; ++s)
         if (gs_world_advance(w, DT, NULL) != GS_OK) die(w);
     for (k = 0; k < n; ++k) {
