@@ -9136,10 +9136,13 @@ GS__PRIVATE double gs__scene_rand(uint32_t *state) {
 #ifndef GS__SCENE_SPIN
 /* m; 0: the scene's spheres have no torsional friction. The patch's
    (2/3) mu a would be ~4 mm (friction 0.4, a ~18 mm contact patch), and
-   at 4 mm the scene rests (bench/bandwidth paper-rest). Off until that
-   scene is measured with it: between ghostpeer processes its hosts met
-   10-50 times less closely after a fault while leads were elected ghost
-   by ghost (gs__world_lead); build with -DGS__SCENE_SPIN=0.004 to
+   at 4 mm the scene rests (bench/bandwidth paper-rest). Off: with it the
+   paper scene at rest in replay mode, quant + send on change, falls from
+   59.9 to 13.4 kbit/s but its divergence grows from 3.5e-5 to 5.0e-3 m
+   (a moved snapshot wakes a copy against its held neighbours: without
+   spin a sphere that never rests keeps the follower replaying every
+   frame), so no mode meets issue 16's rest target either way
+   (docs/sync-notes.md, s19d); build with -DGS__SCENE_SPIN=0.004 to
    measure it */
 #define GS__SCENE_SPIN 0.0
 #endif
