@@ -11983,17 +11983,32 @@ GS__PRIVATE double gs__quant_step(double step, const double *v, int n, int64_t *
     }
 }
 
-/* A scalar segment at w: header, then the packed values. 0 if it ran out
-   of room. Each value is rounded as v * (1 / step), a product rather than
-   a quotient: within a unit of the last place of v / step, which the
-   error bound (half a step) does not see. */
-GS__PRIVATE int gs__quant_put_scalar(gs__bitw *w, const gs_wire_segment *s, const double *v) {
-    int64_t lo = 0, hi = 0;
-    double step = s->count ? gs__quant_step(s->step, v, s->count, &lo, &hi) : s->step;
-    double inv = 1.0 / step;
+/* A scalar segment's layout at the step it is sent at (gs__quant_step):
+   what gs__quant_put sizes before it writes and gs__quant_put_scalar
+   writes. */
+typedef struct gs__qlay {
+    double step;
+    int64_t lo;
+    int width;
+} gs__qlay;
+GS__PRIVATE void gs__quant_lay(const gs_wire_segment *s, const double *v, gs__qlay *l) {
+    int64_t hi = 0;
+    l->lo = 0;
+    l->step = s->count ? gs__quant_step(s->step, v, s->count, &l->lo, &hi) : s->step;
+    l->width = 0;
+    while (l->width < 32 && (uint64_t)(hi - l->lo) >> l->width) ++l->width;
+}
+
+/* A scalar segment at w in layout l: header, then the packed values. 0 if
+   it ran out of room. Each value is rounded as v * (1 / step), a product
+   rather than a quotient: within a unit of the last place of v / step,
+   which the error bound (half a step) does not see. */
+GS__PRIVATE int gs__quant_put_scalar(gs__bitw *w, const gs_wire_segment *s, const gs__qlay *l,
+                                     const double *v) {
+    double step = l->step, inv = 1.0 / step;
+    int64_t lo = l->lo;
     uint64_t z;
-    int i, width = 0;
-    while (width < 32 && (uint64_t)(hi - lo) >> width) ++width;
+    int i, width = l->width;
     gs__bitw_put(w, GS_WIRE_SCALAR, 8);
     gs__bitw_put(w, s->count, 16);
     { uint64_t u; memcpy(&u, &step, 8); gs__bitw_put(w, u & 0xffffffffu, 32); gs__bitw_put(w, u >> 32, 32); }
@@ -12075,16 +12090,36 @@ GS__PRIVATE int gs__quant_args_ok(const gs_wire_chunk *c, const double *values) 
 }
 
 /* Writes a quantized payload at p (room bytes); its size, or 0 if it does
-   not fit. The values are checked finite by the caller. */
+   not fit. The values are checked finite by the caller. Every field is
+   whole bytes and each segment ends on a byte, so the size is known from
+   the layouts before a value is written: a chunk that does not fit (the
+   datagram is then sent and the chunk tried again in the next) costs no
+   packing. */
 GS__PRIVATE size_t gs__quant_put(unsigned char *p, size_t room, const gs_wire_chunk *c,
                                  const double *v) {
     gs__bitw w;
+    gs__qlay lay[GS_WIRE_MAX_SEGMENTS];
+    const double *u = v;
+    size_t need = 1;
     int k, ok = 1;
+    for (k = 0; k < c->segment_count; ++k) {
+        const gs_wire_segment *s = &c->segments[k];
+        if (s->kind == GS_WIRE_SCALAR) {
+            uint64_t z;
+            gs__quant_lay(s, u, &lay[k]);
+            need += 13 + ((size_t)s->count * (size_t)lay[k].width + 7) / 8;
+            for (z = gs__zigzag(lay[k].lo); z >= 0x80; z >>= 7) ++need;
+        } else {
+            need += 4 + ((size_t)(s->count / 4) * (size_t)(3 + 3 * s->bits) + 7) / 8;
+        }
+        u += s->count;
+    }
+    if (need > room) return 0;
     w.p = p; w.end = p + room; w.acc = 0; w.n = 0; w.over = 0;
     gs__bitw_put(&w, (uint64_t)c->segment_count, 8);
     for (k = 0; k < c->segment_count && ok; ++k) {
         const gs_wire_segment *s = &c->segments[k];
-        ok = s->kind == GS_WIRE_SCALAR ? gs__quant_put_scalar(&w, s, v)
+        ok = s->kind == GS_WIRE_SCALAR ? gs__quant_put_scalar(&w, s, &lay[k], v)
                                        : gs__quant_put_quat(&w, s, v);
         v += s->count;
     }
@@ -12875,14 +12910,27 @@ GS__PRIVATE int gs__wire_put_values(unsigned char *p, gs_encoding e, const doubl
     return ok;
 }
 
+/* Are n values all finite? A double is NaN or infinite when its exponent
+   bits are all ones, and only then does adding one to them carry into the
+   sign bit: an AND, an add and an OR a value, which vectorize (v - v ==
+   0.0 took a compare and two flag reads each). */
+GS__PRIVATE int gs__all_finite(const double *v, int n) {
+    uint64_t top = 0;
+    int i;
+    for (i = 0; i < n; ++i) {
+        uint64_t u;
+        memcpy(&u, v + i, 8);
+        top |= (u & 0x7ff0000000000000ull) + 0x0010000000000000ull;
+    }
+    return !(top >> 63);
+}
+
 /* The quantized payload of c at p, within room bytes: its size in *len.
    GS_ERR_CAPACITY if it does not fit. */
 GS__PRIVATE gs_result gs__wire_put_quant(unsigned char *p, size_t room, const gs_wire_chunk *c,
                                          const double *values, size_t *len) {
-    int i, ok = 1;
     if (c->flags & GS_WIRE_CHUNK_REST) { *len = 0; return GS_OK; }
-    for (i = 0; i < c->elements; ++i) ok &= gs__finite(values[i]);
-    if (!ok) return GS_ERR_NOT_FINITE;
+    if (!gs__all_finite(values, c->elements)) return GS_ERR_NOT_FINITE;
     if (!gs__quant_args_ok(c, values)) return GS_ERR_INVALID_ARG;
     *len = gs__quant_put(p, room, c, values);
     return *len ? GS_OK : GS_ERR_CAPACITY;
