@@ -12371,35 +12371,33 @@ GS__PRIVATE size_t gs__rice_bits(const gs__rice *r) {
     return 8 * ((size_t)(r->p - r->start) + r->zeros) - (size_t)r->n;
 }
 
-/* The bits a Rice run of parameter k takes, estimated from the values'
+/* The bits a Rice run of parameter k takes are estimated from the values'
    bit lengths (hist[L]: values of L bits; a value of L > k bits has z >>
-   k between 2^(L-k-1) and 2^(L-k) - 1, taken as 3/4 of 2^(L-k)). */
-GS__PRIVATE double gs__rice_cost(const int *hist, int k) {
-    double bits = 0.0;
-    int L;
-    for (L = 0; L <= 32; ++L) {
-        double q;
-        if (!hist[L]) continue;
-        q = L <= k ? 0.0 : 0.75 * (double)((uint64_t)1 << (L - k));
-        bits += hist[L] * (q >= GS__RICE_ESCAPE ? GS__RICE_ESCAPE + 32.0 : q + 1.0 + k);
-    }
-    return bits;
-}
-
-/* Rice's best k is near the median's bit length (the mean would follow
-   the few large values, which escape anyway): the four about it are
-   tried, a cost each of 33 bit lengths, not one per value. The bits of
-   the best, its k in *k. */
+   k between 2^(L-k-1) and 2^(L-k) - 1, taken as 3/4 of 2^(L-k); L up to
+   32). Rice's best k is near the median's bit length (the mean would
+   follow the few large values, which escape anyway): the four about it
+   are tried. Each estimate is a whole number of half bits (3/4 of 2^m is
+   1.5 at m = 1, and 2^m * 3/4 >= GS__RICE_ESCAPE from m = 5: an escape's
+   48 bits), so the estimates are sums over counts of bit lengths (cum[L]:
+   the values of fewer than L bits), in integers: four terms a candidate,
+   not one per bit length. The bits of the best (the first of the least),
+   its k in *k; HUGE_VAL and k 0 when the median is past GS__RICE_MAX_K +
+   2. */
 GS__PRIVATE double gs__rice_pick(const int *hist, int n, int *k) {
-    int k0, j, below = 0;
-    double best = HUGE_VAL;
+    static const long half[5] = {0, 5, 8, 14, 26}; /* 2 (q + 1) half bits, m = 1 to 4 */
+    long cum[34], best = -1;
+    int k0, j, m, below = 0;
+    cum[0] = 0;
+    for (j = 0; j <= 32; ++j) cum[j + 1] = cum[j] + hist[j];
     for (k0 = 0; k0 < 32 && 2 * (below + hist[k0]) < n; ++k0) below += hist[k0];
     *k = 0;
     for (j = k0 > 2 ? k0 - 2 : 0; j <= k0 + 1 && j <= GS__RICE_MAX_K; ++j) {
-        double b = gs__rice_cost(hist, j);
-        if (b < best) { best = b; *k = j; }
+        /* j <= 24: j + 5 <= 29, every index inside */
+        long b = (2 + 2 * (long)j) * cum[j + 1] + 96 * (cum[33] - cum[j + 5]);
+        for (m = 1; m <= 4; ++m) b += (half[m] + 2 * (long)j) * hist[j + m];
+        if (best < 0 || b < best) { best = b; *k = j; }
     }
-    return best;
+    return best < 0 ? HUGE_VAL : (double)best / 2.0;
 }
 
 /* GS_WIRE_CHUNK_DELTA's spatial coding (coding 3, see >>wire) predicts
