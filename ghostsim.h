@@ -12651,22 +12651,21 @@ GS__PRIVATE_INLINE int gs__bitlen64(uint64_t v) { return 63 - gs__clz64(v << 1 |
 
 /* What the coding choice (gs__delta_put) reads of n differences, made
    where the differences are (gs__qk_diff, the prediction's pass), not
-   again: hist[L], the differences whose zigzag has L bits (33: 33 bits or
-   more, past +-2^31); m0 and m1 the OR of the zigzags and of the nonzero
-   ones less 1 (the packed codings' widths); nz the nonzero ones; and, for
+   again: hist[L], the differences whose zigzag has L bits (33: 33 bits,
+   past +-2^31; a zigzag is read in its low 33 bits, which are all of it
+   for the differences a choice reads: the others are refused first); mx
+   the largest zigzag, which gives the packed codings' widths (the bit
+   lengths of mx and of mx - 1; hist[0] the zeros they leave out); and, for
    the spatial coding, its residuals e (NULL: not tried) and their sh. */
 typedef struct gs__dstat {
-    int hist[34], sh[34], nz;
-    uint64_t m0, m1;
+    int hist[34], sh[34];
+    uint64_t mx;
     const int64_t *e;
 } gs__dstat;
 GS__PRIVATE_INLINE void gs__dstat_add(gs__dstat *st, int64_t d) {
-    uint64_t z = gs__zigzag(d), nz1 = z != 0;
-    int L = gs__bitlen64(z);
-    st->m0 |= z;
-    st->nz += (int)nz1;
-    st->m1 |= z - nz1;
-    st->hist[L < 33 ? L : 33]++;
+    uint64_t z = gs__zigzag(d);
+    st->mx = z > st->mx ? z : st->mx;
+    st->hist[gs__bitlen64(z & 0x1ffffffffull)]++;
 }
 /* The sum of the bit lengths a histogram counts: what a Rice run of the
    values costs, near enough to choose between two (33: at least). */
@@ -12793,10 +12792,15 @@ GS__PRIVATE size_t gs__delta_put(unsigned char *p, size_t room, const gs_wire_ch
         (void)gs__dstat_bits(&own, d, c->elements, row, gs__spatial_restart(c), e);
         st = &own;
     }
-    while (w0 < 32 && st->m0 >> w0) ++w0;
-    while (w1 < 32 && st->m1 >> w1) ++w1;
+    /* the widths of the OR of the zigzags and of the nonzero ones less 1:
+       the bit lengths of the largest, and of it less 1 */
+    w0 = gs__bitlen64(st->mx);
+    w1 = st->mx ? gs__bitlen64(st->mx - 1) : 0;
+    w0 = w0 < 32 ? w0 : 32;
+    w1 = w1 < 32 ? w1 : 32;
     need0 = ((size_t)c->elements * (size_t)w0 + 7) / 8;
-    need1 = ((size_t)c->elements + 7) / 8 + ((size_t)st->nz * (size_t)w1 + 7) / 8;
+    need1 = ((size_t)c->elements + 7) / 8 +
+            ((size_t)(c->elements - st->hist[0]) * (size_t)w1 + 7) / 8;
     coding = need1 < need0;
     wd = coding ? w1 : w0;
     rbits = gs__rice_pick(st->hist, c->elements, &rk);
