@@ -12676,10 +12676,19 @@ GS__PRIVATE long gs__hist_bits(const int *hist) {
     return b;
 }
 /* The spatial coding's (3) residuals of n differences d into e and their
-   bit lengths into sh (as gs__dstat's hist): rows of `row` triples, the
-   neighbours starting again at `restart` (gs__med3's comment's cases, a
-   section's first triple, its first row and the rest, in loops of their
-   own without its tests). The sum of their bit lengths. */
+   bit lengths into sh (as gs__dstat's hist), counted as they are made:
+   rows of `row` triples, the neighbours starting again at `restart`
+   (gs__med3's comment's cases, a section's first triple, its first row and
+   the rest, in loops of their own without its tests). The differences are
+   within +-2^31, so a residual's zigzag has at most 33 bits (the mask
+   keeps the count inside sh whatever it is given). The sum of their bit
+   lengths. */
+#define GS__SH_ADD(sh, e, i, x)                                                 \
+    do {                                                                       \
+        int64_t x_ = (x);                                                      \
+        (e)[i] = x_;                                                           \
+        (sh)[gs__bitlen64(gs__zigzag(x_) & 0x1ffffffffull)]++;                 \
+    } while (0)
 GS__PRIVATE long gs__spatial_stat(const int64_t *d, int n, int row, int restart, int64_t *e,
                                   int *sh) {
     int s, i, lo, hi, a, b, r3 = 3 * row;
@@ -12690,16 +12699,13 @@ GS__PRIVATE long gs__spatial_stat(const int64_t *d, int n, int row, int restart,
         if (s && restart <= 0) break;
         a = lo + 3 < hi ? lo + 3 : hi;
         b = lo + r3 + 3 < hi ? lo + r3 + 3 : hi;
-        for (i = lo; i < a; ++i) e[i] = d[i];
-        for (; i < b; ++i) e[i] = d[i] - d[i - 3];
-        for (; i < hi; ++i) e[i] = d[i] - gs__med3(d[i - 3], d[i - r3], d[i - r3 - 3]);
-    }
-    for (i = 0; i < n; ++i) {
-        int L = gs__bitlen64(gs__zigzag(e[i]));
-        sh[L < 33 ? L : 33]++;
+        for (i = lo; i < a; ++i) GS__SH_ADD(sh, e, i, d[i]);
+        for (; i < b; ++i) GS__SH_ADD(sh, e, i, d[i] - d[i - 3]);
+        for (; i < hi; ++i) GS__SH_ADD(sh, e, i, d[i] - gs__med3(d[i - 3], d[i - r3], d[i - r3 - 3]));
     }
     return gs__hist_bits(sh);
 }
+#undef GS__SH_ADD
 
 /* st's spatial part (row > 0: the residuals of n differences d into e)
    and the smaller of the plain and the spatial bit sums: what the coding
