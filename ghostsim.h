@@ -12148,17 +12148,32 @@ GS__PRIVATE double gs__quant_step(double step, const double *v, int n, int64_t *
     }
 }
 
-/* A scalar segment at w: header, then the packed values. 0 if it ran out
-   of room. Each value is rounded as v * (1 / step), a product rather than
-   a quotient: within a unit of the last place of v / step, which the
-   error bound (half a step) does not see. */
-GS__PRIVATE int gs__quant_put_scalar(gs__bitw *w, const gs_wire_segment *s, const double *v) {
-    int64_t lo = 0, hi = 0;
-    double step = s->count ? gs__quant_step(s->step, v, s->count, &lo, &hi) : s->step;
-    double inv = 1.0 / step;
+/* A scalar segment's layout at the step it is sent at (gs__quant_step):
+   what gs__quant_put sizes before it writes and gs__quant_put_scalar
+   writes. */
+typedef struct gs__qlay {
+    double step;
+    int64_t lo;
+    int width;
+} gs__qlay;
+GS__PRIVATE void gs__quant_lay(const gs_wire_segment *s, const double *v, gs__qlay *l) {
+    int64_t hi = 0;
+    l->lo = 0;
+    l->step = s->count ? gs__quant_step(s->step, v, s->count, &l->lo, &hi) : s->step;
+    l->width = 0;
+    while (l->width < 32 && (uint64_t)(hi - l->lo) >> l->width) ++l->width;
+}
+
+/* A scalar segment at w in layout l: header, then the packed values. 0 if
+   it ran out of room. Each value is rounded as v * (1 / step), a product
+   rather than a quotient: within a unit of the last place of v / step,
+   which the error bound (half a step) does not see. */
+GS__PRIVATE int gs__quant_put_scalar(gs__bitw *w, const gs_wire_segment *s, const gs__qlay *l,
+                                     const double *v) {
+    double step = l->step, inv = 1.0 / step;
+    int64_t lo = l->lo;
     uint64_t z;
-    int i, width = 0;
-    while (width < 32 && (uint64_t)(hi - lo) >> width) ++width;
+    int i, width = l->width;
     gs__bitw_put(w, GS_WIRE_SCALAR, 8);
     gs__bitw_put(w, s->count, 16);
     { uint64_t u; memcpy(&u, &step, 8); gs__bitw_put(w, u & 0xffffffffu, 32); gs__bitw_put(w, u >> 32, 32); }
@@ -12240,16 +12255,36 @@ GS__PRIVATE int gs__quant_args_ok(const gs_wire_chunk *c, const double *values) 
 }
 
 /* Writes a quantized payload at p (room bytes); its size, or 0 if it does
-   not fit. The values are checked finite by the caller. */
+   not fit. The values are checked finite by the caller. Every field is
+   whole bytes and each segment ends on a byte, so the size is known from
+   the layouts before a value is written: a chunk that does not fit (the
+   datagram is then sent and the chunk tried again in the next) costs no
+   packing. */
 GS__PRIVATE size_t gs__quant_put(unsigned char *p, size_t room, const gs_wire_chunk *c,
                                  const double *v) {
     gs__bitw w;
+    gs__qlay lay[GS_WIRE_MAX_SEGMENTS];
+    const double *u = v;
+    size_t need = 1;
     int k, ok = 1;
+    for (k = 0; k < c->segment_count; ++k) {
+        const gs_wire_segment *s = &c->segments[k];
+        if (s->kind == GS_WIRE_SCALAR) {
+            uint64_t z;
+            gs__quant_lay(s, u, &lay[k]);
+            need += 13 + ((size_t)s->count * (size_t)lay[k].width + 7) / 8;
+            for (z = gs__zigzag(lay[k].lo); z >= 0x80; z >>= 7) ++need;
+        } else {
+            need += 4 + ((size_t)(s->count / 4) * (size_t)(3 + 3 * s->bits) + 7) / 8;
+        }
+        u += s->count;
+    }
+    if (need > room) return 0;
     w.p = p; w.end = p + room; w.acc = 0; w.n = 0; w.over = 0;
     gs__bitw_put(&w, (uint64_t)c->segment_count, 8);
     for (k = 0; k < c->segment_count && ok; ++k) {
         const gs_wire_segment *s = &c->segments[k];
-        ok = s->kind == GS_WIRE_SCALAR ? gs__quant_put_scalar(&w, s, v)
+        ok = s->kind == GS_WIRE_SCALAR ? gs__quant_put_scalar(&w, s, &lay[k], v)
                                        : gs__quant_put_quat(&w, s, v);
         v += s->count;
     }
@@ -12501,35 +12536,33 @@ GS__PRIVATE size_t gs__rice_bits(const gs__rice *r) {
     return 8 * ((size_t)(r->p - r->start) + r->zeros) - (size_t)r->n;
 }
 
-/* The bits a Rice run of parameter k takes, estimated from the values'
+/* The bits a Rice run of parameter k takes are estimated from the values'
    bit lengths (hist[L]: values of L bits; a value of L > k bits has z >>
-   k between 2^(L-k-1) and 2^(L-k) - 1, taken as 3/4 of 2^(L-k)). */
-GS__PRIVATE double gs__rice_cost(const int *hist, int k) {
-    double bits = 0.0;
-    int L;
-    for (L = 0; L <= 32; ++L) {
-        double q;
-        if (!hist[L]) continue;
-        q = L <= k ? 0.0 : 0.75 * (double)((uint64_t)1 << (L - k));
-        bits += hist[L] * (q >= GS__RICE_ESCAPE ? GS__RICE_ESCAPE + 32.0 : q + 1.0 + k);
-    }
-    return bits;
-}
-
-/* Rice's best k is near the median's bit length (the mean would follow
-   the few large values, which escape anyway): the four about it are
-   tried, a cost each of 33 bit lengths, not one per value. The bits of
-   the best, its k in *k. */
+   k between 2^(L-k-1) and 2^(L-k) - 1, taken as 3/4 of 2^(L-k); L up to
+   32). Rice's best k is near the median's bit length (the mean would
+   follow the few large values, which escape anyway): the four about it
+   are tried. Each estimate is a whole number of half bits (3/4 of 2^m is
+   1.5 at m = 1, and 2^m * 3/4 >= GS__RICE_ESCAPE from m = 5: an escape's
+   48 bits), so the estimates are sums over counts of bit lengths (cum[L]:
+   the values of fewer than L bits), in integers: four terms a candidate,
+   not one per bit length. The bits of the best (the first of the least),
+   its k in *k; HUGE_VAL and k 0 when the median is past GS__RICE_MAX_K +
+   2. */
 GS__PRIVATE double gs__rice_pick(const int *hist, int n, int *k) {
-    int k0, j, below = 0;
-    double best = HUGE_VAL;
+    static const long half[5] = {0, 5, 8, 14, 26}; /* 2 (q + 1) half bits, m = 1 to 4 */
+    long cum[34], best = -1;
+    int k0, j, m, below = 0;
+    cum[0] = 0;
+    for (j = 0; j <= 32; ++j) cum[j + 1] = cum[j] + hist[j];
     for (k0 = 0; k0 < 32 && 2 * (below + hist[k0]) < n; ++k0) below += hist[k0];
     *k = 0;
     for (j = k0 > 2 ? k0 - 2 : 0; j <= k0 + 1 && j <= GS__RICE_MAX_K; ++j) {
-        double b = gs__rice_cost(hist, j);
-        if (b < best) { best = b; *k = j; }
+        /* j <= 24: j + 5 <= 29, every index inside */
+        long b = (2 + 2 * (long)j) * cum[j + 1] + 96 * (cum[33] - cum[j + 5]);
+        for (m = 1; m <= 4; ++m) b += (half[m] + 2 * (long)j) * hist[j + m];
+        if (best < 0 || b < best) { best = b; *k = j; }
     }
-    return best;
+    return best < 0 ? HUGE_VAL : (double)best / 2.0;
 }
 
 /* GS_WIRE_CHUNK_DELTA's spatial coding (coding 3, see >>wire) predicts
@@ -12783,22 +12816,21 @@ GS__PRIVATE_INLINE int gs__bitlen64(uint64_t v) { return 63 - gs__clz64(v << 1 |
 
 /* What the coding choice (gs__delta_put) reads of n differences, made
    where the differences are (gs__qk_diff, the prediction's pass), not
-   again: hist[L], the differences whose zigzag has L bits (33: 33 bits or
-   more, past +-2^31); m0 and m1 the OR of the zigzags and of the nonzero
-   ones less 1 (the packed codings' widths); nz the nonzero ones; and, for
+   again: hist[L], the differences whose zigzag has L bits (33: 33 bits,
+   past +-2^31; a zigzag is read in its low 33 bits, which are all of it
+   for the differences a choice reads: the others are refused first); mx
+   the largest zigzag, which gives the packed codings' widths (the bit
+   lengths of mx and of mx - 1; hist[0] the zeros they leave out); and, for
    the spatial coding, its residuals e (NULL: not tried) and their sh. */
 typedef struct gs__dstat {
-    int hist[34], sh[34], nz;
-    uint64_t m0, m1;
+    int hist[34], sh[34];
+    uint64_t mx;
     const int64_t *e;
 } gs__dstat;
 GS__PRIVATE_INLINE void gs__dstat_add(gs__dstat *st, int64_t d) {
-    uint64_t z = gs__zigzag(d), nz1 = z != 0;
-    int L = gs__bitlen64(z);
-    st->m0 |= z;
-    st->nz += (int)nz1;
-    st->m1 |= z - nz1;
-    st->hist[L < 33 ? L : 33]++;
+    uint64_t z = gs__zigzag(d);
+    st->mx = z > st->mx ? z : st->mx;
+    st->hist[gs__bitlen64(z & 0x1ffffffffull)]++;
 }
 /* The sum of the bit lengths a histogram counts: what a Rice run of the
    values costs, near enough to choose between two (33: at least). */
@@ -12809,10 +12841,19 @@ GS__PRIVATE long gs__hist_bits(const int *hist) {
     return b;
 }
 /* The spatial coding's (3) residuals of n differences d into e and their
-   bit lengths into sh (as gs__dstat's hist): rows of `row` triples, the
-   neighbours starting again at `restart` (gs__med3's comment's cases, a
-   section's first triple, its first row and the rest, in loops of their
-   own without its tests). The sum of their bit lengths. */
+   bit lengths into sh (as gs__dstat's hist), counted as they are made:
+   rows of `row` triples, the neighbours starting again at `restart`
+   (gs__med3's comment's cases, a section's first triple, its first row and
+   the rest, in loops of their own without its tests). The differences are
+   within +-2^31, so a residual's zigzag has at most 33 bits (the mask
+   keeps the count inside sh whatever it is given). The sum of their bit
+   lengths. */
+#define GS__SH_ADD(sh, e, i, x)                                                 \
+    do {                                                                       \
+        int64_t x_ = (x);                                                      \
+        (e)[i] = x_;                                                           \
+        (sh)[gs__bitlen64(gs__zigzag(x_) & 0x1ffffffffull)]++;                 \
+    } while (0)
 GS__PRIVATE long gs__spatial_stat(const int64_t *d, int n, int row, int restart, int64_t *e,
                                   int *sh) {
     int s, i, lo, hi, a, b, r3 = 3 * row;
@@ -12823,16 +12864,13 @@ GS__PRIVATE long gs__spatial_stat(const int64_t *d, int n, int row, int restart,
         if (s && restart <= 0) break;
         a = lo + 3 < hi ? lo + 3 : hi;
         b = lo + r3 + 3 < hi ? lo + r3 + 3 : hi;
-        for (i = lo; i < a; ++i) e[i] = d[i];
-        for (; i < b; ++i) e[i] = d[i] - d[i - 3];
-        for (; i < hi; ++i) e[i] = d[i] - gs__med3(d[i - 3], d[i - r3], d[i - r3 - 3]);
-    }
-    for (i = 0; i < n; ++i) {
-        int L = gs__bitlen64(gs__zigzag(e[i]));
-        sh[L < 33 ? L : 33]++;
+        for (i = lo; i < a; ++i) GS__SH_ADD(sh, e, i, d[i]);
+        for (; i < b; ++i) GS__SH_ADD(sh, e, i, d[i] - d[i - 3]);
+        for (; i < hi; ++i) GS__SH_ADD(sh, e, i, d[i] - gs__med3(d[i - 3], d[i - r3], d[i - r3 - 3]));
     }
     return gs__hist_bits(sh);
 }
+#undef GS__SH_ADD
 
 /* st's spatial part (row > 0: the residuals of n differences d into e)
    and the smaller of the plain and the spatial bit sums: what the coding
@@ -12925,10 +12963,15 @@ GS__PRIVATE size_t gs__delta_put(unsigned char *p, size_t room, const gs_wire_ch
         (void)gs__dstat_bits(&own, d, c->elements, row, gs__spatial_restart(c), e);
         st = &own;
     }
-    while (w0 < 32 && st->m0 >> w0) ++w0;
-    while (w1 < 32 && st->m1 >> w1) ++w1;
+    /* the widths of the OR of the zigzags and of the nonzero ones less 1:
+       the bit lengths of the largest, and of it less 1 */
+    w0 = gs__bitlen64(st->mx);
+    w1 = st->mx ? gs__bitlen64(st->mx - 1) : 0;
+    w0 = w0 < 32 ? w0 : 32;
+    w1 = w1 < 32 ? w1 : 32;
     need0 = ((size_t)c->elements * (size_t)w0 + 7) / 8;
-    need1 = ((size_t)c->elements + 7) / 8 + ((size_t)st->nz * (size_t)w1 + 7) / 8;
+    need1 = ((size_t)c->elements + 7) / 8 +
+            ((size_t)(c->elements - st->hist[0]) * (size_t)w1 + 7) / 8;
     coding = need1 < need0;
     wd = coding ? w1 : w0;
     rbits = gs__rice_pick(st->hist, c->elements, &rk);
@@ -13040,14 +13083,27 @@ GS__PRIVATE int gs__wire_put_values(unsigned char *p, gs_encoding e, const doubl
     return ok;
 }
 
+/* Are n values all finite? A double is NaN or infinite when its exponent
+   bits are all ones, and only then does adding one to them carry into the
+   sign bit: an AND, an add and an OR a value, which vectorize (v - v ==
+   0.0 took a compare and two flag reads each). */
+GS__PRIVATE int gs__all_finite(const double *v, int n) {
+    uint64_t top = 0;
+    int i;
+    for (i = 0; i < n; ++i) {
+        uint64_t u;
+        memcpy(&u, v + i, 8);
+        top |= (u & 0x7ff0000000000000ull) + 0x0010000000000000ull;
+    }
+    return !(top >> 63);
+}
+
 /* The quantized payload of c at p, within room bytes: its size in *len.
    GS_ERR_CAPACITY if it does not fit. */
 GS__PRIVATE gs_result gs__wire_put_quant(unsigned char *p, size_t room, const gs_wire_chunk *c,
                                          const double *values, size_t *len) {
-    int i, ok = 1;
     if (c->flags & GS_WIRE_CHUNK_REST) { *len = 0; return GS_OK; }
-    for (i = 0; i < c->elements; ++i) ok &= gs__finite(values[i]);
-    if (!ok) return GS_ERR_NOT_FINITE;
+    if (!gs__all_finite(values, c->elements)) return GS_ERR_NOT_FINITE;
     if (!gs__quant_args_ok(c, values)) return GS_ERR_INVALID_ARG;
     *len = gs__quant_put(p, room, c, values);
     return *len ? GS_OK : GS_ERR_CAPACITY;
