@@ -358,9 +358,6 @@
                            A frame grid on the session clock
                            (gs_sync_desc.frame, gs_world_next_frame): the
                            hosts' frame loops lock in phase.
-                           A probe moves at its targets' pace (times 1.5,
-                           up to max_speed), not at max_speed, and a blend
-                           of its owner's ghost no longer stops it.
 
    LICENSE: MIT, at the end of this file.
 */
@@ -1071,9 +1068,8 @@ typedef struct gs_probe_desc {
     gs_quat orientation;   /* default identity */
     gs_material material;  /* all zero: gs_material_default() */
     double dt;             /* s, >= GS_MIN_DT; default 0.001 */
-    double max_speed;      /* m/s it may move at to reach its target,
-                              whatever the targets' pace
-                              (gs_probe_set_target); default 10 */
+    double max_speed;      /* m/s it may move at to reach its target;
+                              default 10 */
     uint32_t owner;        /* host that drives it; default this world's */
 } gs_probe_desc;
 
@@ -1098,22 +1094,11 @@ GS_API gs_result gs_rigid_create(gs_world *w, const gs_rigid_desc *desc,
 GS_API gs_result gs_probe_create(gs_world *w, const gs_probe_desc *desc,
                                  gs_agent **out);
 
-/* Where the probe should be; it moves there over its next steps in a
-   straight line at the pace the targets move: the distance from the last
-   target over the simulated time since that was set (or since the last
-   advance began, if later; at most 0.25 s), times 1.5, and never past
-   max_speed. Set once a frame, it gets there within the frame, as smooth
-   as the path it is given; an advance that catches up many frames at once
-   (a host descheduled under load) moves it at that pace too, not a burst's
-   distance in a step, and it makes up the lag at half the pace after. The
-   first target, with no pace yet, is taken at max_speed. Its orientation
-   is the target's from its next step on. On the host that owns it a blend
-   of its ghost (inside an advance) leaves the target as it was;
-   gs_agent_set_state between advances places it and makes that its
-   target. GS_ERR_NOT_FINITE for a NaN,
-   GS_ERR_OUT_OF_RANGE for a position outside +-GS_MAX_COORD; an all-zero
-   orientation is the identity, any other finite one is normalized.
-   GS_ERR_BUSY from a callback (set it between advances). */
+/* Where the probe should be; it moves there over its next steps at no more
+   than max_speed. GS_ERR_NOT_FINITE for a NaN, GS_ERR_OUT_OF_RANGE for a
+   position outside +-GS_MAX_COORD; an all-zero orientation is the
+   identity, any other finite one is normalized. GS_ERR_BUSY from a
+   callback (set it between advances). */
 GS_API gs_result gs_probe_set_target(gs_agent *probe, gs_vec3 position,
                                      gs_quat orientation);
 
@@ -2860,8 +2845,6 @@ struct gs_world {
     double sleep_time;   /* s; < 0: nothing sleeps */
     double sleep_speed;  /* m/s */
     double target;       /* s */
-    double advance_from; /* s; the target when the last gs_world_advance
-                            began (a probe's pace: gs__probe_pace) */
     int busy;            /* inside gs_world_advance */
     int inside;          /* depth of the other calls that run user code on
                             this world: gs_agent_step, a custom agent's
@@ -3676,7 +3659,6 @@ GS_API gs_result gs_world_advance(gs_world *w, double seconds,
                         "gs_world_advance: %g s on from %.17g s would pass "
                         "GS_WIRE_MAX_TIME (%g s)", seconds, from, GS_WIRE_MAX_TIME);
     w->error[0] = '\0'; /* from here on the text is this advance's */
-    w->advance_from = w->target;
     w->busy = 1;
     w->epoch++;
     first_error = w->hooks.advance(w, seconds, &rep);
@@ -7070,9 +7052,6 @@ typedef struct gs__rigid {
     gs_vec3 target;            /* probe */
     gs_quat target_q;
     double max_speed;          /* probe, m/s */
-    double pace;               /* probe, m/s: how fast its application
-                                  moved the target; 0: not known yet */
-    double t_set;              /* probe, s: its time at that last move */
     gs__lead lead;             /* a peer's probe, replay mode */
     uint32_t owner;
     int probe;                 /* kinematic: moved by the application */
@@ -7405,48 +7384,13 @@ GS__PRIVATE gs_result gs__rigid_step(gs_agent *a, double dt) {
 
 GS__PRIVATE void gs__probe_wake(gs__rigid *p);
 
-#define GS__PROBE_PACE_GAIN 1.5 /* of the target's pace: room to arrive
-                                   within a frame longer than the last and
-                                   to make up a lag (by half the pace) */
-#define GS__PROBE_PACE_SPAN 0.25 /* s; the longest time a target's move is
-                                   taken to span: one after a long pause
-                                   still arrives within GS__PROBE_PACE_SPAN
-                                   / GS__PROBE_PACE_GAIN */
-
-/* The pace of a new target `to`: its distance from the last one over the
-   probe's time since that was set, or since the last advance began if
-   that is later (a move after advances that set no target is not taken
-   as slow: the application moved it within the last), and at most
-   GS__PROBE_PACE_SPAN. A target set again at the same instant keeps the
-   pace; the same target again where the probe stands starts the time
-   anew. */
-GS__PRIVATE void gs__probe_pace(gs__rigid *r, gs_vec3 to) {
-    double t = gs__agent_time(&r->base);
-    double span = t - fmax(r->t_set, r->base.world->advance_from);
-    int moved = to.x != r->target.x || to.y != r->target.y || to.z != r->target.z;
-    if (!(t > r->t_set)) return;
-    if (moved) {
-        span = fmin(fmax(span, r->base.dt), GS__PROBE_PACE_SPAN);
-        r->pace = gs__len(gs__sub(to, r->target)) / span;
-        r->t_set = t;
-    } else if (r->x.x == r->target.x && r->x.y == r->target.y && r->x.z == r->target.z) {
-        r->t_set = t;
-    }
-}
-
-/* A probe moves toward its target at the pace its application moves the
-   target (gs__probe_pace) times GS__PROBE_PACE_GAIN, and never faster than
-   max_speed: a host that catches up many steps in one advance moves it as
-   a host that advanced frame by frame did, not a frame's (or a burst's)
-   distance in a step, which threw the spheres the probe pushed. Target and
+/* A probe moves toward its target at no more than max_speed. Target and
    position are in range, so their difference is finite; its velocity d / dt
    may still not be (a tiny dt), and then the step is refused. */
 GS__PRIVATE gs_result gs__probe_step(gs_agent *a, double dt) {
     gs__rigid *r = (gs__rigid *)a;
     gs_vec3 d = gs__sub(r->target, r->x), x, v;
-    double speed = r->pace > 0.0 ? fmin(r->max_speed, GS__PROBE_PACE_GAIN * r->pace)
-                                 : r->max_speed;
-    double dist = gs__len(d), reach = speed * dt;
+    double dist = gs__len(d), reach = r->max_speed * dt;
     if (dist > reach) d = gs__scale(d, reach / dist);
     v = gs__scale(d, 1.0 / dt);
     x = gs__add(r->x, d);
@@ -7502,12 +7446,7 @@ GS__PRIVATE gs_result gs__rigid_set_state(gs_agent *a, const double *in) {
     r->v = gs__v3(in[7], in[8], in[9]);
     r->w = gs__v3(in[10], in[11], in[12]);
     r->a_own = gs__v3(0.0, 0.0, 0.0); /* a state, not a step: no path known */
-    /* A state set between advances places a probe and stops it there; one
-       set inside an advance (a blend, or an input a re-run applies) leaves
-       this host's own probe on its way to its application's target, which
-       it may take several steps to reach (gs__probe_step). A peer's probe
-       goes where its blends put it. */
-    if (r->probe && !(a->world->busy && r->owner == a->world->host_id)) {
+    if (r->probe) {
         r->target = r->x;
         r->target_q = r->q;
     }
@@ -7631,7 +7570,6 @@ GS_API gs_result gs_probe_create(gs_world *w, const gs_probe_desc *desc,
     r->q = r->target_q = gs__quat_normalize(d.orientation);
     r->mat = d.material;
     r->max_speed = d.max_speed;
-    r->t_set = gs__agent_time(&r->base);
     r->owner = d.owner;
     r->stable_dt = HUGE_VAL;
     return gs__rigid_register(w, r, out);
@@ -7656,7 +7594,6 @@ GS_API gs_result gs_probe_set_target(gs_agent *a, gs_vec3 position,
                         "gs_probe_set_target: position (%g, %g, %g) m is "
                         "outside +-GS_MAX_COORD (%g m)", position.x,
                         position.y, position.z, GS_MAX_COORD);
-    gs__probe_pace(r, position);
     r->target = position;
     r->target_q = gs__quat_normalize(gs__orientation_default(orientation));
     return GS_OK;
@@ -10677,8 +10614,8 @@ GS__PRIVATE int gs__ghost_pending(const gs__ghost *g) {
                                t_offset, priority, 6 counters, sleeping
                                + 2 hold, rest */
 #define GS__SYNC_LEAD 16    /* doubles in a gs__lead */
-#define GS__SYNC_RIGID (13 + GS__SYNC_LEAD) /* a_own, pace, t_set, 1
-                               spare, target, target_q, lead */
+#define GS__SYNC_RIGID (13 + GS__SYNC_LEAD) /* a_own, 3 spare, target,
+                               target_q, lead */
 typedef char gs__lead_is_doubles[sizeof(gs__lead) == GS__SYNC_LEAD * sizeof(double) ? 1 : -1];
 #define GS__LEAD_AHEAD 0.1  /* s; how far past its last snapshot a peer's
                                probe is carried (gs__sync_carry) */
@@ -10915,8 +10852,7 @@ GS__PRIVATE double *gs__sync_save_agent(const gs_agent *a, double *p) {
     p += GS__SYNC_AGENT;
     if (r) {
         p[0] = r->a_own.x; p[1] = r->a_own.y; p[2] = r->a_own.z;
-        p[3] = r->pace; p[4] = r->t_set;
-        p[5] = 0.0; /* room kept: the layout stays 13 */
+        p[3] = p[4] = p[5] = 0.0; /* room kept: the layout stays 13 */
         p[6] = r->target.x; p[7] = r->target.y; p[8] = r->target.z;
         p[9] = r->target_q.x; p[10] = r->target_q.y; p[11] = r->target_q.z;
         p[12] = r->target_q.w;
@@ -10946,8 +10882,6 @@ GS__PRIVATE const double *gs__sync_load_agent(gs_agent *a, const double *p) {
     if (r) {
         const double *x = p + GS__SYNC_AGENT;
         r->a_own = gs__v3(x[0], x[1], x[2]);
-        r->pace = x[3];
-        r->t_set = x[4];
         r->target = gs__v3(x[6], x[7], x[8]);
         r->target_q = gs__quat(x[9], x[10], x[11], x[12]);
         memcpy(&r->lead, x + 13, sizeof r->lead);
@@ -11379,8 +11313,7 @@ GS__PRIVATE void gs__sync_target(gs_world *w, double seconds, double before) {
 
 /* Replay mode: a peer's probe, set from its owner's snapshot, tells how
    the owner's application moves it (gs__sync_carry). The owner sets its
-   target once a frame and the probe gets there within the frame (at the
-   targets' pace, gs__probe_step), so that its
+   target once a frame and the probe goes there in a step, so that its
    snapshots, taken at the ends of the owner's frames, hold each frame's
    target: the path is sampled once a frame, and read per frame, not per
    second. A snapshot's time is the probe's step nearest the frame's end,
@@ -11448,7 +11381,6 @@ GS__PRIVATE void gs__sync_carry(gs_agent *a) {
     l = &r->lead;
     if (!(l->n > 1.0 && l->per > 0.0)) {
         r->target = gs__madd(r->x, r->v, a->dt);
-        r->pace = 0.0;
         return;
     }
     if (gs__agent_time(a) < l->next - 0.5 * a->dt) return; /* on to the target */
@@ -11457,10 +11389,7 @@ GS__PRIVATE void gs__sync_carry(gs_agent *a) {
     l->j += 1.0;
     j = l->j;
     to = gs__madd(gs__madd(l->x, l->d, j), l->dd, 0.5 * j * (j + 1.0));
-    if (!gs__in_range3(to)) return;
-    /* at the owner's pace, as its application's targets move its probe */
-    r->pace = gs__len(gs__sub(to, r->target)) / l->per;
-    r->target = to;
+    if (gs__in_range3(to)) r->target = to;
 }
 
 /* The world's hook after a step (a dispatch, gs_agent_step): in a re-run
@@ -11660,8 +11589,6 @@ GS__PRIVATE void gs__sync_load_targets(gs_world *w, const double *p) {
         /* a peer's probe moves where its blends put it, not by a target */
         if (r && r->probe && r->owner == w->host_id) {
             const double *x = p + GS__SYNC_AGENT;
-            r->pace = x[3];
-            r->t_set = x[4];
             r->target = gs__v3(x[6], x[7], x[8]);
             r->target_q = gs__quat(x[9], x[10], x[11], x[12]);
         }

@@ -857,10 +857,10 @@ def main(argv):
 
 
 # A convergence test that fails is run once more, and says so. These run
-# real processes at wall-clock pace on a machine other jobs share, and
-# still end a few millimetres apart now and then (docs/faults-notes.md,
-# s19e: 1-2 first tries in 10 rounds; a burst of catch-up steps alone does
-# not do it). A second failure is a failure.
+# real processes at wall-clock pace on a machine other jobs share: one
+# descheduled for tens of milliseconds steps in a burst to catch up, and a
+# sphere the probe was pushing then can leave the cloth and roll on the
+# ground, where nothing stops it. A second failure is a failure.
 RETRIED = ("two", "three", "restart", "flood")
 
 
