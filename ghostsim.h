@@ -10662,6 +10662,9 @@ typedef struct gs__sync {
     int started;         /* the session clock has read its first time */
     double origin;       /* s; session time - local clock */
     double last_now;     /* s; the local clock at the last advance */
+    double now;          /* s; the local clock as this advance began:
+                            read before the replay, whose own duration is
+                            not the session's time moving on */
     double boundary;     /* s; the frame boundary the last advance ran to
                             (sync.frame), session time */
     gs__sync_peer mail[GS__MAX_PEERS]; /* written by the net, under its lock */
@@ -11278,7 +11281,7 @@ GS__PRIVATE void gs__sync_target(gs_world *w, double seconds, double before) {
         return;
     }
     if (gs__sync_session(w)) {
-        now = sy->d.now ? sy->d.now(sy->d.now_user) : w->clock(w->clock_user);
+        now = sy->now;
         if (gs__finite(now)) {
             if (!sy->started) {
                 sy->started = 1;
@@ -11820,6 +11823,11 @@ GS__PRIVATE void gs__net_advanced(gs_world *w, double seconds) {
 GS__PRIVATE gs_result gs__sync_advance(gs_world *w, double seconds, gs_advance_report *rep) {
     gs_result r;
     double before;
+    /* the clock is read before the replay: read after it, a replay's own
+       duration counted as the session moving on (the target ran ahead by
+       it) and, past GS__SYNC_STEP, as a step of the clock */
+    if (gs__sync_session(w))
+        w->sync->now = w->sync->d.now ? w->sync->d.now(w->sync->d.now_user) : w->clock(w->clock_user);
     gs__sync_begin(w, seconds);
     /* the follow after the replay, which moves agents */
     gs__world_follow(w, gs__world_follow_target(w));

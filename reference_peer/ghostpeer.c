@@ -44,8 +44,10 @@
    replay budget, blended at the present), the lag (s the slowest agent
    is behind the target: this host not keeping pace), the timekeeper,
    replays_skipped (replays whose blends changed no state, or moved states
-   within the replay tolerance: the present stood) and replays_near (of
-   those, the ones within the tolerance).
+   within the replay tolerance: the present stood), replays_near (of
+   those, the ones within the tolerance), clock_steps (steps of the local
+   clock the session clock absorbed) and joins (times this host took a
+   peer's timeline).
    --clock session puts the present blend on the session clock too; local
    keeps each host's target its own seconds advanced (--sync replay always
    runs on the session clock).
@@ -600,11 +602,13 @@ static void print_line(peer_host *h, int final) {
         gs_world_sync_stats(h->w, &st);
         printf(", \"replay\": {\"mode\": \"%s\", \"replays\": %llu, \"steps_per_s\": %.1f, "
                "\"fallbacks\": %llu, \"lag\": %.6f, \"timekeeper\": %u, "
-               "\"replays_skipped\": %llu, \"replays_near\": %llu}",
+               "\"replays_skipped\": %llu, \"replays_near\": %llu, \"clock_steps\": %llu, "
+               "\"joins\": %llu}",
                h->o.replay ? "replay" : "present", (unsigned long long)st.replays,
                wall > 0.0 ? (double)st.replay_steps / wall : 0.0,
                (unsigned long long)st.fallbacks, st.lag, (unsigned)st.timekeeper,
-               (unsigned long long)st.replays_skipped, (unsigned long long)st.replays_near);
+               (unsigned long long)st.replays_skipped, (unsigned long long)st.replays_near,
+               (unsigned long long)st.clock_steps, (unsigned long long)st.joins);
     }
     printf(", \"frame_lock\": %s, \"t_since\": %.6f, \"t_done\": %.6f",
            h->o.frame_lock ? "true" : "false", h->t_since, h->t_done);

@@ -662,6 +662,91 @@ static void test_replay_fallbacks(void **state) {
     gs_world_destroy(h.w);
 }
 
+/* A custom agent whose step costs 0.5 ms of a hand clock (its user's
+   `clock`): a replay takes real time. */
+typedef struct slow_toy {
+    toy t;
+    double *clock;
+} slow_toy;
+
+static gs_result slow_toy_step(void *user, double t, double dt) {
+    slow_toy *p = (slow_toy *)user;
+    *p->clock += 5e-4;
+    return toy_step(&p->t, t, dt);
+}
+
+static double hand_clock(void *user) {
+    return *(double *)user;
+}
+
+/* A replay's own duration is not the session's time moving on: the clock
+   is read as the advance begins. Each frame the application reads the
+   clock, advances by what passed since the last frame, and sleeps to the
+   next frame's start (or goes on at once when it is late). Two late
+   snapshots, 8.5 and 2.5 frames old, make replays of ~145 and ~45 steps
+   (72 and 22 ms of the hand clock): read after the replay, the first was
+   a clock step of 72 ms (past GS__SYNC_STEP, 50 ms) and the second ran
+   the session's time 22 ms ahead of the clock. */
+static void test_replay_time_is_not_a_clock_step(void **state) {
+    gs_world_desc wd = gs_world_desc_default();
+    gs_ghost_desc gd = gs_ghost_desc_default();
+    gs_custom_desc cd;
+    gs_net_desc nd;
+    gs_sync_stats st;
+    replay_host h;
+    slow_toy toy_s;
+    double clock = 0.0, last = 0.0, origin = 0.0;
+    int f;
+    (void)state;
+    memset(&h, 0, sizeof h);
+    memset(&toy_s, 0, sizeof toy_s);
+    toy_s.clock = &clock;
+    toy_s.t.x[1] = 0.1;
+    wd.host_id = 2;
+    wd.clock = hand_clock;
+    wd.clock_user = &clock;
+    wd.budget = 1.0; /* the hand clock is the cost here, not a deadline */
+    wd.sync.mode = GS_SYNC_REPLAY;
+    wd.sync.clock = GS_SYNC_CLOCK_SESSION;
+    wd.sync.history_frames = 16;
+    assert_int_equal(gs_world_create(&wd, &h.w), GS_OK);
+    memset(&cd, 0, sizeof cd);
+    cd.dt = 0.001;
+    cd.state_size = 2;
+    cd.step = slow_toy_step;
+    cd.get_state = toy_get;
+    cd.set_state = toy_set;
+    cd.user = &toy_s; /* toy_get/toy_set read the toy at its head */
+    assert_int_equal(gs_custom_create(h.w, &cd, &h.a), GS_OK);
+    gd.object_id = 1;
+    assert_int_equal(gs_ghost_attach(h.a, &gd), GS_OK);
+    memset(&nd, 0, sizeof nd);
+    nd.transport.send = no_send;
+    assert_int_equal(gs_net_create(h.w, &nd, &h.net), GS_OK);
+    assert_int_equal(gs_net_add_peer(h.net, 1, NULL), GS_OK);
+    for (f = 1; f <= 40; ++f) {
+        double now = clock;
+        if (f == 20) replay_deliver(&h, gs_world_time(h.w) - 8.5 * FRAME, 1);
+        if (f == 30) replay_deliver(&h, gs_world_time(h.w) - 2.5 * FRAME, 2);
+        assert_int_equal(gs_world_advance(h.w, f == 1 ? FRAME : now - last, NULL), GS_OK);
+        last = now;
+        if (f == 1) origin = gs_world_time(h.w) - now;
+        /* the session's time is the clock as the advance began: to within
+           a millisecond (the agent's step; the target is the clock's
+           reading plus the origin, with no frame grid) */
+        assert_true(fabs(gs_world_time(h.w) - (now + origin)) < 1e-3);
+        clock = fmax(clock, f * FRAME);
+    }
+    assert_int_equal(gs_world_sync_stats(h.w, &st), GS_OK);
+    printf("replays %llu of %llu steps, clock steps %llu, joins %llu\n",
+           (unsigned long long)st.replays, (unsigned long long)st.replay_steps,
+           (unsigned long long)st.clock_steps, (unsigned long long)st.joins);
+    assert_int_equal(st.replays, 2);
+    assert_true(st.replay_steps >= 150);
+    assert_int_equal(st.clock_steps, 0);
+    gs_world_destroy(h.w);
+}
+
 /* Both modes converge on the simnet under latency, jitter, loss,
    duplicates, reordering and a 0.3 s outage: two hosts of a small paper
    scene, host 1's probe pushing for 0.8 s, then 1.7 s at rest. */
@@ -755,6 +840,7 @@ int main(void) {
         cmocka_unit_test(test_history_with_blends),
         cmocka_unit_test(test_replay_late_equals_in_time),
         cmocka_unit_test(test_replay_fallbacks),
+        cmocka_unit_test(test_replay_time_is_not_a_clock_step),
         cmocka_unit_test(test_modes_converge),
     };
     return cmocka_run_group_tests_name("sync", tests, NULL, NULL);
