@@ -1575,7 +1575,11 @@ GS_API gs_result gs_world_sync_stats(const gs_world *w, gs_sync_stats *out);
    offset error and its own wake-up latency: the frame loops of the hosts
    lock in phase. An application that computes a frame before it shows it
    wakes up to half a frame before *at (the target still rounds to that
-   boundary), advances, and shows the state at *at; its ghosts' datagrams
+   boundary), advances, and shows the state at *at; or, to compute further
+   ahead or to be safe from a late wake, it gives the session clock
+   (gs_sync_desc.now) a function that reads *at, the instant the frame is
+   shown, so that the target is that boundary whenever the advance runs
+   (reference_peer/ghostpeer.c's show_clock). Its ghosts' datagrams
    then leave at *at too (gs_net_update holds a state until the instant it
    stands for), so that the peers, which read the session's timeline from a
    state's time less its send time, read it right. Before the first advance
