@@ -12099,25 +12099,48 @@ GS__PRIVATE void gs__quant_lay(const gs_wire_segment *s, const double *v, gs__ql
     while (l->width < 32 && (uint64_t)(hi - l->lo) >> l->width) ++l->width;
 }
 
-/* A scalar segment at w in layout l: header, then the packed values. 0 if
-   it ran out of room. Each value is rounded as v * (1 / step), a product
-   rather than a quotient: within a unit of the last place of v / step,
-   which the error bound (half a step) does not see. */
+/* A segment's header (see >>wire: kind, count, then a scalar's step,
+   width and base, the zigzag of l->lo as a varint, or a quaternion's
+   bits; l is read for a scalar only) at out (NULL: not written), whole
+   bytes: its size. gs__quant_put sizes a chunk with it before anything
+   is packed and the writers write with it, so that the layout is said
+   once. */
+GS__PRIVATE size_t gs__varint_put(unsigned char *p, uint64_t z);
+GS__PRIVATE size_t gs__seg_head(unsigned char *out, const gs_wire_segment *s,
+                                const gs__qlay *l) {
+    unsigned char b[24];
+    unsigned char *o = out ? out : b;
+    size_t n = 3;
+    o[0] = (unsigned char)s->kind;
+    gs__put16(o + 1, (uint16_t)s->count);
+    if (s->kind != GS_WIRE_SCALAR) {
+        o[n++] = (unsigned char)s->bits;
+        return n;
+    }
+    gs__putf64(o + n, l->step);
+    o[n + 8] = (unsigned char)l->width;
+    return n + 9 + gs__varint_put(o + n + 9, gs__zigzag(l->lo));
+}
+
+/* A scalar segment at w (on a byte) in layout l: header, then the packed
+   values. 0 if it ran out of room. Each value is rounded as v * (1 /
+   step), a product rather than a quotient: within a unit of the last
+   place of v / step, which the error bound (half a step) does not see. */
 GS__PRIVATE int gs__quant_put_scalar(gs__bitw *w, const gs_wire_segment *s, const gs__qlay *l,
                                      const double *v) {
     double step = l->step, inv = 1.0 / step;
     int64_t lo = l->lo;
-    uint64_t z;
     int i, width = l->width;
-    gs__bitw_put(w, GS_WIRE_SCALAR, 8);
-    gs__bitw_put(w, s->count, 16);
-    { uint64_t u; memcpy(&u, &step, 8); gs__bitw_put(w, u & 0xffffffffu, 32); gs__bitw_put(w, u >> 32, 32); }
-    gs__bitw_put(w, (uint64_t)width, 8);
-    for (z = gs__zigzag(lo); z >= 0x80; z >>= 7) gs__bitw_put(w, (z & 0x7f) | 0x80, 8);
-    gs__bitw_put(w, z, 8);
+    unsigned char h[24];
+    size_t hn = gs__seg_head(h, s, l);
+    if ((size_t)(w->end - w->p) < hn) {
+        w->over = 1;
+        return 0;
+    }
+    memcpy(w->p, h, hn);
+    w->p += hn;
     /* the writer's fields in locals: its stores are of bytes, which may
        alias anything, and would make it reload them for every value */
-    gs__bitw_flush(w); /* whole bytes: the values start on one */
     {
         unsigned char *p = w->p, *end = w->end;
         uint64_t acc = 0;
@@ -12142,12 +12165,20 @@ GS__PRIVATE double gs__quat_step(int bits) {
     return 1.4142135623730951 / (double)((1u << bits) - 1u);
 }
 
+/* A quaternion segment at w (on a byte): header, then each quaternion's
+   largest component's index, its sign and the other three. 0 if it ran
+   out of room. */
 GS__PRIVATE int gs__quant_put_quat(gs__bitw *w, const gs_wire_segment *s, const double *v) {
     double st = gs__quat_step(s->bits), top = (double)((1u << s->bits) - 1u);
     int i, k, big, j;
-    gs__bitw_put(w, GS_WIRE_QUATERNION, 8);
-    gs__bitw_put(w, s->count, 16);
-    gs__bitw_put(w, (uint64_t)s->bits, 8);
+    unsigned char h[24];
+    size_t hn = gs__seg_head(h, s, NULL);
+    if ((size_t)(w->end - w->p) < hn) {
+        w->over = 1;
+        return 0;
+    }
+    memcpy(w->p, h, hn);
+    w->p += hn;
     for (i = 0; i < s->count; i += 4) {
         const double *q = v + i;
         double norm = sqrt(q[0] * q[0] + q[1] * q[1] + q[2] * q[2] + q[3] * q[3]);
@@ -12205,18 +12236,18 @@ GS__PRIVATE size_t gs__quant_put(unsigned char *p, size_t room, const gs_wire_ch
     for (k = 0; k < c->segment_count; ++k) {
         const gs_wire_segment *s = &c->segments[k];
         if (s->kind == GS_WIRE_SCALAR) {
-            uint64_t z;
             gs__quant_lay(s, u, &lay[k]);
-            need += 13 + ((size_t)s->count * (size_t)lay[k].width + 7) / 8;
-            for (z = gs__zigzag(lay[k].lo); z >= 0x80; z >>= 7) ++need;
+            need += gs__seg_head(NULL, s, &lay[k]) +
+                    ((size_t)s->count * (size_t)lay[k].width + 7) / 8;
         } else {
-            need += 4 + ((size_t)(s->count / 4) * (size_t)(3 + 3 * s->bits) + 7) / 8;
+            need += gs__seg_head(NULL, s, NULL) +
+                    ((size_t)(s->count / 4) * (size_t)(3 + 3 * s->bits) + 7) / 8;
         }
         u += s->count;
     }
     if (need > room) return 0;
-    w.p = p; w.end = p + room; w.acc = 0; w.n = 0; w.over = 0;
-    gs__bitw_put(&w, (uint64_t)c->segment_count, 8);
+    p[0] = (unsigned char)c->segment_count;
+    w.p = p + 1; w.end = p + room; w.acc = 0; w.n = 0; w.over = 0;
     for (k = 0; k < c->segment_count && ok; ++k) {
         const gs_wire_segment *s = &c->segments[k];
         ok = s->kind == GS_WIRE_SCALAR ? gs__quant_put_scalar(&w, s, &lay[k], v)
