@@ -12502,6 +12502,29 @@ GS__PRIVATE size_t gs__rice_bits(const gs__rice *r) {
     return 8 * ((size_t)(r->p - r->start) + r->zeros) - (size_t)r->n;
 }
 
+/* Walks n values of a Rice run of parameter k (gs__rice_get's codes)
+   without making them: what a parse needs, the bits they take. 0 if an
+   escape holds a value unary could say (one meaning). In a local copy, so
+   that the reader's fields stay in registers. */
+GS__PRIVATE int gs__rice_skip(gs__rice *r, int n, int k) {
+    gs__rice t = *r;
+    int i, tz;
+    for (i = 0; i < n; ++i) {
+        gs__rice_fill(&t);
+        tz = gs__ctz64(t.acc | (uint64_t)1 << GS__RICE_ESCAPE);
+        if (tz < GS__RICE_ESCAPE) { /* unary, its 1 and k bits: at most 40 */
+            t.acc >>= tz + 1 + k;
+            t.n -= tz + 1 + k;
+            continue;
+        }
+        if ((t.acc >> GS__RICE_ESCAPE & 0xffffffffu) >> k < GS__RICE_ESCAPE) return 0;
+        t.acc >>= GS__RICE_ESCAPE + 32;
+        t.n -= GS__RICE_ESCAPE + 32;
+    }
+    *r = t;
+    return 1;
+}
+
 /* The bits a Rice run of parameter k takes are estimated from the values'
    bit lengths (hist[L]: values of L bits; a value of L > k bits has z >>
    k between 2^(L-k-1) and 2^(L-k) - 1, taken as 3/4 of 2^(L-k); L up to
@@ -12618,13 +12641,8 @@ GS__PRIVATE size_t gs__delta_parse(gs_wire_chunk *c, const unsigned char *p, siz
     if (c->delta_coding >= 2) { /* walked: its length is where it ends */
         gs__rice r;
         size_t bits;
-        int esc, k = c->delta_width;
         gs__rice_init(&r, q, end);
-        for (i = 0; i < c->elements; ++i) {
-            uint64_t z = gs__rice_get(&r, k, &esc);
-            /* one meaning: an escape only for what unary cannot say */
-            if (esc && z >> k < GS__RICE_ESCAPE) return 0;
-        }
+        if (!gs__rice_skip(&r, c->elements, c->delta_width)) return 0;
         /* a run that overran took 0 bits past end: its bits say so (at the
            end: they only grow) */
         bits = gs__rice_bits(&r);
@@ -12728,19 +12746,31 @@ GS__PRIVATE int gs__delta_sum(const gs_wire_chunk *c, const int64_t *bk, int64_t
                differences before it (held in dd), checked, then the
                baseline: one pass. A section's first triple is predicted
                0, its first row (and one) from the left, the rest by the
-               median (the cases of gs__med3's comment) */
+               median (the cases of gs__med3's comment), each case in a
+               loop of its own over its span (as gs__spatial_stat), so
+               that no value tests where it is */
             int64_t dd[GS_WIRE_QUANT_CHUNK], x;
-            int row3 = 3 * c->delta_row, lo = 0, bad = 0;
-            for (i = 0; i < c->elements; ++i) {
-                x = gs__unzigzag(gs__rice_get(&r, w, &esc));
-                if (i == c->delta_restart && i) lo = i;
-                if (i >= lo + row3 + 3) x += gs__med3(dd[i - 3], dd[i - row3], dd[i - row3 - 3]);
-                else if (i >= lo + 3) x += dd[i - 3];
-                dd[i] = x;
-                /* one meaning: a spatial coding's differences as the others' */
-                bad |= (uint64_t)(x + 2147483647LL) > 4294967294u;
-                out[i] = bk[i] + x;
+            int row3 = 3 * c->delta_row, rs = c->delta_restart, s, lo, hi, a, b;
+            uint64_t bad = 0;
+            /* one meaning: a spatial coding's differences as the others' */
+#define GS__DSUM_PUT(pred)                                                      \
+    do {                                                                       \
+        x = gs__unzigzag(gs__rice_get(&r, w, &esc)) + (pred);                  \
+        dd[i] = x;                                                             \
+        bad |= (uint64_t)(x + 2147483647LL) > 4294967294u;                     \
+        out[i] = bk[i] + x;                                                    \
+    } while (0)
+            for (s = 0; s < 2; ++s) {
+                lo = s ? rs : 0;
+                hi = !s && rs > 0 ? rs : c->elements;
+                if (s && rs <= 0) break;
+                a = lo + 3 < hi ? lo + 3 : hi;
+                b = lo + row3 + 3 < hi ? lo + row3 + 3 : hi;
+                for (i = lo; i < a; ++i) GS__DSUM_PUT(0);
+                for (; i < b; ++i) GS__DSUM_PUT(dd[i - 3]);
+                for (; i < hi; ++i) GS__DSUM_PUT(gs__med3(dd[i - 3], dd[i - row3], dd[i - row3 - 3]));
             }
+#undef GS__DSUM_PUT
             return !bad;
         }
     }
