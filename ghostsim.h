@@ -12811,8 +12811,9 @@ GS__PRIVATE int gs__clz64(uint64_t v) {
 #endif
 }
 /* The bit length of v < 2^63 (0 for 0): the top bit of 2v + 1, one bit
-   scan and no test for 0. */
-GS__PRIVATE_INLINE int gs__bitlen64(uint64_t v) { return 63 - gs__clz64(v << 1 | 1u); }
+   scan and no test for 0. 63 ^ rather than 63 - (the same for 0..63): a
+   compiler then sees the scan's index itself (bsr), no subtraction. */
+GS__PRIVATE_INLINE int gs__bitlen64(uint64_t v) { return 63 ^ gs__clz64(v << 1 | 1u); }
 
 /* What the coding choice (gs__delta_put) reads of n differences, made
    where the differences are (gs__qk_diff, the prediction's pass), not
@@ -12881,6 +12882,31 @@ GS__PRIVATE long gs__dstat_bits(gs__dstat *st, const int64_t *d, int n, int row,
     if (!row) return plain;
     sp = gs__spatial_stat(d, n, row, restart, e, st->sh);
     st->e = e;
+    return sp < plain ? sp : plain;
+}
+
+/* gs__dstat_bits with the differences' statistics in two parts: st's of
+   the first `restart` (a chunk's positions) and tail's of the rest (the
+   velocities), added into st here (tail NULL: st holds all, as
+   gs__dstat_bits). The spatial residuals of each section are made apart
+   (the neighbours start again at restart), tail's into tail->sh and e from
+   restart on unless tail_made says they are there already (the plain
+   candidate's, which the prediction leaves as they are: its e from
+   restart on is then the caller's to copy). */
+GS__PRIVATE long gs__dstat_split(gs__dstat *st, gs__dstat *tail, int tail_made, const int64_t *d,
+                                 int n, int restart, int row, int64_t *e) {
+    long plain, sp;
+    int j;
+    if (!tail) return gs__dstat_bits(st, d, n, row, restart, e);
+    for (j = 0; j < 34; ++j) st->hist[j] += tail->hist[j];
+    st->mx = tail->mx > st->mx ? tail->mx : st->mx;
+    plain = gs__hist_bits(st->hist);
+    if (!row) return plain;
+    (void)gs__spatial_stat(d, restart, row, 0, e, st->sh);
+    if (!tail_made) (void)gs__spatial_stat(d + restart, n - restart, row, 0, e + restart, tail->sh);
+    for (j = 0; j < 34; ++j) st->sh[j] += tail->sh[j];
+    st->e = e;
+    sp = gs__hist_bits(st->sh);
     return sp < plain ? sp : plain;
 }
 
@@ -14637,16 +14663,21 @@ GS__PRIVATE int gs__qk_make(gs_wire_segment *seg, int nseg, const double *v, int
 /* gs__qk_make's integers of values v in a baseline's layout seg (its
    steps kept) into k, and in the same pass their differences from the
    baseline's integers bk into d, and (st not NULL) what the coding choice
-   reads of them into *st (gs__dstat, its spatial part left 0). 0 if an integer
-   leaves the decoder's range, a quaternion is 0 or a difference is past
-   +-(2^31 - 1): the chunk then goes whole. */
+   reads of them into *st (gs__dstat, its spatial part left 0); tail not
+   NULL: the second segment's on into *tail instead (a chunk's velocities,
+   which a prediction leaves as they are: gs__send_delta_chunk). 0 if an
+   integer leaves the decoder's range, a quaternion is 0 or a difference is
+   past +-(2^31 - 1): the chunk then goes whole. */
 GS__PRIVATE int gs__qk_diff(gs_wire_segment *seg, int nseg, const double *v, int64_t *k,
-                            const int64_t *bk, int64_t *d, gs__dstat *st) {
+                            const int64_t *bk, int64_t *d, gs__dstat *st, gs__dstat *tail) {
     int s, i, n;
     uint64_t bad = 0;
+    gs__dstat *to = st;
     if (st) memset(st, 0, sizeof *st);
+    if (tail) memset(tail, 0, sizeof *tail);
     for (s = 0; s < nseg; ++s, v += n, k += n, bk += n, d += n) {
         n = seg[s].count;
+        if (s == 1 && tail) to = tail;
         if (seg[s].kind == GS_WIRE_SCALAR) {
             double inv = 1.0 / seg[s].step;
             for (i = 0; i < n; ++i) {
@@ -14661,7 +14692,7 @@ GS__PRIVATE int gs__qk_diff(gs_wire_segment *seg, int nseg, const double *v, int
             d[i] = k[i] - bk[i];
             /* |d| <= 2^31 - 1: d + 2^31 - 1 in [0, 2^32 - 2] */
             bad |= (uint64_t)(d[i] + 2147483647LL) > 4294967294u;
-            if (st) gs__dstat_add(st, d[i]);
+            if (to) gs__dstat_add(to, d[i]);
         }
     }
     return !bad;
@@ -14792,7 +14823,8 @@ GS__PRIVATE gs__base *gs__ring_slot(gs__base *ring, int nchunks, uint32_t seq,
 /* GS_WIRE_CHUNK_PREDICT (see >>wire): into p, the steps by which baseline
    b's velocities carry its positions [first, first + n) over dt seconds of
    simulation time (0 for every other value; seg: the chunk's segments,
-   the baseline's). 1 if a position was carried, 0 if none can be (no
+   the baseline's), and in *span (not NULL) the end of the values carried
+   (every p[j] from it on is 0). 1 if a position was carried, 0 if none can be (no
    position with a velocity in this range), -1 if b lacks a velocity's
    chunk or a product is past +-2^31 steps or not finite. Sender and
    receiver must agree bit for bit: one product and one quotient in a fixed
@@ -14800,10 +14832,10 @@ GS__PRIVATE gs__base *gs__ring_slot(gs__base *ring, int nchunks, uint32_t seq,
    precision or fuses the rounding's addition into the product. */
 GS__PRIVATE int gs__delta_pred(const gs__ghost *g, const gs__base *b,
                                const gs_wire_segment *seg, int nseg, size_t first, int n,
-                               double dt, int64_t *p) {
-    size_t end[3], npos, vstart, vars = g->n - 1, e = first, vlo = 1, vhi = 0, per;
+                               double dt, int64_t *p, size_t *span) {
+    size_t end[3], npos, vstart, vars = g->n - 1, e = first, vlo = 1, vhi = 0, per, to = 0;
     int cls[3], nr = gs__ghost_runs(g, end, cls), s, i, t, any = 0;
-    double sv = 0.0;
+    double sv = 0.0, xv;
     volatile double f = 0.0, x;
     memset(p, 0, (size_t)n * sizeof *p);
     if (nr < 2 || cls[0] != 0 || cls[nr - 1] != 2) return 0;
@@ -14832,11 +14864,14 @@ GS__PRIVATE int gs__delta_pred(const gs__ghost *g, const gs__base *b,
                 fresh = 0;
             }
             x = (double)b->k[ve] * f;
-            if (!(fabs(x) <= 2147483647.0)) return -1;
-            p[e - first + (size_t)i] = gs__round(x);
+            xv = x; /* one load of the product rounded */
+            if (!(fabs(xv) <= 2147483647.0)) return -1;
+            to = e - first + (size_t)i;
+            p[to++] = gs__round(xv);
             any = 1;
         }
     }
+    if (span) *span = to;
     return any;
 }
 
@@ -14881,17 +14916,23 @@ GS__PRIVATE gs_result gs__put_chunk(gs_net *net, double now, size_t *size,
 GS__PRIVATE void gs__send_delta_chunk(gs_net *net, gs__ghost *g, double now, size_t *size,
                                       gs_wire_chunk *ch, const gs__base *base, gs__base *to,
                                       const double *S) {
-    int c = ch->index, nseg = ch->segment_count, delta = 0, usable, j, row = g->row;
+    int c = ch->index, nseg = ch->segment_count, delta = 0, usable, row = g->row;
+    int restart = gs__spatial_restart(ch);
     size_t first = ch->first;
     const double *v = S + 1 + first;
     int64_t *k = to->k + first, *d = g->kbuf, e[2][GS_WIRE_QUANT_CHUNK];
     gs_wire_segment *ts = to->seg + (size_t)c * GS_WIRE_MAX_SEGMENTS;
     const gs_wire_segment *bs = base ? base->seg + (size_t)c * GS_WIRE_MAX_SEGMENTS : NULL;
-    gs__dstat st[2], *use = &st[0];
+    gs__dstat st[2], tail, *use = &st[0];
     gs_result r;
+    if (row < 1 || row > GS_WIRE_SPATIAL_ROW) row = 0;
     if (base && base->got[c] && gs__seg_same(bs, base->nseg[c], ch->segments, nseg)) {
         memcpy(ts, bs, (size_t)nseg * sizeof *ts);
-        delta = gs__qk_diff(ts, nseg, v, k, base->k + first, d, &st[0]);
+        /* the velocities' statistics apart (restart > 0: the second
+           segment on), so that a prediction of the positions alone reuses
+           them */
+        delta = gs__qk_diff(ts, nseg, v, k, base->k + first, d, &st[0],
+                            restart > 0 ? &tail : NULL);
     }
     if (delta) {
         /* against the baseline carried along its velocities when that is
@@ -14900,24 +14941,33 @@ GS__PRIVATE void gs__send_delta_chunk(gs_net *net, gs__ghost *g, double now, siz
            candidate's bits (and its spatial residuals') made once, for
            this choice and gs__delta_put's */
         int64_t *pr = g->kbuf + g->per_chunk;
-        int restart = gs__spatial_restart(ch);
-        long plain;
-        if (row < 1 || row > GS_WIRE_SPATIAL_ROW) row = 0;
+        size_t span = 0;
+        long plain, pred;
+        int n = ch->elements;
         ch->flags = GS_WIRE_CHUNK_DELTA;
         ch->delta_row = g->row;
-        plain = gs__dstat_bits(&st[0], d, ch->elements, row, restart, e[0]);
-        if (gs__delta_pred(g, base, ts, nseg, first, ch->elements, ch->time - base->time, pr) > 0) {
+        plain = gs__dstat_split(&st[0], restart > 0 ? &tail : NULL, 0, d, n, restart, row, e[0]);
+        if (gs__delta_pred(g, base, ts, nseg, first, n, ch->time - base->time, pr, &span) > 0) {
+            /* the prediction carries positions only: when they end before
+               the velocities (span <= restart), the differences, the
+               statistics and the residuals from there on are the plain
+               candidate's, made above */
+            int m = restart > 0 && (int)span <= restart ? restart : n, j;
             uint64_t bad = 0;
-            long pred;
             memset(&st[1], 0, sizeof st[1]);
-            for (j = 0; j < ch->elements; ++j) {
+            for (j = 0; j < m; ++j) {
                 pr[j] = d[j] - pr[j];
                 bad |= (uint64_t)(pr[j] + 2147483647LL) > 4294967294u;
                 gs__dstat_add(&st[1], pr[j]);
             }
             if (!bad) { /* else the differences from the baseline go */
-                pred = gs__dstat_bits(&st[1], pr, ch->elements, row, restart, e[1]);
+                pred = gs__dstat_split(&st[1], m < n ? &tail : NULL, 1, pr, n, restart, row,
+                                       e[1]);
                 if (pred < plain) {
+                    if (m < n) {
+                        memcpy(pr + m, d + m, (size_t)(n - m) * sizeof *pr);
+                        if (st[1].e) memcpy(e[1] + m, e[0] + m, (size_t)(n - m) * sizeof *pr);
+                    }
                     d = pr;
                     use = &st[1];
                     ch->flags |= GS_WIRE_CHUNK_PREDICT;
@@ -15511,9 +15561,10 @@ GS__PRIVATE int gs__delta_take(gs_net *net, gs__ghost *g, int p, const gs_wire_c
         ok = gs__delta_sum(c, b->k + c->first, g->kbuf); /* one pass, checked */
         if (c->flags & GS_WIRE_CHUNK_PREDICT) { /* one meaning: it must carry something */
             int64_t *pr = g->kbuf + g->per_chunk;
-            ok = gs__delta_pred(g, b, seg, *nseg, c->first, c->elements, c->time - b->time,
-                                pr) > 0;
-            for (i = 0; i < c->elements && ok; ++i) g->kbuf[i] += pr[i];
+            size_t span = 0;
+            ok = ok && gs__delta_pred(g, b, seg, *nseg, c->first, c->elements,
+                                      c->time - b->time, pr, &span) > 0;
+            for (i = 0; i < (int)span && ok; ++i) g->kbuf[i] += pr[i];
         }
         ok = ok && gs__qk_ok(seg, *nseg, g->kbuf);
     }

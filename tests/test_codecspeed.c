@@ -197,7 +197,7 @@ static void test_qk_diff(void **state) {
             bk[i] = 3; bk[i + 1] = 30000; bk[i + 2] = 40000; bk[i + 3] = 20000;
         }
         memcpy(seg2, seg, sizeof seg);
-        ok1 = gs__qk_diff(seg, 3, v, k1, bk, d, &st);
+        ok1 = gs__qk_diff(seg, 3, v, k1, bk, d, &st, NULL);
         ok2 = gs__qk_make(seg2, 3, v, k2, 0);
         for (i = 0; i < n && ok2; ++i) {
             uint64_t z;
