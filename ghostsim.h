@@ -14688,13 +14688,22 @@ GS__PRIVATE int gs__qk_diff(gs_wire_segment *seg, int nseg, const double *v, int
         } else if (!gs__qk_make(&seg[s], 1, v, k, 0)) {
             return 0;
         }
+        if (to) { /* the statistics' largest zigzag tells the range, below */
+            for (i = 0; i < n; ++i) {
+                d[i] = k[i] - bk[i];
+                gs__dstat_add(to, d[i]);
+            }
+            continue;
+        }
         for (i = 0; i < n; ++i) {
             d[i] = k[i] - bk[i];
             /* |d| <= 2^31 - 1: d + 2^31 - 1 in [0, 2^32 - 2] */
             bad |= (uint64_t)(d[i] + 2147483647LL) > 4294967294u;
-            if (to) gs__dstat_add(to, d[i]);
         }
     }
+    /* |d| <= 2^31 - 1 is zigzag(d) <= 2^32 - 2 (zigzag(-2^31) = 2^32 - 1) */
+    if (st) bad |= st->mx > 4294967294u;
+    if (tail) bad |= tail->mx > 4294967294u;
     return !bad;
 }
 
@@ -14844,8 +14853,9 @@ GS__PRIVATE int gs__delta_pred(const gs__ghost *g, const gs__base *b,
     per = (size_t)g->per_chunk;
     for (s = 0; s < nseg && e < npos; e += seg[s++].count) {
         int fresh = 1; /* f depends on the two steps only: made again when one changes */
+        int cnt = (size_t)seg[s].count < npos - e ? seg[s].count : (int)(npos - e);
         if (seg[s].kind != GS_WIRE_SCALAR) continue;
-        for (i = 0; i < seg[s].count && e + (size_t)i < npos; ++i) {
+        for (i = 0; i < cnt; ++i) {
             size_t ve = vstart + e + (size_t)i;
             if (ve < vlo || ve >= vhi) { /* the velocity's segment in b */
                 size_t c = ve / per, lo = c * per;
@@ -14957,9 +14967,10 @@ GS__PRIVATE void gs__send_delta_chunk(gs_net *net, gs__ghost *g, double now, siz
             memset(&st[1], 0, sizeof st[1]);
             for (j = 0; j < m; ++j) {
                 pr[j] = d[j] - pr[j];
-                bad |= (uint64_t)(pr[j] + 2147483647LL) > 4294967294u;
                 gs__dstat_add(&st[1], pr[j]);
             }
+            /* |pr| <= 2^31 - 1, from the largest zigzag (gs__qk_diff's) */
+            bad = st[1].mx > 4294967294u;
             if (!bad) { /* else the differences from the baseline go */
                 pred = gs__dstat_split(&st[1], m < n ? &tail : NULL, 1, pr, n, restart, row,
                                        e[1]);
