@@ -487,8 +487,9 @@ typedef enum gs_sync_mode {
                               present, inside the same gs_world_advance (a
                               blend there that changes no state ends the
                               re-run: the present stands); sets older
-                              than the history, or past the
-                              replay budget, blend at the present; partial
+                              than the history or replay_reach, past the
+                              replay budget, or taken while the host
+                              catches up, blend at the present; partial
                               sets a newer whole one supersedes are dropped.
                               A peer's probe goes on along its velocity
                               between snapshots. Meant with the session
@@ -577,7 +578,7 @@ typedef struct gs_sync_desc {
 
 /* Mode present, local clock, the world's clock, 16 frames of history, a
    replay budget of 4096 steps, no frame grid, a replay tolerance of
-   GS_REPLAY_TOLERANCE. */
+   GS_REPLAY_TOLERANCE, a replay reach of GS_REPLAY_REACH. */
 GS_API gs_sync_desc gs_sync_desc_default(void);
 
 typedef struct gs_world_desc {
