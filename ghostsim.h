@@ -487,8 +487,9 @@ typedef enum gs_sync_mode {
                               present, inside the same gs_world_advance (a
                               blend there that changes no state ends the
                               re-run: the present stands); sets older
-                              than the history, or past the
-                              replay budget, blend at the present; partial
+                              than the history or replay_reach, past the
+                              replay budget, or taken while the host
+                              catches up, blend at the present; partial
                               sets a newer whole one supersedes are dropped.
                               A peer's probe goes on along its velocity
                               between snapshots. Meant with the session
@@ -542,6 +543,25 @@ typedef struct gs_sync_desc {
                               k-1 frames longer between corrections.
                               Default 0: GS_REPLAY_EVERY; 1: every advance;
                               at most GS_REPLAY_EVERY_MAX */
+    double replay_reach;   /* s of simulation; replay mode: how much of
+                              the past a replay may take on. Snapshots
+                              older than this before the advance's target
+                              blend at the present (counted in fallbacks),
+                              as past the history or the budget, which
+                              count frames and steps and so stretch when
+                              a host's advances grow long. And after an
+                              advance over a fifth of it (a host catching
+                              up, starved of CPU), the snapshots blend at
+                              the present until one under a tenth
+                              (counted in slow_fallbacks): re-running
+                              would cost such a host as much again as
+                              stepping, and its advances would grow
+                              without end, dragging its peers' after
+                              them. An application that advances in
+                              steps over a fifth of it (50 ms at the
+                              default: under 20 Hz) raises it. Default
+                              0: GS_REPLAY_REACH; negative: no bound but
+                              the history and the budget */
 } gs_sync_desc;
 
 /* m; the default gs_sync_desc.replay_tolerance (see docs/sync-notes.md) */
@@ -552,10 +572,13 @@ typedef struct gs_sync_desc {
    snapshot's wait must leave room in the history and the ghosts' queues) */
 #define GS_REPLAY_EVERY 1
 #define GS_REPLAY_EVERY_MAX 8
+/* s; the default gs_sync_desc.replay_reach: the harsh link's largest one-way
+   delay (150 ms) plus a 60 Hz send period and a frame, rounded up */
+#define GS_REPLAY_REACH 0.25
 
 /* Mode present, local clock, the world's clock, 16 frames of history, a
    replay budget of 4096 steps, no frame grid, a replay tolerance of
-   GS_REPLAY_TOLERANCE. */
+   GS_REPLAY_TOLERANCE, a replay reach of GS_REPLAY_REACH. */
 GS_API gs_sync_desc gs_sync_desc_default(void);
 
 typedef struct gs_world_desc {
@@ -1553,12 +1576,15 @@ typedef struct gs_sync_stats {
                               past, changed no state: the re-run stopped
                               there and the present stood */
     uint64_t fallbacks;    /* advances whose snapshots (replay mode) were
-                              older than the history or past the budget, and
-                              blended at the present */
+                              older than the history or replay_reach, or
+                              past the budget, and blended at the present */
     uint64_t incomplete;   /* snapshots dropped in replay mode: superseded
                               by a newer whole set before theirs was whole */
     uint64_t replays_near; /* of replays_skipped: those whose blends moved
                               states, each within replay_tolerance */
+    uint64_t slow_fallbacks; /* of fallbacks: advances that blended at the
+                              present because this host was catching up
+                              (gs_sync_desc.replay_reach) */
 } gs_sync_stats;
 
 /* The sync layer's counters. Returns GS_ERR_INVALID_ARG for NULL. */
@@ -2976,6 +3002,7 @@ GS_API gs_sync_desc gs_sync_desc_default(void) {
     d.replay_budget = 4096;
     d.replay_tolerance = GS_REPLAY_TOLERANCE;
     d.replay_every = GS_REPLAY_EVERY;
+    d.replay_reach = GS_REPLAY_REACH;
     return d;
 }
 
@@ -3009,6 +3036,7 @@ GS__PRIVATE gs_world_desc gs__world_defaults(const gs_world_desc *in) {
     if (d.sync.history_frames == 0) d.sync.history_frames = def.sync.history_frames;
     if (d.sync.replay_tolerance == 0.0) d.sync.replay_tolerance = def.sync.replay_tolerance;
     if (d.sync.replay_every == 0) d.sync.replay_every = def.sync.replay_every;
+    if (d.sync.replay_reach == 0.0) d.sync.replay_reach = def.sync.replay_reach;
     if (d.max_steps == 0) d.max_steps = def.max_steps;
     if (d.sleep_time == 0.0) d.sleep_time = def.sleep_time;
     if (d.sleep_speed == 0.0) d.sleep_speed = def.sleep_speed;
@@ -3037,6 +3065,7 @@ GS__PRIVATE gs_result gs__world_check(const gs_world_desc *d) {
     gs__check_finite(&c, "sync.frame", d->sync.frame);
     gs__check_finite(&c, "sync.replay_tolerance", d->sync.replay_tolerance);
     gs__check_int(&c, "sync.replay_every", d->sync.replay_every, 1, GS_REPLAY_EVERY_MAX);
+    gs__check_finite(&c, "sync.replay_reach", d->sync.replay_reach);
     if (!(d->sync.frame >= 0.0 && d->sync.frame <= GS__SYNC_FRAME_MAX))
         gs__check_fail(&c, GS_ERR_INVALID_ARG, "sync.frame is %g s, must be in [0, %g]",
                        d->sync.frame, GS__SYNC_FRAME_MAX);
@@ -10705,6 +10734,8 @@ typedef struct gs__sync {
     double stopped_at;   /* s; that blend's time */
     int idle;            /* advances since snapshots were last taken
                             (replay_every) */
+    int slow;            /* replay mode: this host is not keeping pace, so
+                            snapshots blend at the present (gs__sync_pace) */
 } gs__sync;
 
 GS__PRIVATE gs_result gs__sync_advance(gs_world *w, double seconds, gs_advance_report *rep);
@@ -11769,8 +11800,11 @@ GS__PRIVATE void gs__sync_take(gs_world *w) {
     gs__sync_times(w, half);
     if (sy->nfresh == 0 || sy->fresh[0] >= w->target) return; /* this advance runs to them */
     if (!gs__sync_frame_of(sy, sy->fresh[0], half, &from) ||
-        (sy->seq - from) * sy->frame_steps > (uint64_t)sy->d.replay_budget) {
-        sy->st.fallbacks++; /* older than the history, or past the budget */
+        (sy->seq - from) * sy->frame_steps > (uint64_t)sy->d.replay_budget ||
+        (sy->d.replay_reach > 0.0 && target - sy->fresh[0] > sy->d.replay_reach) ||
+        sy->slow) {
+        sy->st.fallbacks++; /* older than the history, the budget or the reach */
+        if (sy->slow) sy->st.slow_fallbacks++;
         sy->nfresh = 0;
         sy->at_start = 1;
         gs__sync_blend(w, HUGE_VAL, 0);
@@ -11824,6 +11858,25 @@ GS__PRIVATE void gs__net_advanced(gs_world *w, double seconds) {
    time on the session clock, gs__sync_target); the dispatches step every
    agent to the target (gs__sync_run: present mode blends after the steps,
    gs__sync_stepped), and gs__sync_end publishes (session clock). */
+/* Replay mode, at the end of an advance that ran `span` s of simulation:
+   whether this host keeps pace. A host starved of CPU advances in ever
+   longer spans, each to the time its last one ended at; its peers'
+   snapshots then arrive a span old, and re-running that span costs as
+   much again as stepping it, so each advance costs twice its span and
+   the next one is longer still. An advance over a fifth of replay_reach
+   (50 ms at the default, three 60 Hz frames) marks the host as catching
+   up: its snapshots blend at the present until an advance spans under a
+   tenth (hysteresis, so that it does not flip at every advance). On the
+   span, not on a clock, so that it does not depend on how fast the
+   machine runs the simulation (a simnet's clock stands still during an
+   advance, a session clock on a frame grid reads the frame's instant). */
+GS__PRIVATE void gs__sync_pace(gs_world *w, double span) {
+    gs__sync *sy = w->sync;
+    if (sy->d.mode != GS_SYNC_REPLAY || !(sy->d.replay_reach > 0.0)) return;
+    if (span > 0.2 * sy->d.replay_reach) sy->slow = 1;
+    else if (span < 0.1 * sy->d.replay_reach) sy->slow = 0;
+}
+
 GS__PRIVATE gs_result gs__sync_advance(gs_world *w, double seconds, gs_advance_report *rep) {
     gs_result r;
     double before;
@@ -11841,6 +11894,7 @@ GS__PRIVATE gs_result gs__sync_advance(gs_world *w, double seconds, gs_advance_r
     gs__sync_target(w, seconds, before);
     r = gs__sync_run(w, w->budget, rep);
     gs__sync_end(w, seconds, rep);
+    gs__sync_pace(w, w->target - before);
     return r;
 }
 

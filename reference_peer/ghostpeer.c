@@ -7,7 +7,7 @@
                [--clock-step AT:SECONDS] [--probe-wild AT:SECONDS:SPEED]
                [--resolution M] [--rest-threshold M] [--heartbeat-rate HZ]
                [--sync present|replay] [--clock local|session]
-               [--frame-lock on|off]
+               [--frame-lock on|off] [--replay-reach S]
 
    --encoding quant sends positions at --resolution metres (default 5e-5),
    velocities at the library's default step (3 mm/s) and orientations as
@@ -40,14 +40,16 @@
    history (GS_SYNC_REPLAY); present (the default) is the paper's blend at
    the local present on the local clock. Each JSON line then carries a
    "replay" object: the mode, replays, agent steps replayed per second of
-   wall time, fallbacks (snapshots older than the history or past the
-   replay budget, blended at the present), the lag (s the slowest agent
+   wall time, fallbacks (snapshots older than the history or the replay
+   reach, or past the replay budget, blended at the present), the lag (s the slowest agent
    is behind the target: this host not keeping pace), the timekeeper,
    replays_skipped (replays whose blends changed no state, or moved states
    within the replay tolerance: the present stood), replays_near (of
    those, the ones within the tolerance), clock_steps (steps of the local
-   clock the session clock absorbed) and joins (times this host took a
-   peer's timeline).
+   clock the session clock absorbed), joins (times this host took a
+   peer's timeline) and slow_fallbacks (of the fallbacks, advances that
+   blended at the present because this host was not keeping pace,
+   gs_sync_stats.slow_fallbacks).
    --clock session puts the present blend on the session clock too; local
    keeps each host's target its own seconds advanced (--sync replay always
    runs on the session clock).
@@ -66,6 +68,12 @@
    "t_since": the wall time from which the host shows "t" (t_done, or
    locked the boundary), so that a host's simulation time at any wall
    instant can be read from its lines (bench/process_gap.py).
+
+   --replay-reach S (with --sync replay; default the library's 0.25 s):
+   snapshots more than S seconds of simulation older than the advance's
+   target blend at the present instead of in a replay (gs_sync_desc.
+   replay_reach), so that a host starved of CPU, whose snapshots arrive
+   late, does not make its peers re-run long spans of the past.
 
    --key FILE seals every datagram under a pre-shared key (32 raw bytes, or
    64 hex digits and an optional newline) that every host of the session
@@ -151,6 +159,7 @@ typedef struct options {
     int replay;            /* --sync replay */
     int session;           /* --clock session (--sync replay implies it) */
     int frame_lock;        /* --frame-lock on */
+    double replay_reach;   /* s; --replay-reach, 0 = the library's default */
 } options;
 
 static volatile sig_atomic_t g_stop = 0; /* the only static: signal handlers need one */
@@ -171,7 +180,7 @@ static void usage(const char *why) {
             "                 [--clock-step AT:SECONDS] [--probe-wild AT:SECONDS:SPEED]\n"
             "                 [--resolution M] [--rest-threshold M] [--heartbeat-rate HZ]\n"
             "                 [--sync present|replay] [--clock local|session]\n"
-            "                 [--frame-lock on|off]\n");
+            "                 [--frame-lock on|off] [--replay-reach S]\n");
     exit(2);
 }
 
@@ -393,6 +402,8 @@ static void parse_args(int argc, char **argv, options *o) {
             else if (strcmp(v, "off") == 0) o->frame_lock = 0;
             else usage("--frame-lock: on or off");
         }
+        else if (strcmp(f, "--replay-reach") == 0)
+            o->replay_reach = parse_number(f, v, 0.001, 10.0);
         else {
             char msg[160];
             snprintf(msg, sizeof msg, "unknown flag '%s'", f);
@@ -479,6 +490,7 @@ static int build(peer_host *h) {
         wd.sync.clock = GS_SYNC_CLOCK_SESSION; /* reads CLOCK_MONOTONIC, as gs_udp does */
     if (o->replay) {
         wd.sync.mode = GS_SYNC_REPLAY;
+        wd.sync.replay_reach = o->replay_reach;
         wd.sync.history_frames = 64; /* 5 ms frames: 320 ms, a 250 ms round trip and more */
     }
     if (o->frame_lock) {
@@ -625,12 +637,13 @@ static void print_line(peer_host *h, int final) {
         printf(", \"replay\": {\"mode\": \"%s\", \"replays\": %llu, \"steps_per_s\": %.1f, "
                "\"fallbacks\": %llu, \"lag\": %.6f, \"timekeeper\": %u, "
                "\"replays_skipped\": %llu, \"replays_near\": %llu, \"clock_steps\": %llu, "
-               "\"joins\": %llu}",
+               "\"joins\": %llu, \"slow_fallbacks\": %llu}",
                h->o.replay ? "replay" : "present", (unsigned long long)st.replays,
                wall > 0.0 ? (double)st.replay_steps / wall : 0.0,
                (unsigned long long)st.fallbacks, st.lag, (unsigned)st.timekeeper,
                (unsigned long long)st.replays_skipped, (unsigned long long)st.replays_near,
-               (unsigned long long)st.clock_steps, (unsigned long long)st.joins);
+               (unsigned long long)st.clock_steps, (unsigned long long)st.joins,
+               (unsigned long long)st.slow_fallbacks);
     }
     printf(", \"frame_lock\": %s, \"t_since\": %.6f, \"t_done\": %.6f",
            h->o.frame_lock ? "true" : "false", h->t_since, h->t_done);

@@ -296,6 +296,7 @@ static void test_desc_defaults(void **state) {
     assert_int_equal(syd.clock, wd.sync.clock);
     assert_int_equal(syd.history_frames, 16);
     assert_int_equal(syd.replay_budget, 4096);
+    assert_true(syd.replay_reach == GS_REPLAY_REACH);
     assert_true(ck.rate == 1.0 && ck.offset == 0.0 && ck.step_by == 0.0);
     assert_null(ud.bind);
     assert_int_equal(ud.threads, 0);

@@ -118,6 +118,14 @@ static void test_sync_desc(void **state) {
     wd.sync.history_frames = 0;
     wd.sync.clock = (gs_sync_clock)7;
     assert_int_equal(gs_world_create(&wd, &w), GS_ERR_INVALID_ARG);
+    wd.sync.clock = GS_SYNC_CLOCK_DEFAULT;
+    wd.sync.replay_reach = NAN; /* a reach that is no number is refused */
+    assert_int_equal(gs_world_create(&wd, &w), GS_ERR_NOT_FINITE);
+    assert_null(w);
+    wd.sync.replay_reach = -1.0; /* negative: no bound in time, accepted */
+    assert_int_equal(gs_world_create(&wd, &w), GS_OK);
+    gs_world_destroy(w);
+    w = NULL;
     w = world_new(1, GS_SYNC_CLOCK_DEFAULT, 0);
     assert_int_equal(gs_world_sync_stats(w, NULL), GS_ERR_INVALID_ARG);
     assert_int_equal(gs_world_sync_stats(NULL, &st), GS_ERR_INVALID_ARG);
@@ -537,7 +545,7 @@ typedef struct replay_host {
     toy t;
 } replay_host;
 
-static void replay_host_new(replay_host *h, int history, int budget) {
+static void replay_host_reach(replay_host *h, int history, int budget, double reach) {
     gs_world_desc wd = gs_world_desc_default();
     gs_ghost_desc gd = gs_ghost_desc_default();
     gs_net_desc nd;
@@ -546,6 +554,7 @@ static void replay_host_new(replay_host *h, int history, int budget) {
     wd.sync.mode = GS_SYNC_REPLAY;
     wd.sync.history_frames = history;
     wd.sync.replay_budget = budget;
+    wd.sync.replay_reach = reach;
     assert_int_equal(gs_world_create(&wd, &h->w), GS_OK);
     h->t.x[1] = 0.1;
     h->a = toy_new(h->w, &h->t, 0.001);
@@ -555,6 +564,10 @@ static void replay_host_new(replay_host *h, int history, int budget) {
     nd.transport.send = no_send;
     assert_int_equal(gs_net_create(h->w, &nd, &h->net), GS_OK);
     assert_int_equal(gs_net_add_peer(h->net, 1, NULL), GS_OK);
+}
+
+static void replay_host_new(replay_host *h, int history, int budget) {
+    replay_host_reach(h, history, budget, 0.0);
 }
 
 /* Host 1's snapshot of the toy at simulation time t: [t, 1, -0.2]. */
@@ -659,6 +672,62 @@ static void test_replay_fallbacks(void **state) {
     assert_int_equal(st.fallbacks, 1);
     assert_int_equal(gs_ghost_get_stats(h.a, &gst), GS_OK);
     assert_int_equal(gst.blends, 1);
+    gs_world_destroy(h.w);
+}
+
+/* replay_reach bounds the past a replay takes on, in time: a snapshot
+   0.3 s old, in the history (64 frames: 1.07 s) and within the budget, but
+   older than the 0.25 s reach, blends at the present; with the reach off
+   (negative) the same snapshot replays. */
+static void test_replay_reach(void **state) {
+    replay_host h;
+    gs_sync_stats st;
+    int reach;
+    (void)state;
+    for (reach = 0; reach < 2; ++reach) {
+        replay_host_reach(&h, 64, 1 << 20, reach ? -1.0 : 0.0);
+        replay_frames(&h, 40); /* 0.667 s */
+        replay_deliver(&h, gs_world_time(h.w) - 0.3, 1);
+        replay_frames(&h, 1);
+        assert_int_equal(gs_world_sync_stats(h.w, &st), GS_OK);
+        assert_int_equal(st.replays, reach ? 1 : 0);
+        assert_int_equal(st.fallbacks, reach ? 0 : 1);
+        assert_int_equal(st.slow_fallbacks, 0); /* frames of 16.7 ms keep pace */
+        gs_world_destroy(h.w);
+    }
+}
+
+/* A host catching up (an advance over a fifth of the reach: 50 ms) blends
+   at the present, however recent its snapshots, until an advance spans
+   under a tenth (25 ms); a 60 Hz frame is under both. */
+static void test_replay_catching_up(void **state) {
+    replay_host h;
+    gs_sync_stats st;
+    uint32_t seq = 1;
+    (void)state;
+    replay_host_new(&h, 64, 1 << 20);
+    replay_frames(&h, 10);
+    assert_int_equal(gs_world_advance(h.w, 0.1, NULL), GS_OK); /* a 100 ms hitch */
+    replay_deliver(&h, gs_world_time(h.w) - 0.5 * FRAME, seq++);
+    replay_frames(&h, 1);
+    assert_int_equal(gs_world_sync_stats(h.w, &st), GS_OK);
+    assert_int_equal(st.replays, 0);
+    assert_int_equal(st.fallbacks, 1);
+    assert_int_equal(st.slow_fallbacks, 1);
+    /* that 16.7 ms frame spanned under 25 ms: the next snapshot replays */
+    replay_deliver(&h, gs_world_time(h.w) - 0.5 * FRAME, seq++);
+    replay_frames(&h, 1);
+    assert_int_equal(gs_world_sync_stats(h.w, &st), GS_OK);
+    assert_int_equal(st.replays, 1);
+    assert_int_equal(st.slow_fallbacks, 1);
+    /* between the bounds (40 ms: over a tenth, under a fifth) a host that
+       keeps pace stays so */
+    assert_int_equal(gs_world_advance(h.w, 0.04, NULL), GS_OK);
+    replay_deliver(&h, gs_world_time(h.w) - 0.5 * FRAME, seq++);
+    replay_frames(&h, 1);
+    assert_int_equal(gs_world_sync_stats(h.w, &st), GS_OK);
+    assert_int_equal(st.replays, 2);
+    assert_int_equal(st.slow_fallbacks, 1);
     gs_world_destroy(h.w);
 }
 
@@ -840,6 +909,8 @@ int main(void) {
         cmocka_unit_test(test_history_with_blends),
         cmocka_unit_test(test_replay_late_equals_in_time),
         cmocka_unit_test(test_replay_fallbacks),
+        cmocka_unit_test(test_replay_reach),
+        cmocka_unit_test(test_replay_catching_up),
         cmocka_unit_test(test_replay_time_is_not_a_clock_step),
         cmocka_unit_test(test_modes_converge),
     };
