@@ -7076,6 +7076,9 @@ typedef struct gs__rigid {
                                   (what makes it wide) */
     gs_vec3 force, torque;     /* contact sums for the current substep */
     double k_sum, c_sum;       /* N/m, N s/m of the contacts touching it */
+    double k_nn[6], c_nn[6];   /* a sphere's: the same as tensors over the
+                                  contact normals (xx yy zz xy xz yz): see
+                                  gs__rigid_bound */
     gs_solver_desc solver;
     int continuous;
     double stable_dt;          /* s; contact spring-damper bound */
@@ -7299,11 +7302,73 @@ GS__PRIVATE void gs__rigid_contacts(gs__rigid *r, double t, double h);
 GS__PRIVATE int gs__push_advance(gs_world *w, double h);
 GS__PRIVATE void gs__push_end(gs_world *w, int land);
 
+/* An upper bound on the largest eigenvalue of a symmetric 3x3 (xx yy zz
+   xy xz yz): the mean plus the most a deviation of that Frobenius norm
+   allows, exact when the other two are equal (one contact, or a stack). */
+GS__PRIVATE double gs__sym3_top(const double *a) {
+    double m = (a[0] + a[1] + a[2]) / 3.0, d0 = a[0] - m, d1 = a[1] - m, d2 = a[2] - m;
+    double f = d0 * d0 + d1 * d1 + d2 * d2 + 2.0 * (a[3] * a[3] + a[4] * a[4] + a[5] * a[5]);
+    return m + sqrt(f * (2.0 / 3.0));
+}
+
+/* A contact's spring k and normal damping d (N/m, N s/m) and its friction
+   slope (N s/m, tangential), each times both (see gs__rigid_apply), into
+   r's sums. A sphere also sums them as tensors over the normal n: its
+   normal forces pass the centre, so contacts at right angles stiffen
+   different directions, and the stiffest direction is what bounds the
+   substep, where the scalar sums count them as if all were in line. */
+GS__PRIVATE void gs__rigid_stiffen(gs__rigid *r, gs_vec3 n, double k, double d,
+                                   double slope, double both) {
+    double nn[6], cd;
+    int i;
+    r->k_sum += k * both;
+    r->c_sum += (d + slope) * both;
+    if (r->shape.type != GS_SHAPE_SPHERE) return;
+    k *= both;
+    slope *= both;
+    cd = d * both - slope;
+    nn[0] = n.x * n.x; nn[1] = n.y * n.y; nn[2] = n.z * n.z;
+    nn[3] = n.x * n.y; nn[4] = n.x * n.z; nn[5] = n.y * n.z;
+    for (i = 0; i < 6; ++i) {
+        r->k_nn[i] += k * nn[i];
+        r->c_nn[i] += cd * nn[i];
+    }
+    for (i = 0; i < 3; ++i) r->c_nn[i] += slope; /* slope (I - n n^T) */
+}
+
+/* A cloth's particle contact counts in every direction: the particles
+   under a sphere are coupled through the cloth, and a sphere on a cloth
+   keeps the scalar sums' substeps (taken along the normals, the paper
+   scene's hosts drifted apart: test_leadband). */
+GS__PRIVATE void gs__rigid_stiffen_all(gs__rigid *r, double k, double d, double slope) {
+    int i;
+    r->k_sum += k;
+    r->c_sum += d + slope;
+    if (r->shape.type != GS_SHAPE_SPHERE) return;
+    for (i = 0; i < 3; ++i) {
+        r->k_nn[i] += k;
+        r->c_nn[i] += d + slope;
+    }
+}
+
+GS__PRIVATE void gs__rigid_sums_clear(gs__rigid *r) {
+    int i;
+    r->k_sum = r->c_sum = 0.0;
+    for (i = 0; i < 6; ++i) r->k_nn[i] = r->c_nn[i] = 0.0;
+}
+
 /* The stable step under the contacts found now: a spring-damper with the
    summed stiffness and damping acting on 1 / reach2 kg (gs__mesh_bound's
-   rule with omega^2 = k reach2, gamma = c reach2). */
+   rule with omega^2 = k reach2, gamma = c reach2); for a sphere, the
+   stiffness and damping of its stiffest direction (gs__rigid_stiffen). */
 GS__PRIVATE double gs__rigid_bound(const gs__rigid *r) {
-    double w2 = r->k_sum * r->reach2, g = r->c_sum * r->reach2;
+    double k = r->k_sum, c = r->c_sum, w2, g;
+    if (r->shape.type == GS_SHAPE_SPHERE) { /* never above the scalar sums */
+        k = fmin(k, gs__sym3_top(r->k_nn));
+        c = fmin(c, gs__sym3_top(r->c_nn));
+    }
+    w2 = k * r->reach2;
+    g = c * r->reach2;
     if (w2 == 0.0 && g == 0.0) return HUGE_VAL;
     return 4.0 / (g + sqrt(g * g + 4.0 * w2));
 }
@@ -7563,10 +7628,10 @@ GS_API gs_result gs_rigid_create(gs_world *w, const gs_rigid_desc *desc,
     r->i_min = gs__rigid_i_min(r);
     r->rolling = d.rolling;
     r->spin_friction = d.spin_friction;
-    r->k_sum = r->mat.stiffness;
-    r->c_sum = r->mat.damping;
+    gs__rigid_sums_clear(r); /* one contact with its own material */
+    gs__rigid_stiffen(r, gs__v3(0.0, 1.0, 0.0), r->mat.stiffness, r->mat.damping, 0.0, 1.0);
     r->stable_dt = gs__rigid_bound(r);
-    r->k_sum = r->c_sum = 0.0;
+    gs__rigid_sums_clear(r);
     return gs__rigid_register(w, r, out);
 }
 
@@ -8529,8 +8594,8 @@ GS__PRIVATE gs_vec3 gs__rigid_apply(gs__rigid *r, const gs_contact *c,
     double slope = gs__friction_slope(r->reach2, other_reach2, r->base.dt);
     double both = (r->reach2 + other_reach2) / r->reach2;
     gs_vec3 f = gs__scale(gs__penalty(c, vrel, &r->mat, other, slope), share), tr;
-    r->k_sum += 0.5 * (r->mat.stiffness + other->stiffness) * both;
-    r->c_sum += (0.5 * (r->mat.damping + other->damping) + slope) * both;
+    gs__rigid_stiffen(r, c->normal, 0.5 * (r->mat.stiffness + other->stiffness),
+                      0.5 * (r->mat.damping + other->damping), slope, both);
     tr = gs__rolling_torque(r, c->normal, gs__dot(f, c->normal), gs__sub(r->w, w_other));
     r->force = gs__add(r->force, f);
     r->torque = gs__add(r->torque, gs__cross(gs__sub(c->point, r->x), f));
@@ -8786,8 +8851,8 @@ GS__PRIVATE void gs__rigid_vs_mesh(gs__rigid *r, gs_agent *m, double t) {
             gs__agent_wake_at(m, gs__agent_time(&r->base));
         slope = gs__friction_slope(r->reach2, 1.0 / gs__mesh_mass(m, i), r->base.dt);
         f = gs__penalty(&c, gs__sub(v[i], gs__point_velocity(r, c.point)), mat, &r->mat, slope);
-        r->k_sum += 0.5 * (r->mat.stiffness + mat->stiffness);
-        r->c_sum += 0.5 * (r->mat.damping + mat->damping) + slope;
+        gs__rigid_stiffen_all(r, 0.5 * (r->mat.stiffness + mat->stiffness),
+                              0.5 * (r->mat.damping + mat->damping), slope);
         r->force = gs__sub(r->force, f);
         r->torque = gs__sub(r->torque, gs__cross(gs__sub(c.point, r->x), f));
         r->torque = gs__add(r->torque, gs__rolling_torque(r, c.normal, gs__dot(f, c.normal), r->w));
@@ -8814,7 +8879,7 @@ GS__PRIVATE void gs__rigid_contacts(gs__rigid *r, double t, double h) {
     double lag = gs__lag_bound(w, t, 0.1);
     int n = gs__sap_query_near(w, r, lag);
     r->force = r->torque = r->late = gs__v3(0.0, 0.0, 0.0);
-    r->k_sum = r->c_sum = 0.0;
+    gs__rigid_sums_clear(r);
     for (i = 0; i < w->ntouched; ++i) w->touched[i]->sh_f = w->touched[i]->sh_t = r->force;
     if (w->ground) gs__rigid_ground(r);
     for (i = 0; i < n; ++i)

@@ -99,20 +99,39 @@ static int cmp_double(const void *a, const void *b) {
     return x < y ? -1 : x > y;
 }
 
+/* Steps of 1 ms per gs_world_advance: an application advances once per
+   display frame (16 ms at 60 Hz: the world history records once per
+   advance, gs__sync_begin), so the default drive is 16 steps an advance;
+   PILE_FRAME=1 drives one step an advance, as bench/physics did before
+   2026-12-06 (a whole-world history copy every 1 ms step). */
+static int frame_steps(void) {
+    const char *e = getenv("PILE_FRAME");
+    int f = e ? atoi(e) : 16;
+    return f < 1 ? 1 : f > 1000 ? 1000 : f;
+}
+
+/* `steps` steps of 1 ms, in advances of at most `frame` steps. */
+static void run_steps(gs_world *w, int steps, int frame) {
+    while (steps > 0) {
+        int k = steps < frame ? steps : frame;
+        if (gs_world_advance(w, k * DT, NULL) != GS_OK) die(w);
+        steps -= k;
+    }
+}
+
 #define BATCHES 25
 /* bench/physics's spheres timing in thread CPU time: us per step at each
    size and the least-squares exponent over them. */
 static int cpu_mode(int nsizes, const int *sizes) {
     double lx[16], ly[16], sx = 0, sy = 0, sxx = 0, sxy = 0;
-    int i, b, s;
+    int i, b;
     for (i = 0; i < nsizes; ++i) {
         gs_agent **balls = (gs_agent **)malloc((size_t)sizes[i] * sizeof *balls);
         gs_world *w = make_pile(sizes[i], balls);
         double t[BATCHES];
         for (b = 0; b < BATCHES; ++b) {
             double t0 = cpu_now();
-            for (s = 0; s < 1000 / BATCHES; ++s)
-                if (gs_world_advance(w, DT, NULL) != GS_OK) die(w);
+            run_steps(w, 1000 / BATCHES, frame_steps());
             t[b] = (cpu_now() - t0) / (1000 / BATCHES);
         }
         qsort(t, BATCHES, sizeof *t, cmp_double);
@@ -133,7 +152,7 @@ static int cpu_mode(int nsizes, const int *sizes) {
 }
 
 int main(int argc, char **argv) {
-    int n, settle, steps, k, s;
+    int n, settle, steps, k;
     double sub0 = 0.0, sub1 = 0.0, y = 0.0;
     gs_world *w;
     gs_agent **balls;
@@ -149,16 +168,14 @@ int main(int argc, char **argv) {
     balls = (gs_agent **)malloc((size_t)n * sizeof *balls);
     if (!balls) return 1;
     w = make_pile(n, balls);
-    for (s = 0; s < settle; ++s)
-        if (gs_world_advance(w, DT, NULL) != GS_OK) die(w);
+    run_steps(w, settle, frame_steps());
     for (k = 0; k < n; ++k) {
         gs_agent_stats st = {0, 0, 0, 0, 0, 0, 0, 0};
         gs_agent_get_stats(balls[k], &st);
         sub0 += (double)st.substeps;
     }
     CALLGRIND_START_INSTRUMENTATION;
-    for (s = 0; s < steps; ++s)
-        if (gs_world_advance(w, DT, NULL) != GS_OK) die(w);
+    run_steps(w, steps, frame_steps());
     CALLGRIND_STOP_INSTRUMENTATION;
     for (k = 0; k < n; ++k) {
         gs_agent_stats st = {0, 0, 0, 0, 0, 0, 0, 0};
@@ -166,8 +183,10 @@ int main(int argc, char **argv) {
         sub1 += (double)st.substeps;
         y += gs_rigid_position(balls[k]).y;
     }
-    printf("n %d settle %d steps %d: %.3f substeps per sphere-step, mean height %.4f m\n", n,
-           settle, steps, (sub1 - sub0) / ((double)n * steps), y / n);
+    printf("n %d settle %d steps %d frame %d: %.3f substeps per sphere-step, mean height %.4f m, "
+           "time %.6f s, hash %016llx\n", n, settle, steps, frame_steps(),
+           (sub1 - sub0) / ((double)n * steps), y / n, gs_world_time(w),
+           (unsigned long long)gs_world_hash(w));
     gs_world_destroy(w);
     free(balls);
     return 0;
