@@ -1575,7 +1575,11 @@ GS_API gs_result gs_world_sync_stats(const gs_world *w, gs_sync_stats *out);
    offset error and its own wake-up latency: the frame loops of the hosts
    lock in phase. An application that computes a frame before it shows it
    wakes up to half a frame before *at (the target still rounds to that
-   boundary), advances, and shows the state at *at; its ghosts' datagrams
+   boundary), advances, and shows the state at *at; or, to compute further
+   ahead or to be safe from a late wake, it gives the session clock
+   (gs_sync_desc.now) a function that reads *at, the instant the frame is
+   shown, so that the target is that boundary whenever the advance runs
+   (reference_peer/ghostpeer.c's show_clock). Its ghosts' datagrams
    then leave at *at too (gs_net_update holds a state until the instant it
    stands for), so that the peers, which read the session's timeline from a
    state's time less its send time, read it right. Before the first advance
@@ -12105,25 +12109,48 @@ GS__PRIVATE void gs__quant_lay(const gs_wire_segment *s, const double *v, gs__ql
     while (l->width < 32 && (uint64_t)(hi - l->lo) >> l->width) ++l->width;
 }
 
-/* A scalar segment at w in layout l: header, then the packed values. 0 if
-   it ran out of room. Each value is rounded as v * (1 / step), a product
-   rather than a quotient: within a unit of the last place of v / step,
-   which the error bound (half a step) does not see. */
+/* A segment's header (see >>wire: kind, count, then a scalar's step,
+   width and base, the zigzag of l->lo as a varint, or a quaternion's
+   bits; l is read for a scalar only) at out (NULL: not written), whole
+   bytes: its size. gs__quant_put sizes a chunk with it before anything
+   is packed and the writers write with it, so that the layout is said
+   once. */
+GS__PRIVATE size_t gs__varint_put(unsigned char *p, uint64_t z);
+GS__PRIVATE size_t gs__seg_head(unsigned char *out, const gs_wire_segment *s,
+                                const gs__qlay *l) {
+    unsigned char b[24];
+    unsigned char *o = out ? out : b;
+    size_t n = 3;
+    o[0] = (unsigned char)s->kind;
+    gs__put16(o + 1, (uint16_t)s->count);
+    if (s->kind != GS_WIRE_SCALAR) {
+        o[n++] = (unsigned char)s->bits;
+        return n;
+    }
+    gs__putf64(o + n, l->step);
+    o[n + 8] = (unsigned char)l->width;
+    return n + 9 + gs__varint_put(o + n + 9, gs__zigzag(l->lo));
+}
+
+/* A scalar segment at w (on a byte) in layout l: header, then the packed
+   values. 0 if it ran out of room. Each value is rounded as v * (1 /
+   step), a product rather than a quotient: within a unit of the last
+   place of v / step, which the error bound (half a step) does not see. */
 GS__PRIVATE int gs__quant_put_scalar(gs__bitw *w, const gs_wire_segment *s, const gs__qlay *l,
                                      const double *v) {
     double step = l->step, inv = 1.0 / step;
     int64_t lo = l->lo;
-    uint64_t z;
     int i, width = l->width;
-    gs__bitw_put(w, GS_WIRE_SCALAR, 8);
-    gs__bitw_put(w, s->count, 16);
-    { uint64_t u; memcpy(&u, &step, 8); gs__bitw_put(w, u & 0xffffffffu, 32); gs__bitw_put(w, u >> 32, 32); }
-    gs__bitw_put(w, (uint64_t)width, 8);
-    for (z = gs__zigzag(lo); z >= 0x80; z >>= 7) gs__bitw_put(w, (z & 0x7f) | 0x80, 8);
-    gs__bitw_put(w, z, 8);
+    unsigned char h[24];
+    size_t hn = gs__seg_head(h, s, l);
+    if ((size_t)(w->end - w->p) < hn) {
+        w->over = 1;
+        return 0;
+    }
+    memcpy(w->p, h, hn);
+    w->p += hn;
     /* the writer's fields in locals: its stores are of bytes, which may
        alias anything, and would make it reload them for every value */
-    gs__bitw_flush(w); /* whole bytes: the values start on one */
     {
         unsigned char *p = w->p, *end = w->end;
         uint64_t acc = 0;
@@ -12148,12 +12175,20 @@ GS__PRIVATE double gs__quat_step(int bits) {
     return 1.4142135623730951 / (double)((1u << bits) - 1u);
 }
 
+/* A quaternion segment at w (on a byte): header, then each quaternion's
+   largest component's index, its sign and the other three. 0 if it ran
+   out of room. */
 GS__PRIVATE int gs__quant_put_quat(gs__bitw *w, const gs_wire_segment *s, const double *v) {
     double st = gs__quat_step(s->bits), top = (double)((1u << s->bits) - 1u);
     int i, k, big, j;
-    gs__bitw_put(w, GS_WIRE_QUATERNION, 8);
-    gs__bitw_put(w, s->count, 16);
-    gs__bitw_put(w, (uint64_t)s->bits, 8);
+    unsigned char h[24];
+    size_t hn = gs__seg_head(h, s, NULL);
+    if ((size_t)(w->end - w->p) < hn) {
+        w->over = 1;
+        return 0;
+    }
+    memcpy(w->p, h, hn);
+    w->p += hn;
     for (i = 0; i < s->count; i += 4) {
         const double *q = v + i;
         double norm = sqrt(q[0] * q[0] + q[1] * q[1] + q[2] * q[2] + q[3] * q[3]);
@@ -12211,18 +12246,18 @@ GS__PRIVATE size_t gs__quant_put(unsigned char *p, size_t room, const gs_wire_ch
     for (k = 0; k < c->segment_count; ++k) {
         const gs_wire_segment *s = &c->segments[k];
         if (s->kind == GS_WIRE_SCALAR) {
-            uint64_t z;
             gs__quant_lay(s, u, &lay[k]);
-            need += 13 + ((size_t)s->count * (size_t)lay[k].width + 7) / 8;
-            for (z = gs__zigzag(lay[k].lo); z >= 0x80; z >>= 7) ++need;
+            need += gs__seg_head(NULL, s, &lay[k]) +
+                    ((size_t)s->count * (size_t)lay[k].width + 7) / 8;
         } else {
-            need += 4 + ((size_t)(s->count / 4) * (size_t)(3 + 3 * s->bits) + 7) / 8;
+            need += gs__seg_head(NULL, s, NULL) +
+                    ((size_t)(s->count / 4) * (size_t)(3 + 3 * s->bits) + 7) / 8;
         }
         u += s->count;
     }
     if (need > room) return 0;
-    w.p = p; w.end = p + room; w.acc = 0; w.n = 0; w.over = 0;
-    gs__bitw_put(&w, (uint64_t)c->segment_count, 8);
+    p[0] = (unsigned char)c->segment_count;
+    w.p = p + 1; w.end = p + room; w.acc = 0; w.n = 0; w.over = 0;
     for (k = 0; k < c->segment_count && ok; ++k) {
         const gs_wire_segment *s = &c->segments[k];
         ok = s->kind == GS_WIRE_SCALAR ? gs__quant_put_scalar(&w, s, &lay[k], v)
@@ -12477,6 +12512,29 @@ GS__PRIVATE size_t gs__rice_bits(const gs__rice *r) {
     return 8 * ((size_t)(r->p - r->start) + r->zeros) - (size_t)r->n;
 }
 
+/* Walks n values of a Rice run of parameter k (gs__rice_get's codes)
+   without making them: what a parse needs, the bits they take. 0 if an
+   escape holds a value unary could say (one meaning). In a local copy, so
+   that the reader's fields stay in registers. */
+GS__PRIVATE int gs__rice_skip(gs__rice *r, int n, int k) {
+    gs__rice t = *r;
+    int i, tz;
+    for (i = 0; i < n; ++i) {
+        gs__rice_fill(&t);
+        tz = gs__ctz64(t.acc | (uint64_t)1 << GS__RICE_ESCAPE);
+        if (tz < GS__RICE_ESCAPE) { /* unary, its 1 and k bits: at most 40 */
+            t.acc >>= tz + 1 + k;
+            t.n -= tz + 1 + k;
+            continue;
+        }
+        if ((t.acc >> GS__RICE_ESCAPE & 0xffffffffu) >> k < GS__RICE_ESCAPE) return 0;
+        t.acc >>= GS__RICE_ESCAPE + 32;
+        t.n -= GS__RICE_ESCAPE + 32;
+    }
+    *r = t;
+    return 1;
+}
+
 /* The bits a Rice run of parameter k takes are estimated from the values'
    bit lengths (hist[L]: values of L bits; a value of L > k bits has z >>
    k between 2^(L-k-1) and 2^(L-k) - 1, taken as 3/4 of 2^(L-k); L up to
@@ -12593,13 +12651,8 @@ GS__PRIVATE size_t gs__delta_parse(gs_wire_chunk *c, const unsigned char *p, siz
     if (c->delta_coding >= 2) { /* walked: its length is where it ends */
         gs__rice r;
         size_t bits;
-        int esc, k = c->delta_width;
         gs__rice_init(&r, q, end);
-        for (i = 0; i < c->elements; ++i) {
-            uint64_t z = gs__rice_get(&r, k, &esc);
-            /* one meaning: an escape only for what unary cannot say */
-            if (esc && z >> k < GS__RICE_ESCAPE) return 0;
-        }
+        if (!gs__rice_skip(&r, c->elements, c->delta_width)) return 0;
         /* a run that overran took 0 bits past end: its bits say so (at the
            end: they only grow) */
         bits = gs__rice_bits(&r);
@@ -12703,19 +12756,31 @@ GS__PRIVATE int gs__delta_sum(const gs_wire_chunk *c, const int64_t *bk, int64_t
                differences before it (held in dd), checked, then the
                baseline: one pass. A section's first triple is predicted
                0, its first row (and one) from the left, the rest by the
-               median (the cases of gs__med3's comment) */
+               median (the cases of gs__med3's comment), each case in a
+               loop of its own over its span (as gs__spatial_stat), so
+               that no value tests where it is */
             int64_t dd[GS_WIRE_QUANT_CHUNK], x;
-            int row3 = 3 * c->delta_row, lo = 0, bad = 0;
-            for (i = 0; i < c->elements; ++i) {
-                x = gs__unzigzag(gs__rice_get(&r, w, &esc));
-                if (i == c->delta_restart && i) lo = i;
-                if (i >= lo + row3 + 3) x += gs__med3(dd[i - 3], dd[i - row3], dd[i - row3 - 3]);
-                else if (i >= lo + 3) x += dd[i - 3];
-                dd[i] = x;
-                /* one meaning: a spatial coding's differences as the others' */
-                bad |= (uint64_t)(x + 2147483647LL) > 4294967294u;
-                out[i] = bk[i] + x;
+            int row3 = 3 * c->delta_row, rs = c->delta_restart, s, lo, hi, a, b;
+            uint64_t bad = 0;
+            /* one meaning: a spatial coding's differences as the others' */
+#define GS__DSUM_PUT(pred)                                                      \
+    do {                                                                       \
+        x = gs__unzigzag(gs__rice_get(&r, w, &esc)) + (pred);                  \
+        dd[i] = x;                                                             \
+        bad |= (uint64_t)(x + 2147483647LL) > 4294967294u;                     \
+        out[i] = bk[i] + x;                                                    \
+    } while (0)
+            for (s = 0; s < 2; ++s) {
+                lo = s ? rs : 0;
+                hi = !s && rs > 0 ? rs : c->elements;
+                if (s && rs <= 0) break;
+                a = lo + 3 < hi ? lo + 3 : hi;
+                b = lo + row3 + 3 < hi ? lo + row3 + 3 : hi;
+                for (i = lo; i < a; ++i) GS__DSUM_PUT(0);
+                for (; i < b; ++i) GS__DSUM_PUT(dd[i - 3]);
+                for (; i < hi; ++i) GS__DSUM_PUT(gs__med3(dd[i - 3], dd[i - row3], dd[i - row3 - 3]));
             }
+#undef GS__DSUM_PUT
             return !bad;
         }
     }

@@ -59,7 +59,7 @@
    hosts of a session step at the same wall instants to the same times;
    off, each loop sleeps 5 ms from its own phase, which puts up to a frame
    of simulation time between hosts at any one instant. Locked, a frame is
-   computed 2 ms before the boundary it stands for and held until it (the
+   computed 3.5 ms before the boundary it stands for and held until it (the
    lines, the trace and the datagrams come out at the boundary). Each JSON
    line carries "frame_lock" (true/false), "t_done": the wall time (as
    "wall") at which the advance that took the world to "t" ended, and
@@ -110,9 +110,13 @@
 #define FRAME 0.005        /* s of wall time between world advances */
 #define TRACE_EVERY 0.010  /* s of wall time between trace rows */
 #define PARK_HEIGHT 0.4    /* m: a parked probe hangs clear of the cloth */
-#define LEAD 0.002         /* s; --frame-lock: a frame is computed this much
-                              before the boundary it stands for (under half
-                              a frame, so the target rounds to it) */
+#define LEAD 0.0035        /* s; --frame-lock: a frame is computed this much
+                              before the boundary it stands for. The session
+                              clock reads that boundary's instant (show_clock),
+                              not the instant the loop woke, so a late wake
+                              does not move the target to another boundary;
+                              the 1.5 ms left after a boundary carry its
+                              datagrams and line out */
 
 typedef struct peer_arg {
     uint32_t id;
@@ -414,6 +418,9 @@ typedef struct peer_host {
     double cpu0;           /* process CPU seconds at the start (after the scene's settle) */
     double t_since;        /* wall time since the host shows "t" */
     double t_done;         /* wall time at the end of the advance to "t" */
+    double show_at;        /* --frame-lock: the instant (CLOCK_MONOTONIC) the
+                              frame being computed is shown at; 0 before the
+                              first boundary is known */
     FILE *trace;
     uint64_t rx_seen[MAX_PEERS];
     int announced[MAX_PEERS];
@@ -447,6 +454,17 @@ static int probe_count(const options *o) {
     return top > GS_SCENE_MAX_PROBES ? GS_SCENE_MAX_PROBES : (int)top;
 }
 
+/* --frame-lock: the session clock's reading for an advance is the instant
+   its frame will be shown (the boundary gs_world_next_frame gave), so the
+   world runs to that boundary however late the loop woke to compute it:
+   with the clock read at the wake, a host woken over half a frame late
+   rounded to the next boundary and skipped one, and the lead had to stay
+   under half a frame. */
+static double show_clock(void *user) {
+    const peer_host *h = (const peer_host *)user;
+    return h->show_at > 0.0 ? h->show_at : gs_udp_now();
+}
+
 static int build(peer_host *h) {
     const options *o = &h->o;
     gs_world_desc wd = gs_world_desc_default();
@@ -463,7 +481,11 @@ static int build(peer_host *h) {
         wd.sync.mode = GS_SYNC_REPLAY;
         wd.sync.history_frames = 64; /* 5 ms frames: 320 ms, a 250 ms round trip and more */
     }
-    if (o->frame_lock) wd.sync.frame = FRAME;
+    if (o->frame_lock) {
+        wd.sync.frame = FRAME;
+        wd.sync.now = show_clock;
+        wd.sync.now_user = h;
+    }
     if (gs_world_create(&wd, &h->w) != GS_OK) return fail(h, "world");
     sd.cloth_n = o->cloth;
     sd.sphere_count = o->spheres ? o->spheres : GS_NONE;
@@ -715,8 +737,10 @@ static int run(peer_host *h) {
             next_trace += TRACE_EVERY;
             if (next_trace < now) next_trace = now + TRACE_EVERY;
         }
-        if (h->o.frame_lock && gs_world_next_frame(h->w, gs_udp_now(), &at) == GS_OK)
+        if (h->o.frame_lock && gs_world_next_frame(h->w, gs_udp_now(), &at) == GS_OK) {
+            h->show_at = at;
             nap_until(at - LEAD); /* computed ahead of the session's next boundary */
+        }
         else
             nap(FRAME - (gs_udp_now() - now));
     }
