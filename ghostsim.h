@@ -7544,7 +7544,13 @@ GS__PRIVATE gs_result gs__rigid_set_state(gs_agent *a, const double *in) {
     r->v = gs__v3(in[7], in[8], in[9]);
     r->w = gs__v3(in[10], in[11], in[12]);
     r->a_own = gs__v3(0.0, 0.0, 0.0); /* a state, not a step: no path known */
-    if (r->probe) {
+    /* A state set between advances places a probe and stops it there. One
+       set inside an advance (a blend, or an input a re-run applies) leaves
+       this host's own probe on its way to the target its application set:
+       taken as the target, a blend of its own ghost would stop it in every
+       frame with a blend, and it would take the path in jumps. A peer's
+       probe goes where its blends put it. */
+    if (r->probe && !(a->world->busy && r->owner == a->world->host_id)) {
         r->target = r->x;
         r->target_q = r->q;
     }
