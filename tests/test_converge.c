@@ -183,7 +183,11 @@ static void test_step_inside_band(void **state) {
 /* ghostpeer's +2 s step as it plays out on a loaded machine, the fault
    suite's clock-fwd with the probes pushing until 5 s: host 2 catches up
    over 20 frames of 0.1 s, and a remainder inside the band is left once
-   host 1 has followed the last jump it saw past the band. */
+   host 1 has followed the last jump it saw past the band. The probes
+   follow their paths into the cloth (they are not held back by the blend
+   of their own ghosts), so the spheres take until about 7.5 s to rest
+   after they park: measured, the copies' largest gap over the last half
+   second is 1.09 mm after 6 s, 0.49 mm after 7 s, 0.083 mm after 8 s. */
 static void test_step_caught_up_in_frames(void **state) {
     pair p;
     int k;
@@ -198,7 +202,7 @@ static void test_step_caught_up_in_frames(void **state) {
         assert_int_equal(gs_world_advance(p.w[1], k < 20 ? 0.1 : 0.005, NULL), GS_OK);
         pair_run(&p, FRAME);
     }
-    expect_converged(&p, "+2 s in 20 frames, then", 0.005, 6.0, 5.0);
+    expect_converged(&p, "+2 s in 20 frames, then", 0.005, 8.0, 5.0);
     pair_close(&p);
 }
 
