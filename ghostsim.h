@@ -2904,8 +2904,10 @@ struct gs_world {
     struct gs__rigid **wide;   /* bodies with a sweep over wide_at */
     int nwide;
     struct gs__rigid **cand;   /* the answer to a query (bodies_cap) */
-    struct gs__rigid **cand_tmp; /* scratch for putting a long answer in
-                                    order (bodies_cap) */
+    int *cand_sap;       /* the answer's sap indices as a query finds
+                            them, and the scratch that puts them in order
+                            (2 bodies_cap): sorted as integers, not
+                            through the bodies' structs */
     struct gs__rigid **touched; /* the bodies the stepping body's contacts
                                    push, whose push lands when its step
                                    ends (bodies_cap) */
@@ -7942,11 +7944,12 @@ GS__PRIVATE void gs__sap_sort(gs_world *w) {
 }
 
 /* The broad phase's lists for cap bodies, in one block (freed as
-   w->bodies): 6 lists of pointers, near's keys, the grid's 2 cap cells and
-   its 2 cap links, then the records on a line of their own each. */
+   w->bodies): 5 lists of pointers, near's keys, the grid's 2 cap cells and
+   its 2 cap links, the answer's 2 cap indices, then the records on a line
+   of their own each. */
 GS__PRIVATE gs_result gs__sap_grow(gs_world *w) {
     int cap = w->bodies_cap ? 2 * w->bodies_cap : 16;
-    size_t head, per = 6 * sizeof(struct gs__rigid *) + sizeof(double) + 4 * sizeof(int) +
+    size_t head, per = 5 * sizeof(struct gs__rigid *) + sizeof(double) + 6 * sizeof(int) +
                        sizeof(gs__grec);
     struct gs__rigid **list;
     char *block;
@@ -7960,7 +7963,7 @@ GS__PRIVATE gs_result gs__sap_grow(gs_world *w) {
     if (w->nbodies) {
         memcpy(list, w->bodies, (size_t)w->nbodies * sizeof *list);
         memcpy(list + cap, w->near, (size_t)w->nbodies * sizeof *list);
-        memcpy((void *)(list + 6 * cap), w->near_keys, (size_t)w->nbodies * sizeof(double));
+        memcpy((void *)(list + 5 * cap), w->near_keys, (size_t)w->nbodies * sizeof(double));
         memcpy(block + head, w->grec, (size_t)w->nbodies * sizeof(gs__grec));
     }
     if (w->nwide) memcpy(list + 2 * cap, w->wide, (size_t)w->nwide * sizeof *list);
@@ -7970,11 +7973,11 @@ GS__PRIVATE gs_result gs__sap_grow(gs_world *w) {
     w->wide = list + 2 * cap;
     w->cand = list + 3 * cap;
     w->touched = list + 4 * cap;
-    w->cand_tmp = list + 5 * cap;
-    w->near_keys = (double *)(void *)(list + 6 * cap);
+    w->near_keys = (double *)(void *)(list + 5 * cap);
     w->grid = (int *)(void *)(w->near_keys + cap);
     w->gnext = w->grid + 2 * cap;
     w->gprev = w->gnext + cap;
+    w->cand_sap = w->gprev + cap;
     w->grec = (gs__grec *)(void *)(block + head);
     w->bodies_cap = cap;
     gs__grid_rebuild(w);
@@ -8085,21 +8088,21 @@ GS__PRIVATE int gs__sap_first(const gs_world *w, double lo, double lag) {
     return a;
 }
 
-/* The candidates in the order of bodies. A body's query finds a few, in
-   an order near that one: insertion. A range that crosses the world (a
-   wall, a cloth) finds up to every body, where insertion is O(n^2): a
-   merge sort through cand_tmp. The sap indices are distinct, so either
-   gives the one order. */
+/* The candidates (w->cand_sap[0, n), sap indices) in the order of bodies,
+   into w->cand. A body's query finds a few, in an order near that one:
+   insertion. A range that crosses the world (a wall, a cloth) finds up to
+   every body, where insertion is O(n^2): a merge sort through the second
+   half of cand_sap. The indices are distinct, so either gives the one
+   order. */
 #define GS__ORDER_INSERTION 32
 GS__PRIVATE void gs__sap_order(gs_world *w, int n) {
-    gs__rigid **src = w->cand, **dst = w->cand_tmp, **t;
+    int *src = w->cand_sap, *dst = w->cand_sap + w->bodies_cap, *t;
     int i, j, width;
     for (i = 0; i < n; i += GS__ORDER_INSERTION) { /* sorted runs */
         int end = n - i > GS__ORDER_INSERTION ? i + GS__ORDER_INSERTION : n;
         for (j = i + 1; j < end; ++j) {
-            gs__rigid *r = src[j];
-            int k;
-            for (k = j; k > i && src[k - 1]->sap > r->sap; --k) src[k] = src[k - 1];
+            int r = src[j], k;
+            for (k = j; k > i && src[k - 1] > r; --k) src[k] = src[k - 1];
             src[k] = r;
         }
     }
@@ -8107,13 +8110,13 @@ GS__PRIVATE void gs__sap_order(gs_world *w, int n) {
         for (i = 0; i < n; i += 2 * width) {
             int a = i, m = n - i > width ? i + width : n, b = m, k = i;
             int e = n - i > 2 * width ? i + 2 * width : n;
-            while (a < m && b < e) dst[k++] = src[b]->sap < src[a]->sap ? src[b++] : src[a++];
+            while (a < m && b < e) dst[k++] = src[b] < src[a] ? src[b++] : src[a++];
             while (a < m) dst[k++] = src[a++];
             while (b < e) dst[k++] = src[b++];
         }
         t = src; src = dst; dst = t;
     }
-    if (src != w->cand) memcpy(w->cand, src, (size_t)n * sizeof *src);
+    for (i = 0; i < n; ++i) w->cand[i] = w->bodies[src[i]];
 }
 
 /* Every body that may meet [lo, hi] on x when taken up to lag seconds from
@@ -8124,20 +8127,31 @@ GS__PRIVATE int gs__sap_query(gs_world *w, double lo, double hi, double lag) {
     gs__sap_sort(w);
     top += 1e-9 * (1.0 + fabs(top));
     for (i = 0; i < w->nwide; ++i)
-        if (gs__sap_meets(w->wide[i], lo, hi, lag)) w->cand[n++] = w->wide[i];
+        if (gs__sap_meets(w->wide[i], lo, hi, lag)) w->cand_sap[n++] = w->wide[i]->sap;
     for (i = gs__sap_first(w, lo, lag); i < w->nbodies && w->near_keys[i] <= top; ++i)
-        if (w->near[i]->wide < 0 && gs__sap_meets(w->near[i], lo, hi, lag)) w->cand[n++] = w->near[i];
+        if (w->near[i]->wide < 0 && gs__sap_meets(w->near[i], lo, hi, lag)) w->cand_sap[n++] = w->near[i]->sap;
     gs__sap_order(w, n);
     return n;
 }
 
-/* The bodies that may touch r when taken up to lag seconds from their
-   time, into w->cand in the order of bodies: the wide ones, and those of
-   the cells within reach of r (any body not wide is within bound_max +
+/* The bodies other than r that may touch r when taken up to lag seconds
+   from their time (gs__sap_meets on x and gs__sweeps_meet on y and z),
+   into w->cand in the order of bodies: the wide ones, and those of the
+   cells within reach of r (any body not wide is within bound_max +
    speed_max lag of its cell's reach). A reach of many cells takes the list
    search instead. Returns how many. */
 #define GS__GRID_MAX_CELLS 64
 GS__PRIVATE double gs__own_reach(const gs__rigid *r, double lag);
+GS__PRIVATE int gs__sweeps_meet(const gs__rigid *r, const gs__rigid *o, double lag);
+
+/* gs__sap_query's answer less r and the bodies out of r's reach on y or z. */
+GS__PRIVATE int gs__sap_query_sweeps(gs_world *w, const gs__rigid *r, double lo, double hi,
+                                     double lag) {
+    int n = gs__sap_query(w, lo, hi, lag), i, k = 0;
+    for (i = 0; i < n; ++i)
+        if (w->cand[i] != r && gs__sweeps_meet(r, w->cand[i], lag)) w->cand[k++] = w->cand[i];
+    return k;
+}
 
 /* gs__sap_meets(o, lo, hi, lag) && gs__sweeps_meet(r, o, lag), with r's
    reach (own) and o's found once: the same answer, bit for bit. */
@@ -8157,24 +8171,25 @@ GS__PRIVATE int gs__sap_query_near(gs_world *w, const gs__rigid *r, double lag) 
     int n = 0, i;
     gs__sap_sort(w); /* the candidates go in the order of bodies */
     if (w->cell <= 0.0 || !(reach < 0.5 * GS__GRID_MAX_CELLS * w->cell))
-        return gs__sap_query(w, lo, hi, lag);
+        return gs__sap_query_sweeps(w, r, lo, hi, lag);
     a[0] = gs__grid_coord(w, r->x.x - reach); b[0] = gs__grid_coord(w, r->x.x + reach);
     a[1] = gs__grid_coord(w, r->x.y - reach); b[1] = gs__grid_coord(w, r->x.y + reach);
     a[2] = gs__grid_coord(w, r->x.z - reach); b[2] = gs__grid_coord(w, r->x.z + reach);
     if ((b[0] - a[0] + 1) * (b[1] - a[1] + 1) * (b[2] - a[2] + 1) > GS__GRID_MAX_CELLS)
-        return gs__sap_query(w, lo, hi, lag);
+        return gs__sap_query_sweeps(w, r, lo, hi, lag);
     /* on y and z too (gs__sweeps_meet, as the caller would): the cells hold
        about 27 times the bodies r can touch, and the fewer candidates the
        cheaper their sort */
     for (i = 0; i < w->nwide; ++i)
-        if (gs__sap_meets3(w->wide[i], r, own, lo, hi, lag)) w->cand[n++] = w->wide[i];
+        if (w->wide[i] != r && gs__sap_meets3(w->wide[i], r, own, lo, hi, lag))
+            w->cand_sap[n++] = w->wide[i]->sap;
     {   /* gs__sap_meets3 with what is the same for every body found once
            (the same operations: the same answer, bit for bit) */
         double eps = 1e-12 * (fabs(lo) + fabs(hi)), hi_e = hi + eps, lo_e = lo - eps;
         double own_e = own * (1.0 + 1e-9), ry = r->x.y, rz = r->x.z;
         const gs__grec *grec = w->grec;
         const int *grid = w->grid, *gnext = w->gnext;
-        gs__rigid **bodies = w->bodies, **cand = w->cand;
+        int *cand = w->cand_sap, self = r->sap;
         /* x innermost: a row of cells has its buckets side by side */
         for (c[2] = a[2]; c[2] <= b[2]; ++c[2])
             for (c[1] = a[1]; c[1] <= b[1]; ++c[1])
@@ -8182,12 +8197,14 @@ GS__PRIVATE int gs__sap_query_near(gs_world *w, const gs__rigid *r, double lag) 
                     for (i = grid[gs__grid_bucket(w, c)]; i >= 0; i = gnext[i]) {
                         const gs__grec *o = &grec[i];
                         double reach, both;
-                        if (o->cell[0] != c[0] || o->cell[1] != c[1] || o->cell[2] != c[2]) continue;
+                        if (o->cell[0] != c[0] || o->cell[1] != c[1] || o->cell[2] != c[2] ||
+                            i == self)
+                            continue;
                         reach = gs__reach_of(o->bound, o->speed, lag);
                         both = reach + own_e;
                         if (o->x - reach <= hi_e && o->x + reach >= lo_e &&
                             fabs(ry - o->y) <= both && fabs(rz - o->z) <= both)
-                            cand[n++] = bodies[i];
+                            cand[n++] = i;
                     }
                 }
     }
@@ -8236,7 +8253,7 @@ GS__PRIVATE int gs__sap_query_box(gs_world *w, gs_vec3 lo, gs_vec3 hi, double la
     first = gs__sap_first(w, lo.x, lag);
     past = gs__sap_past(w, first, top);
     for (i = 0; i < w->nwide; ++i)
-        if (gs__sap_meets_box(w->wide[i], lo, hi, lag)) w->cand[n++] = w->wide[i];
+        if (gs__sap_meets_box(w->wide[i], lo, hi, lag)) w->cand_sap[n++] = w->wide[i]->sap;
     if (w->cell > 0.0) {
         double cells = 1.0;
         a[0] = gs__grid_coord(w, lo.x - pad); b[0] = gs__grid_coord(w, hi.x + pad);
@@ -8253,7 +8270,7 @@ GS__PRIVATE int gs__sap_query_box(gs_world *w, gs_vec3 lo, gs_vec3 hi, double la
                             if (o->cell[0] == c[0] && o->cell[1] == c[1] && o->cell[2] == c[2] &&
                                 gs__meets_box(gs__v3(o->x, o->y, o->z), o->bound, o->speed, lo,
                                               hi, lag))
-                                w->cand[n++] = w->bodies[k];
+                                w->cand_sap[n++] = k;
                         }
                     }
             gs__sap_order(w, n);
@@ -8262,7 +8279,7 @@ GS__PRIVATE int gs__sap_query_box(gs_world *w, gs_vec3 lo, gs_vec3 hi, double la
     }
     for (i = first; i < past; ++i)
         if (w->near[i]->wide < 0 && gs__sap_meets_box(w->near[i], lo, hi, lag))
-            w->cand[n++] = w->near[i];
+            w->cand_sap[n++] = w->near[i]->sap;
     gs__sap_order(w, n);
     return n;
 }
@@ -8888,9 +8905,7 @@ GS__PRIVATE void gs__rigid_contacts(gs__rigid *r, double t, double h) {
     gs__rigid_sums_clear(r);
     for (i = 0; i < w->ntouched; ++i) w->touched[i]->sh_f = w->touched[i]->sh_t = r->force;
     if (w->ground) gs__rigid_ground(r);
-    for (i = 0; i < n; ++i)
-        if (w->cand[i] != r && gs__sweeps_meet(r, w->cand[i], lag))
-            gs__rigid_vs_rigid(r, w->cand[i], t, h);
+    for (i = 0; i < n; ++i) gs__rigid_vs_rigid(r, w->cand[i], t, h);
     if (w->nmeshes == 0) return;
     if (w->meshes_dirty) gs__meshes_list(w);
     for (i = 0; i < w->nmeshes; ++i) gs__rigid_vs_mesh(r, w->meshes[i], t);
