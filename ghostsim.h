@@ -12208,9 +12208,31 @@ GS__PRIVATE int64_t gs__round(double x) {
    monotonic: the ends of the values give them). */
 GS__PRIVATE double gs__quant_step(double step, const double *v, int n, int64_t *lo,
                                   int64_t *hi) {
+    /* x < m ? x : m is minsd, which the compiler neither vectorizes nor
+       reassociates (a NaN would tell the order), so four ends in two
+       vectors here: minpd is the same per lane, and the least and largest
+       are the same whatever the order (but for -0 against +0, which the
+       rounding and fabs below take alike) */
     double vlo = v[0], vhi = v[0], big;
-    int i;
-    for (i = 1; i < n; ++i) {
+    int i = 0;
+#ifdef GS__MESH_SSE2
+    if (n >= 4) {
+        __m128d l = _mm_set1_pd(v[0]), h = l, l2 = l, h2 = l;
+        double t[2];
+        for (; i + 4 <= n; i += 4) {
+            __m128d x = _mm_loadu_pd(v + i), y = _mm_loadu_pd(v + i + 2);
+            l = _mm_min_pd(x, l);
+            h = _mm_max_pd(x, h);
+            l2 = _mm_min_pd(y, l2);
+            h2 = _mm_max_pd(y, h2);
+        }
+        _mm_storeu_pd(t, _mm_min_pd(l2, l));
+        vlo = t[1] < t[0] ? t[1] : t[0];
+        _mm_storeu_pd(t, _mm_max_pd(h2, h));
+        vhi = t[1] > t[0] ? t[1] : t[0];
+    }
+#endif
+    for (; i < n; ++i) {
         vlo = v[i] < vlo ? v[i] : vlo;
         vhi = v[i] > vhi ? v[i] : vhi;
     }
