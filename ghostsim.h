@@ -9556,6 +9556,17 @@ typedef struct gs__wire_ctx {
                           (coding 3), else 0: what kind bit 7 says again */
 } gs__wire_ctx;
 
+/* The Rice-coded deltas' values of a datagram, kept by its parse
+   (gs__delta_parse's keep) for the sum that applies them, so that each
+   value's bits are read once. Every value takes a bit at least, so a
+   datagram's fit; a chunk that would not is read from its bits. */
+#define GS__KEPT_VALUES (8 * (GS_WIRE_MAX_DATAGRAM - GS_WIRE_HEADER))
+typedef struct gs__kept {
+    int32_t v[GS__KEPT_VALUES];
+    int used;
+    const int32_t *at[GS_WIRE_MAX_CHUNKS]; /* chunk i's values, NULL: none */
+} gs__kept;
+
 struct gs_net {
     gs_world *world;
     gs_net_desc d;
@@ -9601,6 +9612,7 @@ struct gs_net {
     gs__wire_ctx wctx;        /* what buf's next chunk is coded against */
     int flushes;              /* datagrams with chunks sent this update */
     gs_wire_view view;        /* decode scratch (too big for the stack) */
+    gs__kept kept;            /* view's Rice values, as its parse read them */
     gs__net_guard guard;      /* key, nonces, opened datagram (>>net) */
 };
 
@@ -12211,9 +12223,31 @@ GS__PRIVATE int64_t gs__round(double x) {
    monotonic: the ends of the values give them). */
 GS__PRIVATE double gs__quant_step(double step, const double *v, int n, int64_t *lo,
                                   int64_t *hi) {
+    /* x < m ? x : m is minsd, which the compiler neither vectorizes nor
+       reassociates (a NaN would tell the order), so four ends in two
+       vectors here: minpd is the same per lane, and the least and largest
+       are the same whatever the order (but for -0 against +0, which the
+       rounding and fabs below take alike) */
     double vlo = v[0], vhi = v[0], big;
-    int i;
-    for (i = 1; i < n; ++i) {
+    int i = 0;
+#ifdef GS__MESH_SSE2
+    if (n >= 4) {
+        __m128d l = _mm_set1_pd(v[0]), h = l, l2 = l, h2 = l;
+        double t[2];
+        for (; i + 4 <= n; i += 4) {
+            __m128d x = _mm_loadu_pd(v + i), y = _mm_loadu_pd(v + i + 2);
+            l = _mm_min_pd(x, l);
+            h = _mm_max_pd(x, h);
+            l2 = _mm_min_pd(y, l2);
+            h2 = _mm_max_pd(y, h2);
+        }
+        _mm_storeu_pd(t, _mm_min_pd(l2, l));
+        vlo = t[1] < t[0] ? t[1] : t[0];
+        _mm_storeu_pd(t, _mm_max_pd(h2, h));
+        vhi = t[1] > t[0] ? t[1] : t[0];
+    }
+#endif
+    for (; i < n; ++i) {
         vlo = v[i] < vlo ? v[i] : vlo;
         vhi = v[i] > vhi ? v[i] : vhi;
     }
@@ -12669,6 +12703,33 @@ GS__PRIVATE int gs__rice_skip(gs__rice *r, int n, int k) {
     return 1;
 }
 
+/* gs__rice_skip's walk that also keeps each value, unzigzagged, in out:
+   the receiving net's parse, whose sum then reads them instead of the bits
+   (gs__delta_sum). A value is z < 2^32 (an escape's 32 bits; unary's at
+   most 2^28), so its difference fits an int32. */
+GS__PRIVATE int gs__rice_take(gs__rice *r, int n, int k, int32_t *out) {
+    gs__rice t = *r;
+    uint64_t mask = ((uint64_t)1 << k) - 1, z;
+    int i, tz;
+    for (i = 0; i < n; ++i) {
+        gs__rice_fill(&t);
+        tz = gs__ctz64(t.acc | (uint64_t)1 << GS__RICE_ESCAPE);
+        if (tz < GS__RICE_ESCAPE) {
+            z = (uint64_t)tz << k | (t.acc >> (tz + 1) & mask);
+            t.acc >>= tz + 1 + k;
+            t.n -= tz + 1 + k;
+        } else {
+            z = t.acc >> GS__RICE_ESCAPE & 0xffffffffu;
+            if (z >> k < GS__RICE_ESCAPE) return 0;
+            t.acc >>= GS__RICE_ESCAPE + 32;
+            t.n -= GS__RICE_ESCAPE + 32;
+        }
+        out[i] = (int32_t)gs__unzigzag(z);
+    }
+    *r = t;
+    return 1;
+}
+
 /* The bits a Rice run of parameter k takes are estimated from the values'
    bit lengths (hist[L]: values of L bits; a value of L > k bits has z >>
    k between 2^(L-k-1) and 2^(L-k) - 1, taken as 3/4 of 2^(L-k); L up to
@@ -12746,9 +12807,12 @@ GS__PRIVATE int64_t gs__dread_next(gs__dread *d) {
 /* Checks a delta payload (within len bytes) and fills c's baseline,
    coding and width: its length, or 0. same_base and same_row: the kind
    byte's bits 2 and 7 (see >>wire); row_before: the chunk before's
-   spatial row if c is its next chunk, else 0. */
+   spatial row if c is its next chunk, else 0. keep (room for
+   GS_WIRE_QUANT_CHUNK values, or NULL): a Rice run's values, as the walk
+   that checks it reads them (gs__rice_take). */
 GS__PRIVATE size_t gs__delta_parse(gs_wire_chunk *c, const unsigned char *p, size_t len,
-                                   int same_base, int same_row, int row_before) {
+                                   int same_base, int same_row, int row_before,
+                                   int32_t *keep) {
     const unsigned char *q = p, *end = p + len;
     uint64_t dist = 0;
     size_t need, bm, i;
@@ -12786,7 +12850,9 @@ GS__PRIVATE size_t gs__delta_parse(gs_wire_chunk *c, const unsigned char *p, siz
         gs__rice r;
         size_t bits;
         gs__rice_init(&r, q, end);
-        if (!gs__rice_skip(&r, c->elements, c->delta_width)) return 0;
+        if (keep ? !gs__rice_take(&r, c->elements, c->delta_width, keep)
+                 : !gs__rice_skip(&r, c->elements, c->delta_width))
+            return 0;
         /* a run that overran took 0 bits past end: its bits say so (at the
            end: they only grow) */
         bits = gs__rice_bits(&r);
@@ -12867,9 +12933,12 @@ GS_API int gs_wire_acks(const gs_wire_chunk *c, gs_wire_ack *out, int max) {
 
 /* A delta chunk's differences added to a baseline's integers bk, into
    out, in one pass, the readers in locals (as gs__quant_get): the
-   receiving side's inner loop. 0 if a spatial coding's difference is
-   past +-(2^31 - 1) (out is then all the same filled). */
-GS__PRIVATE int gs__delta_sum(const gs_wire_chunk *c, const int64_t *bk, int64_t *out) {
+   receiving side's inner loop. vals: a Rice coding's values as the parse
+   kept them (gs__delta_parse's keep); NULL: read from the bits here. 0 if
+   a spatial coding's difference is past +-(2^31 - 1) (out is then all the
+   same filled). */
+GS__PRIVATE int gs__delta_sum(const gs_wire_chunk *c, const int32_t *vals, const int64_t *bk,
+                              int64_t *out) {
     const unsigned char *q = c->payload + c->delta_data, *end = c->payload + c->payload_bytes,
                         *map = NULL;
     uint64_t acc = 0, mask, z;
@@ -12877,12 +12946,18 @@ GS__PRIVATE int gs__delta_sum(const gs_wire_chunk *c, const int64_t *bk, int64_t
     w = c->delta_width;
     mask = ((uint64_t)1 << w) - 1;
     if (c->delta_coding >= 2) {
-        gs__rice r;
-        int esc;
-        gs__rice_init(&r, q, end);
+        int32_t got[GS_WIRE_QUANT_CHUNK];
+        if (!vals) { /* a run the parse refuses: the baseline, refused */
+            gs__rice r;
+            gs__rice_init(&r, q, end);
+            if (c->elements > GS_WIRE_QUANT_CHUNK || !gs__rice_take(&r, c->elements, w, got)) {
+                for (i = 0; i < c->elements && i < GS_WIRE_QUANT_CHUNK; ++i) out[i] = bk[i];
+                return 0;
+            }
+            vals = got;
+        }
         if (c->delta_coding == 2) {
-            for (i = 0; i < c->elements; ++i)
-                out[i] = bk[i] + gs__unzigzag(gs__rice_get(&r, w, &esc));
+            for (i = 0; i < c->elements; ++i) out[i] = bk[i] + vals[i];
             return 1;
         }
         {
@@ -12899,7 +12974,7 @@ GS__PRIVATE int gs__delta_sum(const gs_wire_chunk *c, const int64_t *bk, int64_t
             /* one meaning: a spatial coding's differences as the others' */
 #define GS__DSUM_PUT(pred)                                                      \
     do {                                                                       \
-        x = gs__unzigzag(gs__rice_get(&r, w, &esc)) + (pred);                  \
+        x = (int64_t)vals[i] + (pred);                                         \
         dd[i] = x;                                                             \
         bad |= (uint64_t)(x + 2147483647LL) > 4294967294u;                     \
         out[i] = bk[i] + x;                                                    \
@@ -12937,7 +13012,7 @@ GS_API void gs_wire_deltas(const gs_wire_chunk *c, int64_t *out) {
     if (!c || !out || !(c->flags & GS_WIRE_CHUNK_DELTA) || !c->payload ||
         c->elements > GS_WIRE_QUANT_CHUNK)
         return;
-    (void)gs__delta_sum(c, gs__zero_k, out);
+    (void)gs__delta_sum(c, NULL, gs__zero_k, out);
 }
 
 /* The index of the highest set bit of v (v != 0), from the top. */
@@ -13399,7 +13474,8 @@ GS__PRIVATE void gs__wire_put_head(unsigned char *buf, size_t *size, gs__wire_ct
 }
 
 GS__PRIVATE int gs__wire_chunk(const unsigned char *buf, size_t end, size_t *off,
-                               gs__wire_ctx *x, gs_wire_chunk *c, gs_reject *why);
+                               gs__wire_ctx *x, gs_wire_chunk *c, int32_t *keep,
+                               gs_reject *why);
 
 /* The context of the chunk after the size bytes of the datagram in buf,
    read from its chunks (the public calls take no context: tests build
@@ -13415,7 +13491,7 @@ GS__PRIVATE int gs__wire_scan(const unsigned char *buf, size_t cap, size_t size,
     if (size < GS_WIRE_HEADER || size > cap || size > GS_WIRE_MAX_DATAGRAM) return 0;
     n = gs__hdr_chunks(buf);
     for (i = 0; i < n; ++i)
-        if (!gs__wire_chunk(buf, size, &off, x, &c, &why)) return 0;
+        if (!gs__wire_chunk(buf, size, &off, x, &c, NULL, &why)) return 0;
     return off == size;
 }
 
@@ -13727,9 +13803,11 @@ GS__PRIVATE int gs__chunk_head_get(const unsigned char *buf, size_t end, size_t 
 }
 
 /* One chunk at *off, coded against x (moved on to it): its header, its
-   payload (whose length its contents imply), its values all finite. */
+   payload (whose length its contents imply), its values all finite. keep:
+   as gs__delta_parse's. */
 GS__PRIVATE int gs__wire_chunk(const unsigned char *buf, size_t end, size_t *off,
-                               gs__wire_ctx *x, gs_wire_chunk *c, gs_reject *why) {
+                               gs__wire_ctx *x, gs_wire_chunk *c, int32_t *keep,
+                               gs_reject *why) {
     size_t len, avail;
     unsigned kind, b;
     c->segment_count = 0;
@@ -13758,7 +13836,7 @@ GS__PRIVATE int gs__wire_chunk(const unsigned char *buf, size_t end, size_t *off
                   ? gs__delta_parse(c, c->payload, avail,
                                     (b & GS__KIND_NEXT) && (b & GS__KIND_SAME_BASE),
                                     (b & GS__KIND_SAME_ROW) != 0,
-                                    (b & GS__KIND_NEXT) ? x->row : 0)
+                                    (b & GS__KIND_NEXT) ? x->row : 0, keep)
               : kind == GS__KIND_ACK ? gs__ack_parse(c, c->payload, avail)
                                      : gs__quant_parse(c, c->payload, avail);
         if (!len) { *why = GS_REJECT_LAYOUT; return 0; }
@@ -13791,9 +13869,10 @@ GS__PRIVATE int gs__wire_front(const unsigned char *buf, size_t size, gs_reject 
 }
 
 /* The header's fields and the chunks in [GS_WIRE_HEADER, end) of a
-   datagram in clear (checked or opened). */
+   datagram in clear (checked or opened); kept (NULL: none) takes its Rice
+   values. */
 GS__PRIVATE int gs__wire_parse(const unsigned char *buf, size_t end, gs_wire_view *out,
-                               gs_reject *why) {
+                               gs__kept *kept, gs_reject *why) {
     size_t off = GS_WIRE_HEADER;
     gs__wire_ctx x;
     int i, n = gs__hdr_chunks(buf);
@@ -13814,8 +13893,18 @@ GS__PRIVATE int gs__wire_parse(const unsigned char *buf, size_t end, gs_wire_vie
         return 0;
     }
     memset(&x, 0, sizeof x);
-    for (i = 0; i < n; ++i)
-        if (!gs__wire_chunk(buf, end, &off, &x, &out->chunks[i], why)) return 0;
+    if (kept) kept->used = 0;
+    for (i = 0; i < n; ++i) {
+        gs_wire_chunk *c = &out->chunks[i];
+        int32_t *keep = kept && kept->used <= GS__KEPT_VALUES - GS_WIRE_QUANT_CHUNK
+                            ? kept->v + kept->used : NULL;
+        if (!gs__wire_chunk(buf, end, &off, &x, c, keep, why)) return 0;
+        if (kept) kept->at[i] = NULL;
+        if (keep && (c->flags & GS_WIRE_CHUNK_DELTA) && c->delta_coding >= 2) {
+            kept->at[i] = keep;
+            kept->used += c->elements;
+        }
+    }
     if (off != end) { *why = GS_REJECT_LAYOUT; return 0; }
     out->chunk_count = n;
     return 1;
@@ -13823,13 +13912,13 @@ GS__PRIVATE int gs__wire_parse(const unsigned char *buf, size_t end, gs_wire_vie
 
 /* 1: decoded into *out; 0: refused for *why (the net's path). */
 GS__PRIVATE int gs__wire_decode(const unsigned char *buf, size_t size,
-                                gs_wire_view *out, gs_reject *why) {
+                                gs_wire_view *out, gs__kept *kept, gs_reject *why) {
     size_t end;
     if (!gs__wire_front(buf, size, why)) return 0;
     end = size - 4;
     if (gs__crc32(buf, end) != gs__get32(buf + end)) { *why = GS_REJECT_CHECKSUM; return 0; }
     if (gs__hdr_flags(buf) != 0) { *why = GS_REJECT_LAYOUT; return 0; } /* sealed or unknown */
-    return gs__wire_parse(buf, end, out, why);
+    return gs__wire_parse(buf, end, out, kept, why);
 }
 
 GS_API gs_result gs_wire_decode(const unsigned char *buf, size_t size,
@@ -13837,7 +13926,7 @@ GS_API gs_result gs_wire_decode(const unsigned char *buf, size_t size,
     gs_reject dummy;
     if (!why) why = &dummy;
     if (!out || !buf) { *why = GS_REJECT_SHORT; return GS_ERR_INVALID_ARG; }
-    return gs__wire_decode(buf, size, out, why) ? GS_OK : GS_ERR_REJECTED;
+    return gs__wire_decode(buf, size, out, NULL, why) ? GS_OK : GS_ERR_REJECTED;
 }
 
 /* The nonce of a sealed datagram: run epoch, run salt, counter. */
@@ -15700,16 +15789,17 @@ GS__PRIVATE void gs__heartbeat(gs_net *net, gs__ghost *g, int p, const gs_wire_c
 /* A delta chunk's integers (into g->kbuf) from its baseline's, and the
    baseline's segments (into seg, *nseg); 0 if refused: the baseline is not
    held (or the ghost codes no deltas), or the sum leaves its ranges. Then
-   it is counted, and the next acknowledgement asks for a whole one. */
+   it is counted, and the next acknowledgement asks for a whole one. vals:
+   its Rice values as the parse kept them (NULL: read from its bits). */
 GS__PRIVATE int gs__delta_take(gs_net *net, gs__ghost *g, int p, const gs_wire_chunk *c,
-                               gs_wire_segment *seg, int *nseg) {
+                               const int32_t *vals, gs_wire_segment *seg, int *nseg) {
     const gs__base *b = g->gp[p].ring ? gs__ring_find(g->gp[p].ring, c->baseline) : NULL;
     int i, ok = b && b->got[c->index];
     if (ok) {
         *nseg = b->nseg[c->index];
         memcpy(seg, b->seg + (size_t)c->index * GS_WIRE_MAX_SEGMENTS,
                (size_t)*nseg * sizeof *seg);
-        ok = gs__delta_sum(c, b->k + c->first, g->kbuf); /* one pass, checked */
+        ok = gs__delta_sum(c, vals, b->k + c->first, g->kbuf); /* one pass, checked */
         if (c->flags & GS_WIRE_CHUNK_PREDICT) { /* one meaning: it must carry something */
             int64_t *pr = g->kbuf + g->per_chunk;
             size_t span = 0;
@@ -15748,8 +15838,9 @@ GS__PRIVATE void gs__ring_keep(gs__ghost *g, int p, const gs_wire_chunk *c, cons
     }
 }
 
+/* A chunk of peer p's ghost g received (vals: as gs__delta_take's). */
 GS__PRIVATE void gs__queue_chunk(gs_net *net, gs__ghost *g, int p, const gs_wire_chunk *c,
-                                 double age) {
+                                 const int32_t *vals, double age) {
     gs__snap *s, *last = &g->gp[p].q[g->d.queue_size];
     gs_wire_segment seg[GS_WIRE_MAX_SEGMENTS];
     int nseg = 0, delta = (c->flags & GS_WIRE_CHUNK_DELTA) != 0;
@@ -15758,7 +15849,7 @@ GS__PRIVATE void gs__queue_chunk(gs_net *net, gs__ghost *g, int p, const gs_wire
         gs__heartbeat(net, g, p, c, age);
         return;
     }
-    if (delta && !gs__delta_take(net, g, p, c, seg, &nseg)) return;
+    if (delta && !gs__delta_take(net, g, p, c, vals, seg, &nseg)) return;
     s = gs__snap_slot(g, p, c, age);
     if (s->got[c->index]) return; /* a duplicated chunk */
     if (delta) {
@@ -15971,7 +16062,8 @@ GS__PRIVATE int gs__receive_sealed(gs_net *net, const unsigned char *buf, size_t
 #endif
     gs__replay_mark(&net->peers[*p].guard.replay, epoch, salt, counter, order);
     if (order == 2) net->peers[*p].recv_any = 0; /* a new run: its sequence starts anew */
-    return gs__wire_parse(net->guard.plain, size - GS_WIRE_SEAL_TRAILER, &net->view, why);
+    return gs__wire_parse(net->guard.plain, size - GS_WIRE_SEAL_TRAILER, &net->view,
+                          &net->kept, why);
 }
 
 /* Everything up to a decoded datagram from a known peer (*p, -1 while the
@@ -15980,7 +16072,7 @@ GS__PRIVATE int gs__receive(gs_net *net, const unsigned char *buf, size_t size, 
                             gs_reject *why) {
     if (!gs__wire_front(buf, size, why)) return 0;
     if (net->guard.keyed) return gs__receive_sealed(net, buf, size, p, why);
-    if (!gs__wire_decode(buf, size, &net->view, why)) return 0;
+    if (!gs__wire_decode(buf, size, &net->view, &net->kept, why)) return 0;
     return gs__receive_sender(net, net->view.header.session, net->view.header.sender, p, why);
 }
 
@@ -16016,7 +16108,8 @@ GS__PRIVATE gs_result gs__deliver_locked(gs_net *net, const void *data, size_t s
         pe->st.bytes_received += size;
         pe->st.last_heard = now;
         for (i = 0; i < v->chunk_count; ++i) {
-            if (ghosts[i]) gs__queue_chunk(net, ghosts[i], p, &v->chunks[i], age);
+            if (ghosts[i])
+                gs__queue_chunk(net, ghosts[i], p, &v->chunks[i], net->kept.at[i], age);
             else gs__take_acks(net, p, &v->chunks[i]);
         }
         gs__sync_heard(net, p, v, now);
