@@ -12703,27 +12703,18 @@ GS__PRIVATE int gs__rice_skip(gs__rice *r, int n, int k) {
     return 1;
 }
 
-/* gs__rice_skip's walk that also keeps each value, unzigzagged, in out:
+/* gs__rice_skip's walk (its check of escapes) through gs__rice_get, each
+   value kept, unzigzagged, in out:
    the receiving net's parse, whose sum then reads them instead of the bits
    (gs__delta_sum). A value is z < 2^32 (an escape's 32 bits; unary's at
    most 2^28), so its difference fits an int32. */
 GS__PRIVATE int gs__rice_take(gs__rice *r, int n, int k, int32_t *out) {
     gs__rice t = *r;
-    uint64_t mask = ((uint64_t)1 << k) - 1, z;
-    int i, tz;
+    uint64_t z;
+    int i, esc;
     for (i = 0; i < n; ++i) {
-        gs__rice_fill(&t);
-        tz = gs__ctz64(t.acc | (uint64_t)1 << GS__RICE_ESCAPE);
-        if (tz < GS__RICE_ESCAPE) {
-            z = (uint64_t)tz << k | (t.acc >> (tz + 1) & mask);
-            t.acc >>= tz + 1 + k;
-            t.n -= tz + 1 + k;
-        } else {
-            z = t.acc >> GS__RICE_ESCAPE & 0xffffffffu;
-            if (z >> k < GS__RICE_ESCAPE) return 0;
-            t.acc >>= GS__RICE_ESCAPE + 32;
-            t.n -= GS__RICE_ESCAPE + 32;
-        }
+        z = gs__rice_get(&t, k, &esc);
+        if (esc && z >> k < GS__RICE_ESCAPE) return 0; /* as gs__rice_skip */
         out[i] = (int32_t)gs__unzigzag(z);
     }
     *r = t;
@@ -12947,7 +12938,9 @@ GS__PRIVATE int gs__delta_sum(const gs_wire_chunk *c, const int32_t *vals, const
     mask = ((uint64_t)1 << w) - 1;
     if (c->delta_coding >= 2) {
         int32_t got[GS_WIRE_QUANT_CHUNK];
-        if (!vals) { /* a run the parse refuses: the baseline, refused */
+        if (!vals) { /* not kept by a parse (gs_wire_deltas, or past the net's
+                        room): from the bits; a run the parse would refuse
+                        leaves out the baseline, and the chunk refused */
             gs__rice r;
             gs__rice_init(&r, q, end);
             if (c->elements > GS_WIRE_QUANT_CHUNK || !gs__rice_take(&r, c->elements, w, got)) {
