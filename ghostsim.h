@@ -11606,16 +11606,28 @@ GS__PRIVATE void gs__sync_end(gs_world *w, double seconds, const gs_advance_repo
 
 /* From the net, under its lock: one accepted datagram tells the peer's
    timeline, the mean over its snapshots' times less its send time on our
-   clock (clock_offset: ours minus theirs). */
+   clock (clock_offset: ours minus theirs). On a frame grid a snapshot
+   stands for its frame's boundary, the session time its datagram left at
+   (gs__sync_end), while its time is its agent's last step, up to half a
+   step either side of it: taken as is, the 2 ms cloth on a 5 ms grid
+   would make the timeline 1 ms early or late by the frame's parity, and
+   the least delayed estimate (gs__sync_estimate) would keep the early
+   one while one is in the window and drop back when none is, moving a
+   follower's frames 1 ms to and fro against the timekeeper's. So the time
+   counts as its nearest boundary (an agent within half a frame of its
+   target, as every agent whose step is at most a frame is). */
 GS__PRIVATE void gs__sync_heard(gs_net *net, int p, const gs_wire_view *v, double now) {
     const gs__peer *pe = &net->peers[p];
     gs__sync_peer *m = &net->world->sync->mail[p];
     double sum = 0.0, send = v->header.send_time + pe->clock_offset;
+    double f = net->world->sync->d.frame;
     int i, n = 0;
     if (!pe->clock_known) return;
     for (i = 0; i < v->chunk_count; ++i)
         if (v->chunks[i].index == 0 && !(v->chunks[i].flags & GS_WIRE_CHUNK_ACK)) {
-            sum += v->chunks[i].time - send; /* (an acknowledgement has no time) */
+            double t = v->chunks[i].time; /* (an acknowledgement has no time) */
+            if (f > 0.0) t = floor(t / f + 0.5) * f;
+            sum += t - send;
             n++;
         }
     if (n == 0 || !gs__finite(sum)) return;
@@ -15372,10 +15384,15 @@ GS__PRIVATE void gs__send_due(gs_net *net, gs__ghost *g, double now, size_t *siz
    clock came back there. */
 /* A state that stands for a later instant waits for it (within a frame:
    a net on another clock than the session's is never held), so that the
-   peers read its time against its send time as the session's. */
+   peers read its time against its send time as the session's. "Later" by
+   more than GS__HOLD_EPS: the instant is a boundary less the origin, and
+   an update at that boundary reads a clock that reached it by other sums
+   (a simnet's frames added up), a rounding unit or so before it; held,
+   the state would leave a whole frame late. */
+#define GS__HOLD_EPS 1e-9 /* s */
 GS__PRIVATE int gs__ghost_due(const gs__ghost *g, double now) {
     double period = 1.0 / g->d.send_rate;
-    if (g->stands_at - now > 0.0 && g->stands_at - now <= GS__SYNC_FRAME_MAX) return 0;
+    if (g->stands_at - now > GS__HOLD_EPS && g->stands_at - now <= GS__SYNC_FRAME_MAX) return 0;
     if (g->b_seq == g->sent_seq) return 0;
     /* On a frame grid a new state goes at its instant, whatever the send
        phase: the peers read the session's timeline from its time less its
@@ -15384,7 +15401,8 @@ GS__PRIVATE int gs__ghost_due(const gs__ghost *g, double now) {
        150 ms stretches, as long as the peers' window of estimates (four
        processes on loopback: followers a frame behind the timekeeper).
        Its rate is the publishes' (gs__sync_end: send_rate on average). */
-    if (g->stands_at > 0.0 && now >= g->stands_at && now - g->stands_at <= GS__SYNC_FRAME_MAX)
+    if (g->stands_at > 0.0 && now >= g->stands_at - GS__HOLD_EPS &&
+        now - g->stands_at <= GS__SYNC_FRAME_MAX)
         return 1;
     /* a resting ghost's beat goes in its update, whatever its send phase */
     return now >= g->next_send || g->next_send - now > period || (g->at_rest && gs__beat_due(g, now));
