@@ -104,7 +104,7 @@ static sums brute_contacts(gs__rigid *r, double t) {
     r->k_sum = r->c_sum = 0.0;
     if (w->ground) gs__rigid_ground(r);
     for (i = 0; i < w->nbodies; ++i)
-        if (w->bodies[i] != r) gs__rigid_vs_rigid(r, w->bodies[i], t, SUBSTEP);
+        if (w->bodies[i] != r) gs__rigid_vs_rigid(r, w->bodies[i], i, t, SUBSTEP);
     gs__push_end(w, 0); /* a look, not a step: the pushes are dropped */
     return sums_of(r);
 }
@@ -148,6 +148,7 @@ static long check_world(gs_world *w, uint64_t *seed) {
             bound = gs__lag_bound(w, t, 0.1);
             n = gs__sap_query_near(w, r, bound);
             for (j = 1; j < n; ++j) assert_true(w->cand[j - 1]->sap < w->cand[j]->sap);
+            for (j = 0; j < n; ++j) assert_int_equal(w->cand_sap[j], w->cand[j]->sap);
             for (j = 0; j < w->nbodies; ++j) {
                 gs__rigid *o = w->bodies[j];
                 double lag = fmax(-0.1, fmin(0.1, t - gs__agent_time(&o->base)));
