@@ -28,9 +28,11 @@ spheres a probe disturbed take several seconds to stop rolling (at 12 s one
 was still at 8 mm/s in a run on a loaded machine), and while they roll the
 pairing skew alone is a fraction of a millimetre.
 
-A convergence test (two, three, restart, flood) that fails is run once
-more, and the output says so ("FAILED, trying once more", then "ok on a
-second try"); see RETRIED for why.
+A test that fails is a failure: none is run a second time. Until session
+24 a convergence test (two, three, restart, flood) that failed was run
+once more; in the five fresh-clone CI runs of 2026-12-06 none needed it
+(20 of 20 passed at the first try), so the retry, which would hide a
+convergence that is not reliable (issue 15), is gone.
 
 Tests (name: what it checks):
   bad_flag      an unknown flag, a bad value, a missing --id: exit status 2
@@ -832,39 +834,25 @@ def main(argv):
         print("tests (peers): 0 passed, 1 failed")
         return 1
     threading.Thread(target=_watchdog, daemon=True).start()
-    passed = failed = second = 0
+    passed = failed = 0
     try:
         for name, fn in TESTS:
             if want and name not in want:
                 continue
             _current[0] = name
-            for attempt in (1, 2):
-                verdict = run_one(name, fn, exe, attempt)
-                if verdict != "retry":
-                    break
-            if verdict == "ok":
+            if run_one(name, fn, exe) == "ok":
                 passed += 1
-                second += attempt == 2
             else:
                 failed += 1
             sys.stdout.flush()
     finally:
         kill_all()
-    print("tests (peers): %d passed%s, %d failed (%.1f s)"
-          % (passed, " (%d on a second try)" % second if second else "", failed,
-             time.monotonic() - T0))
+    print("tests (peers): %d passed, %d failed (%.1f s)"
+          % (passed, failed, time.monotonic() - T0))
     return 1 if failed else 0
 
 
-# A convergence test that fails is run once more, and says so. These run
-# real processes at wall-clock pace on a machine other jobs share: one
-# descheduled for tens of milliseconds steps in a burst to catch up, and a
-# sphere the probe was pushing then can leave the cloth and roll on the
-# ground, where nothing stops it. A second failure is a failure.
-RETRIED = ("two", "three", "restart", "flood")
-
-
-def run_one(name, fn, exe, attempt):
+def run_one(name, fn, exe):
     t = time.monotonic()
     if remaining() < 25:
         print("peers: %s ... FAILED: not run, %.0f s left of the %g s deadline"
@@ -872,14 +860,11 @@ def run_one(name, fn, exe, attempt):
         return "failed"
     try:
         nums = fn(exe)
-        print("peers: %s ... ok%s (%s; %.1f s)" % (name, " on a second try" if attempt == 2 else "",
-                                                   nums, time.monotonic() - t))
+        print("peers: %s ... ok (%s; %.1f s)" % (name, nums, time.monotonic() - t))
         return "ok"
     except TestFailure as e:
-        again = attempt == 1 and name in RETRIED and remaining() > 60
-        print("peers: %s ... FAILED%s: %s (%.1f s)" % (name, ", trying once more" if again else "",
-                                                      e, time.monotonic() - t))
-        return "retry" if again else "failed"
+        print("peers: %s ... FAILED: %s (%.1f s)" % (name, e, time.monotonic() - t))
+        return "failed"
     except Exception as e:  # a bug here or a peer that broke the contract
         print("peers: %s ... FAILED: %s: %s (%.1f s)"
               % (name, type(e).__name__, e, time.monotonic() - t))

@@ -65,6 +65,7 @@ static gs_world *grid_world(fake_clock *c, double frame, gs_sync_clock clock) {
 }
 
 static gs_agent *toy_new(gs_world *w, toy *t) {
+    t->x[0] = 0.0;
     t->x[1] = 0.1;
     return custom_new(w, DT, 2, toy_step, toy_get, toy_set, t);
 }
