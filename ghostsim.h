@@ -7975,6 +7975,8 @@ GS__PRIVATE gs_result gs__sap_grow(gs_world *w) {
     size_t head, per = 5 * sizeof(struct gs__rigid *) + sizeof(double) + 6 * sizeof(int) +
                        sizeof(gs__grec) + sizeof(gs__nrec);
     struct gs__rigid **list;
+    gs__grec *grec;
+    gs__nrec *nrec;
     char *block;
     if (w->bodies_cap > INT_MAX / 4 || (size_t)cap > (SIZE_MAX - 64) / per)
         return gs__fail(w, GS_ERR_CAPACITY, "broad phase: too many bodies");
@@ -7983,13 +7985,14 @@ GS__PRIVATE gs_result gs__sap_grow(gs_world *w) {
     list = (struct gs__rigid **)(void *)block;
     head = (size_t)cap * (per - sizeof(gs__grec) - sizeof(gs__nrec));
     head += (64 - (size_t)((uintptr_t)(block + head) % 64)) % 64;
+    grec = (gs__grec *)(void *)(block + head);
+    nrec = (gs__nrec *)(void *)(grec + cap);
     if (w->nbodies) {
         memcpy(list, w->bodies, (size_t)w->nbodies * sizeof *list);
         memcpy(list + cap, w->near, (size_t)w->nbodies * sizeof *list);
         memcpy((void *)(list + 5 * cap), w->near_keys, (size_t)w->nbodies * sizeof(double));
-        memcpy(block + head, w->grec, (size_t)w->nbodies * sizeof(gs__grec));
-        memcpy(block + head + (size_t)cap * sizeof(gs__grec), w->nrec,
-               (size_t)w->nbodies * sizeof(gs__nrec));
+        memcpy(grec, w->grec, (size_t)w->nbodies * sizeof *grec);
+        memcpy(nrec, w->nrec, (size_t)w->nbodies * sizeof *nrec);
     }
     if (w->nwide) memcpy(list + 2 * cap, w->wide, (size_t)w->nwide * sizeof *list);
     gs__free(w, w->bodies);
@@ -8003,8 +8006,8 @@ GS__PRIVATE gs_result gs__sap_grow(gs_world *w) {
     w->gnext = w->grid + 2 * cap;
     w->gprev = w->gnext + cap;
     w->cand_sap = w->gprev + cap;
-    w->grec = (gs__grec *)(void *)(block + head);
-    w->nrec = (gs__nrec *)(void *)(block + head + (size_t)cap * sizeof(gs__grec));
+    w->grec = grec;
+    w->nrec = nrec;
     w->bodies_cap = cap;
     gs__grid_rebuild(w);
     return GS_OK;

@@ -28,11 +28,9 @@ spheres a probe disturbed take several seconds to stop rolling (at 12 s one
 was still at 8 mm/s in a run on a loaded machine), and while they roll the
 pairing skew alone is a fraction of a millimetre.
 
-A test that fails is a failure: none is run a second time. Until session
-24 a convergence test (two, three, restart, flood) that failed was run
-once more; in the five fresh-clone CI runs of 2026-12-06 none needed it
-(20 of 20 passed at the first try), so the retry, which would hide a
-convergence that is not reliable (issue 15), is gone.
+A test that fails is a failure: none is run a second time, since a retry
+would hide a convergence that is not reliable (issue 15; docs/faults-notes.md,
+2026-12-06, says what the retry was and why it went).
 
 Tests (name: what it checks):
   bad_flag      an unknown flag, a bad value, a missing --id: exit status 2

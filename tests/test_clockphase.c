@@ -273,8 +273,9 @@ static void test_publish_waits_for_boundary(void **state) {
    of the last 9 estimates (the largest) is 1 ms early while one such
    snapshot is among them and falls back when none is, and the follower's
    frames went 1 ms to and fro against the timekeeper's (four ghostpeer
-   processes on loopback, session 24: followers 0 to 1 ms early by
-   stretches, a third of all instants at which the hosts differed). Each
+   processes on loopback: followers 0 to 1 ms early by stretches, and
+   the spread of a frame's show instants 430-450 us on average against
+   190-290 us with the fix, docs/sync-notes.md, session 24). Each
    snapshot counts as its boundary: the follower's origin stays the
    timekeeper's ---- */
 static double origin_spread(double latency) {
