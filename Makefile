@@ -224,8 +224,9 @@ test: deps
 # simulation; README "Convergence"), test_rest (the paper scene at rest
 # after faults on the simnet, three seeds of the bad link), the UDP tests
 # under ThreadSanitizer (90 s of CPU) and valgrind (leaks of sockets,
-# threads and buffers; two minutes, one thread at a time), and the short
-# fault suite between ghostpeer processes (60 s). make test was 14 min 44 s
+# threads and buffers; two minutes, one thread at a time), the short fault
+# suite between ghostpeer processes in both sync modes (60 + 75 s) and the
+# peers in replay (70 s). make test was 14 min 44 s
 # with them on a loaded 2-core machine, 13 min 14 s on an idle one (phases
 # 1-3: 503, 124, 166 s); each runs alone here, as each measures pace.
 test-slow: $(BUILD)/test_net $(BUILD)/test_rest $(addprefix run-asan-,$(ASAN_SLOW))
@@ -233,6 +234,8 @@ test-slow: $(BUILD)/test_net $(BUILD)/test_rest $(addprefix run-asan-,$(ASAN_SLO
 	@GHOSTSIM_SLOW_TESTS=1 sh tests/run.sh "slow" "$(BUILD)/test_rest"
 	@$(MAKE) --no-print-directory tsan
 	@$(MAKE) --no-print-directory faults-short
+	@$(MAKE) --no-print-directory faults-short-replay
+	@$(MAKE) --no-print-directory test-peers-replay
 	@$(MAKE) --no-print-directory valgrind-udp
 
 # The UDP tests (gather and scatter threads) under ThreadSanitizer, and under
@@ -319,22 +322,33 @@ fuzz-ci-clock: $(BUILD)/fuzz_clock $(BUILD)/fuzz-seeds.stamp
 
 # ghostpeer processes on loopback (tests/peers.py: bounded, kills what it
 # starts): two and three peers, a restart, a garbage flood, the command line.
+# test-peers-replay: the same with every peer in --sync replay (issue 15:
+# both suites in both modes; test-slow runs it).
+.PHONY: test-peers-replay
 test-peers: $(BUILD)/ghostpeer
 	@python3 tests/peers.py $(BUILD)/ghostpeer
+test-peers-replay: $(BUILD)/ghostpeer
+	@GHOSTPEER_ARGS="--sync replay" python3 tests/peers.py $(BUILD)/ghostpeer
 
 # The fault suite (tests/faults.py, README "Faults and soak"): ghostpeer
 # processes behind a UDP proxy that drops, duplicates, reorders, delays,
 # corrupts and cuts; a peer SIGKILLed and restarted, a clock step, a wild
 # probe. faults: every scenario (about 3 min); faults-short: five of them
-# (about 55 s); soak: four peers under rolling faults for SOAK_SECONDS.
+# (about 60 s; test-slow runs it); soak: four peers under rolling faults for
+# SOAK_SECONDS. faults-replay and faults-short-replay: the same with every
+# peer in --sync replay (the short one adds clock-fwd: about 75 s). No
+# scenario is run twice: a retry would hide a convergence that is not
+# reliable.
 SOAK_SECONDS ?= 600
-.PHONY: faults faults-short soak
+.PHONY: faults faults-short faults-replay faults-short-replay soak
 faults: $(BUILD)/ghostpeer
 	@python3 tests/faults.py $(BUILD)/ghostpeer
-# In `make test`, where a failed scenario runs once more (faults.py says
-# so): one in five fails a run at random since the issue 14-17 merges.
 faults-short: $(BUILD)/ghostpeer
 	@python3 tests/faults.py $(BUILD)/ghostpeer --short
+faults-replay: $(BUILD)/ghostpeer
+	@GHOSTPEER_ARGS="--sync replay" python3 tests/faults.py $(BUILD)/ghostpeer
+faults-short-replay: $(BUILD)/ghostpeer
+	@GHOSTPEER_ARGS="--sync replay" python3 tests/faults.py $(BUILD)/ghostpeer --short
 soak: $(BUILD)/ghostpeer
 	@python3 tests/faults.py $(BUILD)/ghostpeer --soak $(SOAK_SECONDS)
 

@@ -13,7 +13,8 @@ bounded time for its processes. With PEERS_LOG_DIR=DIR in the environment
 every peer's JSON lines and stderr are kept in DIR for a diagnosis. With
 GHOSTPEER_ARGS="FLAG VALUE ..." every peer this suite or tests/faults.py
 starts gets those flags too (e.g. GHOSTPEER_ARGS="--clock session" runs
-both suites on the session clock).
+both suites on the session clock; make test-peers-replay and faults-replay
+set "--sync replay"), and the summary line names them.
 
 Convergence: two peers' digests are compared at the same wall time. For each
 line of peer A in the last second both peers were printing, peer B's digest
@@ -71,6 +72,13 @@ STATS_EVERY = 0.01        # s between JSON lines (series() judges between them)
 SHIFT = 0.01 + 1.0 / 60.0
 _SHIFT_GRID = [k * 2e-3 for k in range(-int(SHIFT / 2e-3), int(SHIFT / 2e-3) + 1)]
 T0 = time.monotonic()
+# The flags every peer gets from GHOSTPEER_ARGS, and whether they put the
+# peers on the session clock (--sync replay runs on it too): make
+# test-peers-replay and faults-replay run both suites so.
+EXTRA = os.environ.get("GHOSTPEER_ARGS", "").split()
+SESSION = any(EXTRA[i:i + 2] in (["--sync", "replay"], ["--clock", "session"])
+              for i in range(len(EXTRA)))
+SUITE_MODE = ", " + " ".join(EXTRA) if EXTRA else ""
 
 _procs = []               # every Popen started here
 _procs_lock = threading.Lock()
@@ -129,7 +137,7 @@ class Peer:
         if stats_every is not None:
             self.args += ["--stats-every", "%g" % stats_every]
         self.args += list(extra)
-        self.args += os.environ.get("GHOSTPEER_ARGS", "").split()
+        self.args += EXTRA
         self.lines = []       # parsed objects, in order
         self.bad = []         # lines that are not JSON objects
         self.err = []         # stderr lines
@@ -829,7 +837,7 @@ def main(argv):
         return 2
     if not (os.path.isfile(exe) and os.access(exe, os.X_OK)):
         print("FAILED: peers: %s is not an executable (make build/ghostpeer)" % exe)
-        print("tests (peers): 0 passed, 1 failed")
+        print("tests (peers%s): 0 passed, 1 failed" % SUITE_MODE)
         return 1
     threading.Thread(target=_watchdog, daemon=True).start()
     passed = failed = 0
@@ -845,8 +853,8 @@ def main(argv):
             sys.stdout.flush()
     finally:
         kill_all()
-    print("tests (peers): %d passed, %d failed (%.1f s)"
-          % (passed, failed, time.monotonic() - T0))
+    print("tests (peers%s): %d passed, %d failed (%.1f s)"
+          % (SUITE_MODE, passed, failed, time.monotonic() - T0))
     return 1 if failed else 0
 
 
