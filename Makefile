@@ -354,10 +354,12 @@ soak: $(BUILD)/ghostpeer
 
 # Three peers on loopback for about 20 s with a live display; results and
 # pictures in demo-results/.
+# SYNC=replay runs the peers in replay mode (demo.py --sync).
+SYNC ?= present
 demo: deps
 	@$(MAKE) --no-print-directory $(BUILD)/ghostpeer $(BUILD)/viewer
 	@python3 reference_peer/demo.py --peer $(BUILD)/ghostpeer --viewer $(BUILD)/viewer \
-	  --out demo-results
+	  --out demo-results --sync $(SYNC)
 
 valgrind: $(addprefix $(BUILD)/,$(TESTS))
 	@VALGRIND="valgrind -q --fair-sched=yes --error-exitcode=99 --leak-check=full --errors-for-leak-kinds=definite,indirect" \

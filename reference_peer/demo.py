@@ -3,12 +3,18 @@
 
     python3 reference_peer/demo.py --peer build/ghostpeer [--viewer build/viewer]
         [--duration 20] [--probe-until 10] [--out demo-results] [--base-port 47400]
+        [--sync present|replay]
 
 Starts three ghostpeer processes on 127.0.0.1 (ids 1, 2, 3 on ports BASE,
 BASE+1, BASE+2, each listing the other two), reads the JSON line each prints
 every 0.1 s and shows one live line per peer: simulation time, and for each
 other peer the gap (ms), snapshots received per second and the divergence the
-peer reports (mm). Each peer's stderr goes to OUT/peerN.log.
+peer reports (mm), after the sync mode the peer says it runs (its JSON
+"replay" object's "mode"). --sync passes ghostpeer's --sync: present (the
+default, as ghostpeer's: the paper's blend at the present, on each host's
+local clock) or replay (the session clock, each snapshot blended at its own
+simulation time in a replay to the present; make demo SYNC=replay). Each
+peer's stderr goes to OUT/peerN.log.
 
 At the end (all peers exited; SIGTERM after duration + 10 s; or Ctrl-C, which
 also sends SIGTERM) it prints and writes to OUT/:
@@ -79,6 +85,8 @@ def parse_args(argv):
     ap.add_argument("--out", default="demo-results", help="output directory")
     ap.add_argument("--base-port", type=int, default=47400,
                     help="UDP ports BASE..BASE+2 for the peers, BASE+3 for the viewer")
+    ap.add_argument("--sync", choices=("present", "replay"), default="present",
+                    help="ghostpeer's --sync for every peer (default present)")
     a = ap.parse_args(argv)
     if not (a.duration > 0):
         ap.error("--duration must be > 0")
@@ -135,7 +143,7 @@ def start_peers(a, out, viewer):
             # send it the scene once it comes (they report it silent until)
             cmd += ["--peer", "%d@127.0.0.1:%d" % (NPEERS + 1, a.base_port + NPEERS)]
         cmd += ["--duration", "%g" % a.duration, "--probe-until", "%g" % a.probe_until,
-                "--stats-every", "%g" % STATS_EVERY]
+                "--stats-every", "%g" % STATS_EVERY, "--sync", a.sync]
         p.cmd = cmd
         p.log = open(os.path.join(out, "peer%d.log" % p.id), "w")
         p.log.write("# " + " ".join(cmd) + "\n")
@@ -190,7 +198,8 @@ class Display:
     def line_for(self, p, last, running):
         if last is None:
             return "peer %d: %s" % (p.id, "starting..." if running else "no output")
-        s = "peer %d  t %6.2f s" % (p.id, float(last["t"]))
+        mode = (last.get("replay") or {}).get("mode", "?")
+        s = "peer %d  %s  t %6.2f s" % (p.id, mode, float(last["t"]))
         wall = float(last["wall"])
         others = last.get("peers") or {}
         for key in sorted(others, key=lambda k: (len(k), k)):
@@ -666,7 +675,7 @@ def run(a, peers, lock, interrupted, others):
     summary = {
         "command": [sys.argv[0]] + sys.argv[1:],
         "peers": NPEERS, "duration_s": a.duration, "probe_until_s": a.probe_until,
-        "stats_every_s": STATS_EVERY, "base_port": a.base_port,
+        "stats_every_s": STATS_EVERY, "base_port": a.base_port, "sync": a.sync,
         "interrupted": bool(interrupted[0]),
         "start_wall": m["w_start"],
         "samples": len(m["samples"]),
@@ -684,6 +693,7 @@ def run(a, peers, lock, interrupted, others):
             "final_t": last.get("t"), "final_line": p.final is not None,
             "totals": (p.final or {}).get("totals"),
             "peers": last.get("peers"),
+            "replay": last.get("replay"),
         }
     plot_err = plot(a.out, m, a.probe_until, a.duration)
     summary["plot"] = None if plot_err else "gap_divergence.png"
@@ -697,6 +707,12 @@ def run(a, peers, lock, interrupted, others):
 
     g, gn, d = summ["gap_ms"], summ["gap_ms_nearest_line"], summ["digest_distance_m"]
     print()
+    modes = sorted(set(str((p.final or (p.lines[-1] if p.lines else {})).get("replay", {})
+                           .get("mode", "?")) for p in peers))
+    print("Sync mode: %s (asked: --sync %s; %s)" % (
+        "/".join(modes), a.sync, "session clock, snapshots blended at their own time in a "
+        "replay" if a.sync == "replay" else "each host's local clock, the paper's blend "
+        "at the present"))
     print("Simulation-time gap between hosts (Figure 6), every %.1f s of wall time, "
           "all pairs (%d samples):" % (STATS_EVERY, g["n"]))
     print("  |t_i - t_j|  median %s ms   p95 %s ms   max %s ms"
