@@ -38,12 +38,15 @@
    default); --mode present|replay the hosts' gs_sync_desc.mode (default
    present); --cloth-rate HZ the cloth ghost's gs_ghost_desc.send_rate in
    every encoding (else the default, 60 Hz; the other ghosts keep it);
+   --send-rate HZ every ghost's (--cloth-rate then the cloth's over it);
    --budget B/S both nets' gs_net_desc.bandwidth (else 1e9); --split
    prints under each row what host 1's kbit/s carry: the datagrams' own
    bytes (header and CRC), the cloth's, the spheres' and the probes'
    chunks (chunk headers and payload, heartbeats included) and the
    acknowledgement chunks, from each datagram it sent decoded
-   (gs_wire_decode), with its datagrams and cloth chunks a second.
+   (gs_wire_decode), with its datagrams and cloth chunks a second (and
+   those not coded as deltas), and the cloth's bytes split into positions
+   and velocities (a chunk holding both split by its count of each).
 
    Figures: kbit/s that host 1 sent to host 2 (its gs_peer_stats
    bytes_sent, datagram bytes, no UDP/IP headers) over the measured span;
@@ -110,6 +113,9 @@ static gs_sync_mode sync_mode = GS_SYNC_PRESENT;
 /* --cloth-rate HZ: the cloth ghost's gs_ghost_desc.send_rate (0: the
    default, 60 Hz) */
 static double cloth_rate = 0.0;
+/* --send-rate HZ: every ghost's gs_ghost_desc.send_rate (0: the default,
+   60 Hz); --cloth-rate then sets the cloth's over it */
+static double send_rate = 0.0;
 /* --budget B/S: gs_net_desc.bandwidth of both hosts (0: 1e9, nothing held
    back) */
 static double budget = 0.0;
@@ -128,6 +134,7 @@ static gs_ghost_desc ghost_desc(int enc) {
     gd.rest_extrapolate = enc == ENC_PREDICT;
     gd.weight = gs_weight_cs;
     if (adopt >= 0) gd.adopt_sent = adopt;
+    if (send_rate > 0.0) gd.send_rate = send_rate;
     return gd;
 }
 
@@ -249,7 +256,9 @@ typedef struct tally {
     gs_transport inner;
     gs_wire_view *view;
     double bytes[PART_COUNT];
-    double datagrams, cloth_chunks;
+    double datagrams, cloth_chunks, cloth_keys; /* keys: chunks not coded as a delta */
+    double cloth_pos;   /* bytes of the cloth's chunks that are positions */
+    uint32_t positions; /* the cloth's position values (3 a particle) */
     int counting;
 } tally;
 
@@ -269,7 +278,14 @@ static gs_result tally_send(void *user, uint32_t to, const void *data, size_t si
                                                  : PART_CLOTH;
             t->bytes[part] += (double)(end - at);
             chunks += (double)(end - at);
-            if (part == PART_CLOTH) t->cloth_chunks += 1.0;
+            if (part == PART_CLOTH) { /* a chunk of both: split by its values */
+                uint32_t pos = c->first >= t->positions ? 0u
+                               : t->positions - c->first < c->elements ? t->positions - c->first
+                                                                     : c->elements;
+                t->cloth_chunks += 1.0;
+                if (!(c->flags & (GS_WIRE_CHUNK_DELTA | GS_WIRE_CHUNK_REST))) t->cloth_keys += 1.0;
+                if (c->elements) t->cloth_pos += (double)(end - at) * pos / c->elements;
+            }
             at = end;
         }
         t->bytes[PART_HEADER] += (double)size - chunks;
@@ -320,7 +336,8 @@ typedef struct result {
     double divergence;          /* m: host 1's peer stat against the latest snapshot */
     double eq_mean, eq_p95;     /* m: at equal simulation time */
     double part_kbps[PART_COUNT]; /* --split: kbit/s of each part */
-    double datagrams, cloth_chunks; /* --split: per second */
+    double datagrams, cloth_chunks, cloth_keys; /* --split: per second */
+    double cloth_pos_kbps;          /* --split: the cloth's positions */
     int ok;
 } result;
 
@@ -353,6 +370,7 @@ static result run_scene(int scene, int enc, int quick) {
             return res;
         }
     }
+    if (scene != SC_SPHERES) tl.positions = 3u * (uint32_t)gs_mesh_particle_count(h[0].sc.cloth);
     memset(&a, 0, sizeof a);
     while (t < settle + span) {
         for (i = 0; i < 2; ++i) drive(&h[i], (uint32_t)i + 1, scene, t);
@@ -376,6 +394,8 @@ static result run_scene(int scene, int enc, int quick) {
     for (i = 0; i < PART_COUNT; ++i) res.part_kbps[i] = tl.bytes[i] * 8.0 / wall / 1e3;
     res.datagrams = tl.datagrams / wall;
     res.cloth_chunks = tl.cloth_chunks / wall;
+    res.cloth_keys = tl.cloth_keys / wall;
+    res.cloth_pos_kbps = tl.cloth_pos * 8.0 / wall / 1e3;
     res.kbps_object = res.kbps / h[0].objects;
     res.divergence = frames ? div / frames : 0.0;
     equal_time(h, &res.eq_mean, &res.eq_p95);
@@ -505,6 +525,10 @@ static int pick_args(int *argc, char **argv, unsigned *sc, unsigned *en, int *no
             cloth_rate = atof(argv[++i]);
             continue;
         }
+        if (strcmp(argv[i], "--send-rate") == 0 && i + 1 < *argc) {
+            send_rate = atof(argv[++i]);
+            continue;
+        }
         if (strcmp(argv[i], "--budget") == 0 && i + 1 < *argc) {
             budget = atof(argv[++i]);
             continue;
@@ -569,8 +593,10 @@ int main(int argc, char **argv) {
                 fprintf(stderr, "  split kbit/s:");
                 for (k = 0; k < PART_COUNT; ++k)
                     fprintf(stderr, " %s %.1f", part_name[k], r[s][e].part_kbps[k]);
-                fprintf(stderr, "; %.1f datagrams/s, %.1f cloth chunks/s\n", r[s][e].datagrams,
-                        r[s][e].cloth_chunks);
+                fprintf(stderr, "; %.1f datagrams/s; cloth: %.1f chunks/s (%.1f not deltas), "
+                        "positions %.1f kbit/s, velocities %.1f\n", r[s][e].datagrams,
+                        r[s][e].cloth_chunks, r[s][e].cloth_keys, r[s][e].cloth_pos_kbps,
+                        r[s][e].part_kbps[PART_CLOTH] - r[s][e].cloth_pos_kbps);
             }
         }
     if (!no_cpu) {
