@@ -46,7 +46,8 @@
    acknowledgement chunks, from each datagram it sent decoded
    (gs_wire_decode), with its datagrams and cloth chunks a second (and
    those not coded as deltas), and the cloth's bytes split into positions
-   and velocities (a chunk holding both split by its count of each).
+   and velocities (a chunk holding both split by its count of each; a
+   heartbeat, which holds no values, is counted with the velocities).
 
    Figures: kbit/s that host 1 sent to host 2 (its gs_peer_stats
    bytes_sent, datagram bytes, no UDP/IP headers) over the measured span;
