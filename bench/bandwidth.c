@@ -39,6 +39,10 @@
    present); --cloth-rate HZ the cloth ghost's gs_ghost_desc.send_rate in
    every encoding (else the default, 60 Hz; the other ghosts keep it);
    --send-rate HZ every ghost's (--cloth-rate then the cloth's over it);
+   --velocity-resolution M/S gs_ghost_desc.velocity_resolution in the
+   quantized encodings (else 3 mm/s; a coarse one, e.g. 1000, sends every
+   velocity as 0: what the positions cost predicted from the baseline
+   alone, for their bytes only, as the peers then take velocities of 0);
    --budget B/S both nets' gs_net_desc.bandwidth (else 1e9); --split
    prints under each row what host 1's kbit/s carry: the datagrams' own
    bytes (header and CRC), the cloth's, the spheres' and the probes'
@@ -117,6 +121,9 @@ static double cloth_rate = 0.0;
 /* --send-rate HZ: every ghost's gs_ghost_desc.send_rate (0: the default,
    60 Hz); --cloth-rate then sets the cloth's over it */
 static double send_rate = 0.0;
+/* --velocity-resolution M/S: gs_ghost_desc.velocity_resolution in the
+   quantized encodings (0: the default, 3 mm/s) */
+static double vel_res = 0.0;
 /* --budget B/S: gs_net_desc.bandwidth of both hosts (0: 1e9, nothing held
    back) */
 static double budget = 0.0;
@@ -136,6 +143,7 @@ static gs_ghost_desc ghost_desc(int enc) {
     gd.weight = gs_weight_cs;
     if (adopt >= 0) gd.adopt_sent = adopt;
     if (send_rate > 0.0) gd.send_rate = send_rate;
+    if (vel_res > 0.0) gd.velocity_resolution = vel_res;
     return gd;
 }
 
@@ -528,6 +536,10 @@ static int pick_args(int *argc, char **argv, unsigned *sc, unsigned *en, int *no
         }
         if (strcmp(argv[i], "--send-rate") == 0 && i + 1 < *argc) {
             send_rate = atof(argv[++i]);
+            continue;
+        }
+        if (strcmp(argv[i], "--velocity-resolution") == 0 && i + 1 < *argc) {
+            vel_res = atof(argv[++i]);
             continue;
         }
         if (strcmp(argv[i], "--budget") == 0 && i + 1 < *argc) {
