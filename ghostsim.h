@@ -1434,7 +1434,9 @@ typedef struct gs_ghost_desc {
     double importance;     /* > 0; when a peer's bandwidth budget cannot
                               carry every ghost due, ghosts go by priority:
                               the wall time since each was last sent times
-                              this, so that none starves; default 1 */
+                              this, so that none starves (the first that
+                              does not fit holds the ones after it until
+                              it does); default 1 */
     /* gs_scene_attach_ghosts only (gs_ghost_attach ignores them): the rule
        of each object, asked once per object before any ghost is attached.
        A rule whose fn is NULL leaves the object its default (weight and
@@ -2103,7 +2105,12 @@ typedef struct gs_transport {
 typedef struct gs_net_desc {
     uint32_t session;   /* datagrams of other sessions are refused; default 1 */
     gs_transport transport; /* required: its send at least (see gs_transport) */
-    double bandwidth;   /* bytes/s to each peer at most; default 1e7 */
+    double bandwidth;   /* bytes/s to each peer at most; default 1e7.
+                           A token bucket holding 50 ms of it, or the
+                           largest due ghost's snapshot if more (so a
+                           snapshot larger than 50 ms of the budget still
+                           goes, the others waiting while the bucket
+                           fills for it) */
     double time_window; /* s; refuse snapshots further than this from the
                            local time; 0 = none (a late joiner must be able
                            to take the others' state) */
@@ -9664,6 +9671,9 @@ struct gs_net {
     gs__detail detail;        /* what the refusal being made did not match */
     struct gs__ghost **order; /* the due ghosts of an update, by priority */
     int order_cap;            /* its room: at least the world's ghosts */
+    double burst;             /* bytes; the wire cost of this update's
+                                 largest due ghost: the budget's bucket
+                                 holds at least that much */
     int beat_states;          /* a ghost's state went since the last beat
                                  (2: in this update): the next beat sends
                                  every resting ghost's state (gs__send_due) */
@@ -14694,12 +14704,15 @@ GS_API const char *gs_world_diagnose(gs_world *w) {
 
 /* ---- sending ---- */
 
-/* The budget: a token bucket of bandwidth bytes/s holding at most 50 ms.
-   A clock that goes back refills nothing (and drains nothing). */
+/* The budget: a token bucket of bandwidth bytes/s holding at most 50 ms,
+   or the largest due ghost's snapshot if that is more: a bucket smaller
+   than a snapshot never lets it go. A clock that goes back refills
+   nothing (and drains nothing). */
 /* The bytes a peer's budget allows at wall time now. */
 GS__PRIVATE double gs__peer_refill(gs_net *net, gs__peer *pe, double now) {
     double cap = 0.05 * net->d.bandwidth;
     if (cap < GS_WIRE_MAX_DATAGRAM) cap = GS_WIRE_MAX_DATAGRAM;
+    if (cap < net->burst) cap = net->burst;
     if (pe->tokens < 0.0) { pe->tokens = cap; pe->tokens_at = now; }
     if (now > pe->tokens_at) pe->tokens += (now - pe->tokens_at) * net->d.bandwidth;
     pe->tokens_at = now;
@@ -15616,20 +15629,25 @@ GS_API gs_result gs_net_update(gs_net *net, double now) {
     net->flushes = 0;
     for (p = 0; p < GS__MAX_PEERS; ++p) peers += net->peers[p].used;
     if (peers) gs__datagram_begin(net, now, &size);
+    net->burst = 0.0;
     for (i = 0; i < w->agent_count && n < net->order_cap; ++i) {
         gs__ghost *g = gs__ghost_of(w->agents[i]);
         if (!g || !gs__ghost_due(g, now)) continue;
         net->order[n++] = g;
         need += (double)gs__ghost_estimate(g);
+        net->burst = fmax(net->burst, gs__wire_cost(net, (double)gs__ghost_estimate(g)));
     }
     budget = peers ? gs__net_budget(net, now) : HUGE_VAL;
     tight = need > budget;
     if (tight) gs__by_priority(net->order, n, now);
     for (i = 0; i < n; ++i) {
         gs__ghost *g = net->order[i];
-        if (tight) { /* a ghost that does not fit waits, its priority grows */
+        /* a ghost that does not fit waits, its priority grows, and the
+           ones after it wait too: were they let through, small ghosts due
+           every frame would drain the bucket before it held a large one */
+        if (tight) {
             double est = (double)gs__ghost_estimate(g);
-            if (gs__wire_cost(net, spent + est) > budget) continue;
+            if (gs__wire_cost(net, spent + est) > budget) break;
             spent += est;
         }
         if (peers) gs__send_due(net, g, now, &size);

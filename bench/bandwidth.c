@@ -36,7 +36,22 @@
    --no-cpu, leaves the CPU timing out (its figures are then null).
    --adopt 0|1 sets gs_ghost_desc.adopt_sent in every encoding (else its
    default); --mode present|replay the hosts' gs_sync_desc.mode (default
-   present).
+   present); --cloth-rate HZ the cloth ghost's gs_ghost_desc.send_rate in
+   every encoding (else the default, 60 Hz; the other ghosts keep it);
+   --send-rate HZ every ghost's (--cloth-rate then the cloth's over it);
+   --velocity-resolution M/S gs_ghost_desc.velocity_resolution in the
+   quantized encodings (else 3 mm/s; a coarse one, e.g. 1000, sends every
+   velocity as 0: what the positions cost predicted from the baseline
+   alone, for their bytes only, as the peers then take velocities of 0);
+   --budget B/S both nets' gs_net_desc.bandwidth (else 1e9); --split
+   prints under each row what host 1's kbit/s carry: the datagrams' own
+   bytes (header and CRC), the cloth's, the spheres' and the probes'
+   chunks (chunk headers and payload, heartbeats included) and the
+   acknowledgement chunks, from each datagram it sent decoded
+   (gs_wire_decode), with its datagrams and cloth chunks a second (and
+   those not coded as deltas), and the cloth's bytes split into positions
+   and velocities (a chunk holding both split by its count of each; a
+   heartbeat, which holds no values, is counted with the velocities).
 
    Figures: kbit/s that host 1 sent to host 2 (its gs_peer_stats
    bytes_sent, datagram bytes, no UDP/IP headers) over the measured span;
@@ -100,6 +115,20 @@ static int adopt = -1;
 /* --mode present|replay: gs_sync_desc.mode of both hosts (the default's:
    present) */
 static gs_sync_mode sync_mode = GS_SYNC_PRESENT;
+/* --cloth-rate HZ: the cloth ghost's gs_ghost_desc.send_rate (0: the
+   default, 60 Hz) */
+static double cloth_rate = 0.0;
+/* --send-rate HZ: every ghost's gs_ghost_desc.send_rate (0: the default,
+   60 Hz); --cloth-rate then sets the cloth's over it */
+static double send_rate = 0.0;
+/* --velocity-resolution M/S: gs_ghost_desc.velocity_resolution in the
+   quantized encodings (0: the default, 3 mm/s) */
+static double vel_res = 0.0;
+/* --budget B/S: gs_net_desc.bandwidth of both hosts (0: 1e9, nothing held
+   back) */
+static double budget = 0.0;
+/* --split: what host 1's bytes to host 2 carry, printed under each row */
+static int split = 0;
 
 static gs_ghost_desc ghost_desc(int enc) {
     gs_ghost_desc gd = gs_ghost_desc_default();
@@ -113,6 +142,8 @@ static gs_ghost_desc ghost_desc(int enc) {
     gd.rest_extrapolate = enc == ENC_PREDICT;
     gd.weight = gs_weight_cs;
     if (adopt >= 0) gd.adopt_sent = adopt;
+    if (send_rate > 0.0) gd.send_rate = send_rate;
+    if (vel_res > 0.0) gd.velocity_resolution = vel_res;
     return gd;
 }
 
@@ -157,6 +188,12 @@ static int host_scene(host *h, uint32_t id, int scene, int enc) {
         }
         if (gs_scene_create(h->w, &sd, &h->sc) != GS_OK) return -1;
         if (gs_scene_attach_ghosts(&h->sc, &gd) != GS_OK) return -1;
+        if (cloth_rate > 0.0) { /* the cloth's ghost again, at its own rate */
+            gd.object_id = 1; /* gs_scene_attach_ghosts' id of the cloth */
+            gd.send_rate = cloth_rate;
+            if (gs_ghost_detach(h->sc.cloth) != GS_OK || gs_ghost_attach(h->sc.cloth, &gd) != GS_OK)
+                return -1;
+        }
         h->objects = 1 + h->sc.sphere_count + h->sc.probe_count;
     }
     return 0;
@@ -217,10 +254,99 @@ static void equal_time(const host *h, double *mean, double *p95) {
     free(d);
 }
 
+/* --split: host 1's transport wrapped, each datagram it sends decoded and
+   its bytes put to what they carry: the datagram's own (header and CRC),
+   acknowledgement chunks, and the chunks (header and payload, heartbeats
+   too) of the cloth (object 1), the spheres (100..) and the probes
+   (200.., gs_scene_attach_ghosts' ids). */
+enum { PART_HEADER, PART_CLOTH, PART_SPHERES, PART_PROBES, PART_ACKS, PART_COUNT };
+static const char *part_name[PART_COUNT] = {"headers", "cloth", "spheres", "probes", "acks"};
+typedef struct tally {
+    gs_transport inner;
+    gs_wire_view *view;
+    double bytes[PART_COUNT];
+    double datagrams, cloth_chunks, cloth_keys; /* keys: chunks not coded as a delta */
+    double cloth_pos;   /* bytes of the cloth's chunks that are positions */
+    uint32_t positions; /* the cloth's position values (3 a particle) */
+    int counting;
+} tally;
+
+static gs_result tally_send(void *user, uint32_t to, const void *data, size_t size) {
+    tally *t = (tally *)user;
+    if (t->counting && t->view &&
+        gs_wire_decode((const unsigned char *)data, size, t->view, NULL) == GS_OK) {
+        const unsigned char *at = (const unsigned char *)data + GS_WIRE_HEADER;
+        double chunks = 0.0;
+        int i;
+        for (i = 0; i < t->view->chunk_count; ++i) {
+            const gs_wire_chunk *c = &t->view->chunks[i];
+            const unsigned char *end = c->payload + c->payload_bytes;
+            int part = c->flags & GS_WIRE_CHUNK_ACK ? PART_ACKS
+                       : c->object_id >= 200u    ? PART_PROBES
+                       : c->object_id >= 100u    ? PART_SPHERES
+                                                 : PART_CLOTH;
+            t->bytes[part] += (double)(end - at);
+            chunks += (double)(end - at);
+            if (part == PART_CLOTH) { /* a chunk of both: split by its values */
+                uint32_t pos = c->first >= t->positions ? 0u
+                               : t->positions - c->first < c->elements ? t->positions - c->first
+                                                                     : c->elements;
+                t->cloth_chunks += 1.0;
+                if (!(c->flags & (GS_WIRE_CHUNK_DELTA | GS_WIRE_CHUNK_REST))) t->cloth_keys += 1.0;
+                if (c->elements) t->cloth_pos += (double)(end - at) * pos / c->elements;
+            }
+            at = end;
+        }
+        t->bytes[PART_HEADER] += (double)size - chunks;
+        t->datagrams += 1.0;
+    }
+    return t->inner.send(t->inner.user, to, data, size);
+}
+static gs_result tally_add_peer(void *user, uint32_t host, const char *addr) {
+    tally *t = (tally *)user;
+    return t->inner.add_peer ? t->inner.add_peer(t->inner.user, host, addr) : GS_OK;
+}
+static gs_result tally_remove_peer(void *user, uint32_t host) {
+    tally *t = (tally *)user;
+    return t->inner.remove_peer ? t->inner.remove_peer(t->inner.user, host) : GS_OK;
+}
+static gs_result tally_attach(void *user, gs_net *net) {
+    tally *t = (tally *)user;
+    return t->inner.attach ? t->inner.attach(t->inner.user, net) : GS_OK;
+}
+static gs_result tally_poll(void *user, gs_net *net, double now) {
+    tally *t = (tally *)user;
+    return t->inner.poll ? t->inner.poll(t->inner.user, net, now) : GS_OK;
+}
+static void tally_detach(void *user, gs_net *net) {
+    tally *t = (tally *)user;
+    if (t->inner.detach) t->inner.detach(t->inner.user, net);
+}
+
+/* test_join with the transport wrapped by t. */
+static gs_result tally_join(gs_simnet *sim, gs_world *w, const gs_net_desc *desc, tally *t,
+                            gs_net **out) {
+    gs_net_desc nd = *desc;
+    gs_result r = gs_simnet_transport(sim, &t->inner);
+    if (r != GS_OK) return r;
+    nd.transport = t->inner;
+    nd.transport.user = t;
+    nd.transport.send = tally_send;
+    nd.transport.add_peer = tally_add_peer;
+    nd.transport.remove_peer = tally_remove_peer;
+    nd.transport.attach = tally_attach;
+    nd.transport.poll = tally_poll;
+    nd.transport.detach = tally_detach;
+    return gs_net_create(w, &nd, out);
+}
+
 typedef struct result {
     double kbps, kbps_object;
     double divergence;          /* m: host 1's peer stat against the latest snapshot */
     double eq_mean, eq_p95;     /* m: at equal simulation time */
+    double part_kbps[PART_COUNT]; /* --split: kbit/s of each part */
+    double datagrams, cloth_chunks, cloth_keys; /* --split: per second */
+    double cloth_pos_kbps;          /* --split: the cloth's positions */
     int ok;
 } result;
 
@@ -233,22 +359,27 @@ static result run_scene(int scene, int enc, int quick) {
     gs_peer_stats a, b;
     double settle = scene == SC_PAPER_REST ? (quick ? 1.0 : 20.0) : (quick ? 0.25 : 1.0);
     double span = scene == SC_CLOTH64 || scene == SC_SPHERES ? 2.0 : quick ? 1.0 : 4.0;
-    double t = 0.0, wall0 = 0.0, div = 0.0;
+    double t = 0.0, wall0 = 0.0, div = 0.0, wall;
     int i, frames = 0;
+    tally tl;
     memset(&res, 0, sizeof res);
     memset(h, 0, sizeof h);
     memset(&smd, 0, sizeof smd);
     memset(&nd, 0, sizeof nd);
-    nd.bandwidth = 1e9;
+    memset(&tl, 0, sizeof tl);
+    nd.bandwidth = budget > 0.0 ? budget : 1e9;
+    if (split && !(tl.view = (gs_wire_view *)malloc(sizeof *tl.view))) return res;
     if (gs_simnet_create(&smd, &sim) != GS_OK) return res;
     for (i = 0; i < 2; ++i) {
         if (host_scene(&h[i], (uint32_t)i + 1, scene, enc) != 0 ||
             samples_alloc(&h[i], scene, (int)(span / FRAME) + 4) != 0 ||
-            test_join(sim, h[i].w, &nd, &h[i].net) != GS_OK) {
+            (i == 0 && split ? tally_join(sim, h[i].w, &nd, &tl, &h[i].net)
+                             : test_join(sim, h[i].w, &nd, &h[i].net)) != GS_OK) {
             fprintf(stderr, "bandwidth: %s %s: setup failed\n", sc_name[scene], enc_name[enc]);
             return res;
         }
     }
+    if (scene != SC_SPHERES) tl.positions = 3u * (uint32_t)gs_mesh_particle_count(h[0].sc.cloth);
     memset(&a, 0, sizeof a);
     while (t < settle + span) {
         for (i = 0; i < 2; ++i) drive(&h[i], (uint32_t)i + 1, scene, t);
@@ -257,6 +388,7 @@ static result run_scene(int scene, int enc, int quick) {
         if (t >= settle && wall0 == 0.0) {
             gs_net_peer_stats(h[0].net, 2, &a);
             wall0 = gs_simnet_time(sim);
+            tl.counting = 1; /* what is sent from here on, as bytes_sent */
         }
         if (wall0 > 0.0) {
             gs_net_peer_stats(h[0].net, 2, &b);
@@ -266,7 +398,13 @@ static result run_scene(int scene, int enc, int quick) {
         }
     }
     gs_net_peer_stats(h[0].net, 2, &b);
-    res.kbps = (double)(b.bytes_sent - a.bytes_sent) * 8.0 / (gs_simnet_time(sim) - wall0) / 1e3;
+    wall = gs_simnet_time(sim) - wall0;
+    res.kbps = (double)(b.bytes_sent - a.bytes_sent) * 8.0 / wall / 1e3;
+    for (i = 0; i < PART_COUNT; ++i) res.part_kbps[i] = tl.bytes[i] * 8.0 / wall / 1e3;
+    res.datagrams = tl.datagrams / wall;
+    res.cloth_chunks = tl.cloth_chunks / wall;
+    res.cloth_keys = tl.cloth_keys / wall;
+    res.cloth_pos_kbps = tl.cloth_pos * 8.0 / wall / 1e3;
     res.kbps_object = res.kbps / h[0].objects;
     res.divergence = frames ? div / frames : 0.0;
     equal_time(h, &res.eq_mean, &res.eq_p95);
@@ -277,6 +415,7 @@ static result run_scene(int scene, int enc, int quick) {
         et_free(&h[i].s);
     }
     gs_simnet_destroy(sim);
+    free(tl.view);
     return res;
 }
 
@@ -390,6 +529,23 @@ static int pick_args(int *argc, char **argv, unsigned *sc, unsigned *en, int *no
         int is_sc = strcmp(argv[i], "--scene") == 0, is_en = strcmp(argv[i], "--encoding") == 0;
         if (strcmp(argv[i], "--no-cpu") == 0) { *no_cpu = 1; continue; }
         if (strcmp(argv[i], "--adopt") == 0 && i + 1 < *argc) { adopt = atoi(argv[++i]); continue; }
+        if (strcmp(argv[i], "--split") == 0) { split = 1; continue; }
+        if (strcmp(argv[i], "--cloth-rate") == 0 && i + 1 < *argc) {
+            cloth_rate = atof(argv[++i]);
+            continue;
+        }
+        if (strcmp(argv[i], "--send-rate") == 0 && i + 1 < *argc) {
+            send_rate = atof(argv[++i]);
+            continue;
+        }
+        if (strcmp(argv[i], "--velocity-resolution") == 0 && i + 1 < *argc) {
+            vel_res = atof(argv[++i]);
+            continue;
+        }
+        if (strcmp(argv[i], "--budget") == 0 && i + 1 < *argc) {
+            budget = atof(argv[++i]);
+            continue;
+        }
         if (strcmp(argv[i], "--mode") == 0 && i + 1 < *argc) {
             ++i;
             if (strcmp(argv[i], "replay") == 0) sync_mode = GS_SYNC_REPLAY;
@@ -445,6 +601,16 @@ int main(int argc, char **argv) {
                     sc_name[s], enc_name[e], r[s][e].kbps, r[s][e].kbps_object, r[s][e].eq_mean,
                     r[s][e].eq_p95, r[s][e].divergence, sc_target[s],
                     r[s][e].kbps <= sc_target[s] ? "met" : "missed");
+            if (split && r[s][e].ok) {
+                int k;
+                fprintf(stderr, "  split kbit/s:");
+                for (k = 0; k < PART_COUNT; ++k)
+                    fprintf(stderr, " %s %.1f", part_name[k], r[s][e].part_kbps[k]);
+                fprintf(stderr, "; %.1f datagrams/s; cloth: %.1f chunks/s (%.1f not deltas), "
+                        "positions %.1f kbit/s, velocities %.1f\n", r[s][e].datagrams,
+                        r[s][e].cloth_chunks, r[s][e].cloth_keys, r[s][e].cloth_pos_kbps,
+                        r[s][e].part_kbps[PART_CLOTH] - r[s][e].cloth_pos_kbps);
+            }
         }
     if (!no_cpu) {
         fprintf(stderr, "\npaper scene, one full snapshot (all 6 objects), median of 200:\n");

@@ -637,6 +637,109 @@ static void test_budget_priority(void **state) {
     free(cnt);
 }
 
+/* A ghost whose snapshot is larger than 50 ms of the budget (600 values,
+   4.8 kB in f64, against a 12 kB/s budget whose 50 ms is 600 bytes)
+   beside three small ones due every frame: it goes (once its bucket holds
+   it, the small ones wait too, else they would drain it every frame and
+   it would never go), none of them starves, and the bytes keep to the
+   budget plus one such snapshot. */
+#define BIG 600
+typedef struct big_box {
+    double x[BIG];
+} big_box;
+static void big_get(const void *user, double *out) {
+    memcpy(out, ((const big_box *)user)->x, sizeof ((const big_box *)user)->x);
+}
+static gs_result big_set(void *user, const double *in) {
+    memcpy(((big_box *)user)->x, in, sizeof ((big_box *)user)->x);
+    return GS_OK;
+}
+static gs_result big_step(void *user, double t, double dt) {
+    (void)t;
+    ((big_box *)user)->x[0] += dt; /* always moving: always due */
+    return GS_OK;
+}
+typedef struct first_counter {
+    uint64_t snapshots[4]; /* chunks 0, by object id - 1 */
+    size_t bytes;
+    gs_wire_view v;
+} first_counter;
+static gs_result count_first(void *user, uint32_t to, const void *data, size_t size) {
+    first_counter *c = (first_counter *)user;
+    gs_reject why;
+    int i;
+    (void)to;
+    c->bytes += size;
+    assert_int_equal(gs_wire_decode((const unsigned char *)data, size, &c->v, &why), GS_OK);
+    for (i = 0; i < c->v.chunk_count; ++i)
+        if (c->v.chunks[i].index == 0) c->snapshots[c->v.chunks[i].object_id - 1]++;
+    return GS_OK;
+}
+static void test_budget_large_ghost(void **state) {
+    gs_world_desc wd = gs_world_desc_default();
+    gs_net_desc nd;
+    gs_world *w = NULL;
+    gs_net *net = NULL;
+    big_box *big = (big_box *)calloc(1, sizeof *big);
+    box b[3];
+    first_counter *cnt = (first_counter *)calloc(1, sizeof *cnt);
+    double now = 0.0;
+    int i, f;
+    (void)state;
+    assert_non_null(big);
+    assert_non_null(cnt);
+    assert_int_equal(gs_world_create(&wd, &w), GS_OK);
+    for (i = 0; i < 4; ++i) {
+        gs_custom_desc cd;
+        gs_ghost_desc gd = gs_ghost_desc_default();
+        gs_agent *a = NULL;
+        memset(&cd, 0, sizeof cd);
+        cd.dt = 0.01;
+        if (i == 0) {
+            cd.state_size = BIG;
+            cd.step = big_step;
+            cd.get_state = big_get;
+            cd.set_state = big_set;
+            cd.user = big;
+        } else {
+            memset(&b[i - 1], 0, sizeof b[i - 1]);
+            b[i - 1].n = 8;
+            cd.state_size = 8;
+            cd.step = moving_step;
+            cd.get_state = box_get;
+            cd.set_state = box_set;
+            cd.user = &b[i - 1];
+        }
+        assert_int_equal(gs_custom_create(w, &cd, &a), GS_OK);
+        gd.object_id = (uint32_t)i + 1;
+        assert_int_equal(gs_ghost_attach(a, &gd), GS_OK);
+    }
+    memset(&nd, 0, sizeof nd);
+    nd.transport.send = count_first;
+    nd.transport.user = cnt;
+    nd.bandwidth = 12000.0;
+    assert_int_equal(gs_net_create(w, &nd, &net), GS_OK);
+    assert_int_equal(gs_net_add_peer(net, 2, NULL), GS_OK);
+    for (f = 0; f < 600; ++f) {
+        assert_int_equal(gs_world_advance(w, 1.0 / 60.0, NULL), GS_OK);
+        assert_int_equal(gs_net_update(net, now += 1.0 / 60.0), GS_OK);
+    }
+    print_message("10 s at 12 kB/s: %zu bytes; the 4.8 kB ghost %llu snapshots, the small "
+                  "ones %llu, %llu, %llu\n", cnt->bytes, (unsigned long long)cnt->snapshots[0],
+                  (unsigned long long)cnt->snapshots[1], (unsigned long long)cnt->snapshots[2],
+                  (unsigned long long)cnt->snapshots[3]);
+    /* about 12 kB/s over 4.9 kB and the small ones' share: two a second */
+    assert_true(cnt->snapshots[0] >= 10);
+    for (i = 1; i < 4; ++i) assert_true(cnt->snapshots[i] >= 10);
+    /* the budget, plus the bucket's burst: one large snapshot (5 datagrams
+       of at most 1200 bytes) */
+    assert_true(cnt->bytes <= 12000.0 * 10.0 + 5.0 * 1200.0);
+    gs_net_destroy(net);
+    gs_world_destroy(w);
+    free(cnt);
+    free(big);
+}
+
 /* Send on change under loss and a restart. The first snapshot is lost:
    the two repeats that go with the first heartbeats bring the state. Then
    the receiver starts again (a new run): the sender sees the new run in
@@ -725,6 +828,7 @@ int main(int argc, char **argv) {
         cmocka_unit_test(test_net_send_on_change),
         cmocka_unit_test(test_rest_loss_and_restart),
         cmocka_unit_test(test_budget_priority),
+        cmocka_unit_test(test_budget_large_ghost),
         cmocka_unit_test(test_ghost_desc_quant),
     };
     if (argc > 1) cmocka_set_test_filter(argv[1]);
