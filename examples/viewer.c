@@ -56,13 +56,14 @@ typedef struct vw_options {
     const char *out;
     int frames;          /* headless: 0 = one picture at the end */
     int width, height;   /* pixels */
+    int replay;          /* --sync replay: the session's mode, as ghostpeer's */
 } vw_options;
 
 static void usage(FILE *f, const char *argv0) {
     fprintf(f,
             "usage: %s --id N --listen HOST:PORT [--peer ID@HOST:PORT]...\n"
             "          [--duration S] [--cloth N] [--spheres K] [--dt S] [--seed N]\n"
-            "          [--probes N] [--size WxH]\n"
+            "          [--probes N] [--size WxH] [--sync present|replay]\n"
             "          [--headless --out FILE.png [--frames N]]\n"
             "  --id N          this host, 1..%d (it owns probe N-1)\n"
             "  --listen        UDP address to bind, HOST:PORT or [V6]:PORT\n"
@@ -74,6 +75,8 @@ static void usage(FILE *f, const char *argv0) {
             "  --seed N        sphere placement (default 1)\n"
             "  --probes N      probes in the scene (default the largest host id)\n"
             "  --size WxH      picture size in pixels (default 800x600)\n"
+            "  --sync MODE     present (default) or replay: the session's mode, as\n"
+            "                  ghostpeer's --sync (a host in another mode breaks it)\n"
             "  --headless      no window: write PNG pictures instead\n"
             "  --out FILE.png  headless output; --frames N writes FILE-000.png...\n",
             argv0, GS_SCENE_MAX_PROBES, GS_SCENE_MAX_SPHERES);
@@ -169,6 +172,10 @@ static int parse_flag(const char *f, const char *v, vw_options *o, int *used) {
         o->frames = (int)n;
     } else if (!strcmp(f, "--size")) {
         return parse_size(v, o);
+    } else if (!strcmp(f, "--sync")) {
+        if (!strcmp(v, "replay")) o->replay = 1;
+        else if (!strcmp(v, "present")) o->replay = 0;
+        else return 0;
     } else {
         return 0;
     }
@@ -501,6 +508,15 @@ static int peer_open(vw_peer *p, const vw_options *o) {
     memset(p, 0, sizeof *p);
     wd.host_id = o->id;
     wd.budget = 0.05; /* s per advance: the window stays live if we lag */
+    if (o->replay) {
+        /* Every host of a session runs one mode: a present host's snapshots
+           stand on its own local timeline, seconds off the session's, and
+           its probe then pushes each replaying host's cloth differently
+           (three ghostpeers in replay were 15 cm apart 2.5 s after such a
+           host left, micrometres after a replaying one did). */
+        wd.sync.clock = GS_SYNC_CLOCK_SESSION;
+        wd.sync.mode = GS_SYNC_REPLAY;
+    }
     if (gs_world_create(&wd, &p->world) != GS_OK) {
         fprintf(stderr, "viewer: cannot create the world\n");
         return 1;

@@ -604,7 +604,7 @@ def run(a, peers, lock, interrupted, others):
                     "--listen", "127.0.0.1:%d" % vport]
             for p in peers:
                 vcmd += ["--peer", "%d@127.0.0.1:%d" % (p.id, p.port)]
-            vcmd += ["--duration", "%g" % VIEWER_DURATION]
+            vcmd += ["--duration", "%g" % VIEWER_DURATION, "--sync", a.sync]
             viewer_log = open(os.path.join(a.out, "viewer.log"), "w")
             viewer_log.write("# " + " ".join(vcmd) + "\n")
             viewer_log.flush()
