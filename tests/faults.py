@@ -886,7 +886,7 @@ def sc_kill(exe, name, tm):
 
 def sc_clock(step):
     def scenario(exe, name, tm):
-        # On the local clock the scene can take up to 10 s after a +2 s
+        # On the local clock the scene can take 10 s and more after a +2 s
         # step to come within 1 mm: while the stepped host catches up, the
         # other follows it in jumps and the probes' catch-up can throw a
         # sphere off the cloth, which then rolls on the ground for seconds.
@@ -950,7 +950,7 @@ SCENARIOS = [
     # GHOSTPEER_ARGS has --sync replay or --clock session). On the local
     # clock a +2 s step is 2 s the world is told to run at once, and the
     # other host follows it in jumps that can throw a sphere off the cloth:
-    # it converges, in up to 10 s (README, Faults and soak). The session
+    # it can take 10 s and more to converge (README, Faults and soak). The session
     # clock reads the world's own clock and absorbs the step.
     ("clock-fwd", True, "session", sc_clock(2.0)),
     ("clock-back", True, True, sc_clock(-2.0)),
@@ -1286,9 +1286,10 @@ def main(argv):
             print()
             print(table(rows))
             failed = [r["name"] for r in rows if not r["ok"]]
+            label = (["short"] if short else []) + ([" ".join(P.EXTRA)] if P.EXTRA else [])
             print("faults%s: %d scenarios, %d passed, %d failed%s (%.1f s)"
-                  % (" (" + ", ".join((["short"] if short else []) + ([" ".join(P.EXTRA)] if P.EXTRA else []))
-                     + ")" if short or P.EXTRA else "", len(rows), len(rows) - len(failed), len(failed),
+                  % (" (%s)" % ", ".join(label) if label else "",
+                     len(rows), len(rows) - len(failed), len(failed),
                      ": " + ", ".join(failed) if failed else "", time.monotonic() - T0))
             ok = not failed
     finally:
