@@ -13842,8 +13842,11 @@ GS__PRIVATE int gs__chunk_head_get(const unsigned char *buf, size_t end, size_t 
         cnt = x->count;
         first = (uint64_t)x->first + x->elements;
     } else {
-        if (!gs__head_varint(buf, end, off, 5, 0x1ffffffffull, &id) ||
-            !gs__head_varint(buf, end, off, 5, 0x1ffffffffull, &seq))
+        /* zigzag of a 32-bit difference: at most 2^32 - 1, so that a
+           varint over it (5 bytes hold 35 bits) cannot wrap onto another
+           id or sequence (one datagram, one meaning) */
+        if (!gs__head_varint(buf, end, off, 5, 0xffffffffu, &id) ||
+            !gs__head_varint(buf, end, off, 5, 0xffffffffu, &seq))
             return 0;
         c->object_id = x->id + (uint32_t)gs__unzigzag(id);
         c->sequence = x->seq + (uint32_t)gs__unzigzag(seq);
