@@ -519,6 +519,14 @@ static int cpu_only(void) {
     return 0;
 }
 
+/* Is argv[*i] the flag name with a value after it? Then the value is read
+   into *out and *i moves onto it. */
+static int number_flag(int argc, char **argv, int *i, const char *name, double *out) {
+    if (strcmp(argv[*i], name) != 0 || *i + 1 >= argc) return 0;
+    *out = atof(argv[++*i]);
+    return 1;
+}
+
 /* Takes --scene, --encoding and --no-cpu out of argv (the rest goes to
    bu_parse_args): *sc and *en get a bit per name chosen (0: all). */
 static int pick_args(int *argc, char **argv, unsigned *sc, unsigned *en, int *no_cpu) {
@@ -530,22 +538,11 @@ static int pick_args(int *argc, char **argv, unsigned *sc, unsigned *en, int *no
         if (strcmp(argv[i], "--no-cpu") == 0) { *no_cpu = 1; continue; }
         if (strcmp(argv[i], "--adopt") == 0 && i + 1 < *argc) { adopt = atoi(argv[++i]); continue; }
         if (strcmp(argv[i], "--split") == 0) { split = 1; continue; }
-        if (strcmp(argv[i], "--cloth-rate") == 0 && i + 1 < *argc) {
-            cloth_rate = atof(argv[++i]);
+        if (number_flag(*argc, argv, &i, "--cloth-rate", &cloth_rate) ||
+            number_flag(*argc, argv, &i, "--send-rate", &send_rate) ||
+            number_flag(*argc, argv, &i, "--velocity-resolution", &vel_res) ||
+            number_flag(*argc, argv, &i, "--budget", &budget))
             continue;
-        }
-        if (strcmp(argv[i], "--send-rate") == 0 && i + 1 < *argc) {
-            send_rate = atof(argv[++i]);
-            continue;
-        }
-        if (strcmp(argv[i], "--velocity-resolution") == 0 && i + 1 < *argc) {
-            vel_res = atof(argv[++i]);
-            continue;
-        }
-        if (strcmp(argv[i], "--budget") == 0 && i + 1 < *argc) {
-            budget = atof(argv[++i]);
-            continue;
-        }
         if (strcmp(argv[i], "--mode") == 0 && i + 1 < *argc) {
             ++i;
             if (strcmp(argv[i], "replay") == 0) sync_mode = GS_SYNC_REPLAY;

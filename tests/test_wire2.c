@@ -574,15 +574,35 @@ static gs_result moving_step(void *user, double t, double dt) {
    wanted, a budget of 12 kB/s. Over 10 s every ghost gets its share (none
    starves), the one of importance 4 about four times the others', and the
    bytes keep to the budget. */
+/* The budget tests' run: a net to peer 2 at 12 kB/s through send, then
+   10 s of 60 Hz frames. Returns the net (the caller destroys it). */
+static gs_net *budget_run(gs_world *w, gs_result (*send)(void *, uint32_t, const void *, size_t),
+                          void *user) {
+    gs_net_desc nd;
+    gs_net *net = NULL;
+    double now = 0.0;
+    int f;
+    memset(&nd, 0, sizeof nd);
+    nd.transport.send = send;
+    nd.transport.user = user;
+    nd.bandwidth = 12000.0;
+    assert_int_equal(gs_net_create(w, &nd, &net), GS_OK);
+    assert_int_equal(gs_net_add_peer(net, 2, NULL), GS_OK);
+    for (f = 0; f < 600; ++f) {
+        assert_int_equal(gs_world_advance(w, 1.0 / 60.0, NULL), GS_OK);
+        assert_int_equal(gs_net_update(net, now += 1.0 / 60.0), GS_OK);
+    }
+    return net;
+}
+
 static void test_budget_priority(void **state) {
     gs_world_desc wd = gs_world_desc_default();
-    gs_net_desc nd;
     gs_world *w = NULL;
     gs_net *net = NULL;
     box b[NPRIO];
     counter *cnt = (counter *)calloc(1, sizeof *cnt);
-    double now = 0.0, lo = 1e30, hi = 0.0;
-    int i, f;
+    double lo = 1e30, hi = 0.0;
+    int i;
     (void)state;
     assert_non_null(cnt);
     assert_int_equal(gs_world_create(&wd, &w), GS_OK);
@@ -604,16 +624,7 @@ static void test_budget_priority(void **state) {
         gd.importance = i == NPRIO - 1 ? 4.0 : 0.0; /* 0: the default, 1 */
         assert_int_equal(gs_ghost_attach(a, &gd), GS_OK);
     }
-    memset(&nd, 0, sizeof nd);
-    nd.transport.send = count_send;
-    nd.transport.user = cnt;
-    nd.bandwidth = 12000.0;
-    assert_int_equal(gs_net_create(w, &nd, &net), GS_OK);
-    assert_int_equal(gs_net_add_peer(net, 2, NULL), GS_OK);
-    for (f = 0; f < 600; ++f) {
-        assert_int_equal(gs_world_advance(w, 1.0 / 60.0, NULL), GS_OK);
-        assert_int_equal(gs_net_update(net, now += 1.0 / 60.0), GS_OK);
-    }
+    net = budget_run(w, count_send, cnt);
     for (i = 0; i < NPRIO - 1; ++i) {
         lo = fmin(lo, (double)cnt->chunks[i]);
         hi = fmax(hi, (double)cnt->chunks[i]);
@@ -677,14 +688,12 @@ static gs_result count_first(void *user, uint32_t to, const void *data, size_t s
 }
 static void test_budget_large_ghost(void **state) {
     gs_world_desc wd = gs_world_desc_default();
-    gs_net_desc nd;
     gs_world *w = NULL;
     gs_net *net = NULL;
     big_box *big = (big_box *)calloc(1, sizeof *big);
     box b[3];
     first_counter *cnt = (first_counter *)calloc(1, sizeof *cnt);
-    double now = 0.0;
-    int i, f;
+    int i;
     (void)state;
     assert_non_null(big);
     assert_non_null(cnt);
@@ -714,16 +723,7 @@ static void test_budget_large_ghost(void **state) {
         gd.object_id = (uint32_t)i + 1;
         assert_int_equal(gs_ghost_attach(a, &gd), GS_OK);
     }
-    memset(&nd, 0, sizeof nd);
-    nd.transport.send = count_first;
-    nd.transport.user = cnt;
-    nd.bandwidth = 12000.0;
-    assert_int_equal(gs_net_create(w, &nd, &net), GS_OK);
-    assert_int_equal(gs_net_add_peer(net, 2, NULL), GS_OK);
-    for (f = 0; f < 600; ++f) {
-        assert_int_equal(gs_world_advance(w, 1.0 / 60.0, NULL), GS_OK);
-        assert_int_equal(gs_net_update(net, now += 1.0 / 60.0), GS_OK);
-    }
+    net = budget_run(w, count_first, cnt);
     print_message("10 s at 12 kB/s: %zu bytes; the 4.8 kB ghost %llu snapshots, the small "
                   "ones %llu, %llu, %llu\n", cnt->bytes, (unsigned long long)cnt->snapshots[0],
                   (unsigned long long)cnt->snapshots[1], (unsigned long long)cnt->snapshots[2],
