@@ -500,7 +500,9 @@ typedef enum gs_sync_mode {
 
 typedef struct gs_sync_desc {
     gs_sync_mode mode;     /* default present */
-    gs_sync_clock clock;   /* default local */
+    gs_sync_clock clock;   /* default local. Every host of a session needs
+                              the same mode and clock: a peer that runs
+                              others shows as GS_PEER_OTHER_MODE */
     gs_clock_fn now;       /* the wall clock the session clock reads (s);
                               default the world's clock; a simnet transport
                               sets the simnet's clock of the host (so the
@@ -1814,8 +1816,12 @@ GS_API gs_result gs_world_sync_test(gs_world *w, int frames, int *bad_agent);
    A chunk carries at most GS_WIRE_CHUNK_ROOM bytes of values, so that a
    datagram holding one chunk can always be sealed.
 
-   Flags: bit 0 (GS_WIRE_FLAG_SEALED) says the datagram is sealed; every
-   other bit is 0. A sealed datagram (sent when the net has a key, see
+   Flags: bit 0 (GS_WIRE_FLAG_SEALED) says the datagram is sealed; bit 1
+   (GS_WIRE_FLAG_SESSION) that the sender steps on the session clock, bit
+   2 (GS_WIRE_FLAG_REPLAY) that it blends in replay mode (its
+   gs_sync_desc: hosts of one session must agree on both, and a receiver
+   says so when they do not, GS_PEER_OTHER_MODE); every other bit is 0.
+   A sealed datagram (sent when the net has a key, see
    GHOSTSIM_SODIUM) keeps the header in clear and replaces the CRC by a
    40-byte trailer:
      header (48 B, flag set; authenticated as additional data)
@@ -1849,6 +1855,9 @@ GS_API gs_result gs_world_sync_test(gs_world *w, int frames, int *bad_agent);
    f32 (270), e.g. a cloth of up to 1214 x 1214 particles in f64. */
 #define GS_WIRE_MAX_OBJECT_CHUNKS 65535
 #define GS_WIRE_FLAG_SEALED 0x01
+#define GS_WIRE_FLAG_SESSION 0x02 /* the sender steps on the session clock */
+#define GS_WIRE_FLAG_REPLAY 0x04  /* the sender blends in replay mode */
+#define GS_WIRE_FLAG_SYNC (GS_WIRE_FLAG_SESSION | GS_WIRE_FLAG_REPLAY)
 /* The latest simulation time a chunk may carry (s; 31 years). A double
    there still resolves 1.2e-7 s, so a 1 ms step still moves a clock; a time
    far past it (1e308 from a broken or hostile peer) would stop every clock
@@ -1889,6 +1898,11 @@ typedef struct gs_wire_header {
     uint32_t session, sender, sequence;
     uint32_t run;                           /* the sender's run, 0: not said */
     double send_time, echo_time, echo_hold; /* s */
+    unsigned sync;                          /* GS_WIRE_FLAG_SESSION and
+                                               GS_WIRE_FLAG_REPLAY as the
+                                               sender runs (0: present on
+                                               its local clock); other
+                                               bits are not written */
 } gs_wire_header;
 
 typedef struct gs_wire_chunk {
@@ -2154,6 +2168,12 @@ GS_API gs_net_desc gs_net_desc_default(void);
    - GS_PEER_SILENT: nothing taken from the peer for GS_PEER_QUIET s (it
      does not run, poll or update, has not added this host, or the link
      is down).
+   - GS_PEER_OTHER_MODE: the peer's last datagram taken says it runs
+     another gs_sync_desc mode or clock than this world (wire flags
+     GS_WIRE_FLAG_SESSION, GS_WIRE_FLAG_REPLAY). Its snapshots are still
+     blended, so nobody stops, but hosts that blend at different times
+     do not agree while objects move (three hosts in replay joined by one
+     in present: 15 cm apart after it left). Give every host one mode.
    - GS_PEER_PARTLY_REFUSED: datagrams are taken, but in the last full
      GS_PEER_QUIET s some were refused as GS_REJECT_OBJECT or
      GS_REJECT_RANGE: the hosts disagree on some objects (an id, a cloth
@@ -2172,7 +2192,8 @@ GS_API gs_net_desc gs_net_desc_default(void);
     X(GS_PEER_NOT_SENDING, "not_sending")                                      \
     X(GS_PEER_REFUSED, "refused")                                              \
     X(GS_PEER_SILENT, "silent")                                                \
-    X(GS_PEER_PARTLY_REFUSED, "partly_refused")
+    X(GS_PEER_PARTLY_REFUSED, "partly_refused")                                \
+    X(GS_PEER_OTHER_MODE, "other_mode")
 
 typedef enum gs_peer_health {
 #define GS__PEER_HEALTH_ENUM(name, text) name,
@@ -9582,6 +9603,7 @@ typedef struct gs__peer_diag {
     double sent_at;       /* the last datagram sent to it */
     double taken_at;      /* the last datagram taken from it */
     double win_at;        /* the start of win[0] */
+    unsigned sync;        /* GS_WIRE_FLAG_SYNC of the last datagram taken */
     gs__diag_win win[2];  /* [0] the current window, [1] the one before it
                              (empty unless it ended when [0] began) */
 } gs__peer_diag;
@@ -13359,7 +13381,7 @@ GS_API gs_result gs_wire_begin(unsigned char *buf, size_t cap,
     if (!buf || !h || !size || cap < GS_WIRE_HEADER + 4) return GS_ERR_INVALID_ARG;
     memcpy(buf, "GSIM", 4);
     buf[4] = GS_WIRE_VERSION;
-    gs__hdr_set_flags(buf, 0);
+    gs__hdr_set_flags(buf, h->sync & GS_WIRE_FLAG_SYNC);
     gs__hdr_set_chunks(buf, 0);
     gs__put32(buf + 8, h->session);
     gs__put32(buf + 12, h->sender);
@@ -13962,6 +13984,7 @@ GS__PRIVATE int gs__wire_parse(const unsigned char *buf, size_t end, gs_wire_vie
     out->header.send_time = gs__getf64(buf + 24);
     out->header.echo_time = gs__getf64(buf + 32);
     out->header.echo_hold = gs__getf64(buf + 40);
+    out->header.sync = gs__hdr_flags(buf) & GS_WIRE_FLAG_SYNC;
     if (!gs__finite(out->header.send_time) || !gs__finite(out->header.echo_time) ||
         !gs__finite(out->header.echo_hold)) { *why = GS_REJECT_NOT_FINITE; return 0; }
     /* both are clocks, which no host lets leave [0, GS_WIRE_MAX_TIME]: a
@@ -13995,7 +14018,10 @@ GS__PRIVATE int gs__wire_decode(const unsigned char *buf, size_t size,
     if (!gs__wire_front(buf, size, why)) return 0;
     end = size - 4;
     if (gs__crc32(buf, end) != gs__get32(buf + end)) { *why = GS_REJECT_CHECKSUM; return 0; }
-    if (gs__hdr_flags(buf) != 0) { *why = GS_REJECT_LAYOUT; return 0; } /* sealed or unknown */
+    if (gs__hdr_flags(buf) & ~(unsigned)GS_WIRE_FLAG_SYNC) { /* sealed or unknown */
+        *why = GS_REJECT_LAYOUT;
+        return 0;
+    }
     return gs__wire_parse(buf, end, out, kept, why);
 }
 
@@ -14307,6 +14333,22 @@ GS__PRIVATE int gs__world_ghosts(const gs_world *w) {
     return n;
 }
 
+/* The sender's sync in a header's flags (GS_WIRE_FLAG_SYNC). */
+GS__PRIVATE unsigned gs__net_sync_flags(const gs_world *w) {
+    return (gs__sync_session(w) ? GS_WIRE_FLAG_SESSION : 0u) |
+           (gs__sync_replay(w) ? GS_WIRE_FLAG_REPLAY : 0u);
+}
+
+/* What GS_WIRE_FLAG_SYNC says, for a peer's health reason. */
+GS__PRIVATE const char *gs__sync_flags_name(unsigned f) {
+    switch (f & GS_WIRE_FLAG_SYNC) {
+    case GS_WIRE_FLAG_SESSION: return "the present blend on the session clock";
+    case GS_WIRE_FLAG_REPLAY: return "the replay blend on its local clock";
+    case GS_WIRE_FLAG_SYNC: return "the replay blend on the session clock";
+    default: return "the present blend on its local clock";
+    }
+}
+
 /* The first health that holds (see gs_peer_health) and its text. */
 GS__PRIVATE gs_peer_health gs__peer_judge(const gs_net *net, int p, char *buf, size_t cap) {
     const gs__peer_diag *d = &net->peers[p].diag;
@@ -14371,6 +14413,13 @@ GS__PRIVATE gs_peer_health gs__peer_judge(const gs_net *net, int p, char *buf, s
             snprintf(buf, cap, "nothing received from this peer for %.1f s: it stopped, or "
                      "stopped updating, or the link is down", unheard);
         return GS_PEER_SILENT;
+    }
+    if (d->taken_at >= 0.0 && d->sync != gs__net_sync_flags(w)) {
+        snprintf(buf, cap, "this peer runs %s, this host %s: hosts that blend at different "
+                 "times do not agree while objects move (every host of a session needs the same "
+                 "gs_sync_desc mode and clock)", gs__sync_flags_name(d->sync),
+                 gs__sync_flags_name(gs__net_sync_flags(w)));
+        return GS_PEER_OTHER_MODE;
     }
     if (win && win->mismatched > 0) {
         gs__detail_text(&win->detail, more, sizeof more);
@@ -14738,6 +14787,7 @@ GS__PRIVATE void gs__datagram_begin(gs_net *net, double now, size_t *size) {
     h.sender = net->world->host_id;
     h.run = net->run;
     h.send_time = now;
+    h.sync = gs__net_sync_flags(net->world);
     gs_wire_begin(net->buf, sizeof net->buf, &h, size);
     memset(&net->wctx, 0, sizeof net->wctx);
 }
@@ -16129,7 +16179,10 @@ GS__PRIVATE int gs__receive_sealed(gs_net *net, const unsigned char *buf, size_t
     uint64_t epoch, salt, counter;
     int order;
     unsigned flags = gs__hdr_flags(buf);
-    if (flags & ~(unsigned)GS_WIRE_FLAG_SEALED) { *why = GS_REJECT_LAYOUT; return 0; }
+    if (flags & ~(unsigned)(GS_WIRE_FLAG_SEALED | GS_WIRE_FLAG_SYNC)) {
+        *why = GS_REJECT_LAYOUT;
+        return 0;
+    }
     if ((flags & GS_WIRE_FLAG_SEALED) && size < GS_WIRE_HEADER + GS_WIRE_SEAL_TRAILER) {
         *why = GS_REJECT_SHORT;
         return 0;
@@ -16206,6 +16259,7 @@ GS__PRIVATE gs_result gs__deliver_locked(gs_net *net, const void *data, size_t s
         }
         gs__sync_heard(net, p, v, now);
         gs__diag_taken(&pe->diag, now);
+        pe->diag.sync = v->header.sync;
     }
     if (res == GS_ERR_REJECTED) gs__diag_refused(net, p, r, (const unsigned char *)data, size, now);
     return res;

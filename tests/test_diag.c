@@ -8,7 +8,10 @@
    left a stale error text. What holds now, each case below:
    - gs_peer_stats.health / .reason say, with the figures, which of
      silent, refused (and what did not match), clock back, not sending or
-     no update holds for a peer (see gs_peer_health in the header);
+     no update holds for a peer (see gs_peer_health in the header), and
+     whether it runs another sync mode or clock (issue 15: three hosts in
+     replay joined by one in present ended 15 cm apart, and nothing said
+     why);
    - gs_world_diagnose says it for the world, and what no peer can: ghosts
      and no net, a net and no peers, a net and no ghosts;
    - gs_simnet_error holds the simnet's failures; gs_world_error names a
@@ -41,6 +44,7 @@ typedef struct box {
 } box;
 
 typedef struct host {
+    double now;   /* s; what its session clock reads (run sets it) */
     gs_world *w;
     gs_agent *a;
     double x[8];
@@ -78,13 +82,27 @@ typedef struct host_opts {
     uint32_t session;    /* 0: default */
     int no_net, no_peer;
     const unsigned char *key;
+    gs_sync_mode mode;   /* the world's gs_sync_desc (0: defaults) */
+    gs_sync_clock clock;
 } host_opts;
+
+static double host_clock(void *user) { return *(const double *)user; }
 
 static host *host_new(uint32_t id, uint32_t peer, const host_opts *o) {
     host *h = (host *)calloc(1, sizeof *h);
     gs_net_desc nd = gs_net_desc_default();
     assert_non_null(h);
-    h->w = world_new(id);
+    if (o->mode || o->clock) {
+        gs_world_desc wd = gs_world_desc_default();
+        wd.host_id = id;
+        wd.sync.mode = o->mode;
+        wd.sync.clock = o->clock;
+        wd.sync.now = host_clock; /* the test's clock, not the machine's */
+        wd.sync.now_user = &h->now;
+        assert_int_equal(gs_world_create(&wd, &h->w), GS_OK);
+    } else {
+        h->w = world_new(id);
+    }
     h->x[7] = o->values ? o->values : 3;
     h->a = custom_new(h->w, 0.002, (size_t)h->x[7], still_step, still_get, still_set, h->x);
     if (o->object) {
@@ -121,6 +139,7 @@ static void run(host *a, host *b, int frames, double *now, int update_a, int upd
     int k;
     for (k = 0; k < frames; ++k) {
         *now += FRAME;
+        a->now = b->now = *now;
         assert_int_equal(gs_world_advance(a->w, FRAME, NULL), GS_OK);
         assert_int_equal(gs_world_advance(b->w, FRAME, NULL), GS_OK);
         if (update_a) assert_int_equal(gs_net_update(a->net, *now), GS_OK);
@@ -145,7 +164,7 @@ static void assert_contains(const char *text, const char *part) {
     if (!strstr(text, part)) fail_msg("\"%s\" is not in \"%s\"", part, text);
 }
 
-static const host_opts plain = {7, 3, 0, 0, 0, NULL};
+static const host_opts plain = {7, 3, 0, 0, 0, NULL, GS_SYNC_DEFAULT, GS_SYNC_CLOCK_DEFAULT};
 
 /* ---- the good case: nothing to say ---- */
 
@@ -175,6 +194,71 @@ static void test_health_names(void **state) {
     assert_string_equal(gs_peer_health_str(GS_PEER_SILENT), "silent");
     assert_string_equal(gs_peer_health_str(GS_PEER_HEALTH_COUNT), "unknown");
     assert_string_equal(gs_world_diagnose(NULL), "");
+}
+
+/* ---- hosts of one session in different sync modes ---- */
+
+/* Host 1 replays on the session clock, host 2 blends at its present on its
+   local clock: each says the other runs another mode, naming both, and
+   still takes the other's datagrams (nobody stops). */
+static void test_other_mode(void **state) {
+    host_opts r = plain;
+    host *a, *b;
+    gs_peer_stats st;
+    double now = 10.0;
+    (void)state;
+    r.mode = GS_SYNC_REPLAY;
+    r.clock = GS_SYNC_CLOCK_SESSION;
+    a = host_new(1, 2, &r);
+    b = host_new(2, 1, &plain);
+    run(a, b, 90, &now, 1, 1);
+    st = stats(a, 2);
+    assert_int_equal(st.health, GS_PEER_OTHER_MODE);
+    assert_contains(st.reason, "this peer runs the present blend on its local clock");
+    assert_contains(st.reason, "this host the replay blend on the session clock");
+    assert_true(st.datagrams_received > 0);
+    st = stats(b, 1);
+    assert_int_equal(st.health, GS_PEER_OTHER_MODE);
+    assert_contains(st.reason, "this peer runs the replay blend on the session clock");
+    assert_true(st.datagrams_received > 0);
+    assert_contains(gs_world_diagnose(a->w), "other_mode");
+    assert_string_equal(gs_peer_health_str(GS_PEER_OTHER_MODE), "other_mode");
+    host_free(a);
+    host_free(b);
+}
+
+/* The clock alone differs (both present): still another mode. Both on the
+   session clock, and both in replay: nothing to say. */
+static void test_other_clock_and_same_mode(void **state) {
+    host_opts s = plain, r = plain;
+    host *a, *b;
+    double now = 10.0;
+    (void)state;
+    s.clock = GS_SYNC_CLOCK_SESSION;
+    a = host_new(1, 2, &s);
+    b = host_new(2, 1, &plain);
+    run(a, b, 90, &now, 1, 1);
+    assert_int_equal(stats(a, 2).health, GS_PEER_OTHER_MODE);
+    assert_contains(stats(a, 2).reason, "this host the present blend on the session clock");
+    assert_int_equal(stats(b, 1).health, GS_PEER_OTHER_MODE);
+    host_free(a);
+    host_free(b);
+    a = host_new(1, 2, &s);
+    b = host_new(2, 1, &s);
+    run(a, b, 90, &now, 1, 1);
+    assert_int_equal(stats(a, 2).health, GS_PEER_OK);
+    assert_int_equal(stats(b, 1).health, GS_PEER_OK);
+    host_free(a);
+    host_free(b);
+    r.mode = GS_SYNC_REPLAY;
+    r.clock = GS_SYNC_CLOCK_SESSION;
+    a = host_new(1, 2, &r);
+    b = host_new(2, 1, &r);
+    run(a, b, 90, &now, 1, 1);
+    assert_int_equal(stats(a, 2).health, GS_PEER_OK);
+    assert_int_equal(stats(b, 1).health, GS_PEER_OK);
+    host_free(a);
+    host_free(b);
 }
 
 /* ---- silence: the peer did not add this host, or stopped ---- */
@@ -400,6 +484,33 @@ static void test_refused_key(void **state) {
     b = host_new(2, 1, &plain);
     st = refused(a, b, GS_REJECT_KEY); /* in clear, to a keyed net */
     assert_contains(st.reason, "in clear, but this net has a key");
+    host_free(a);
+    host_free(b);
+}
+
+/* Sealed datagrams carry the sync flags in their authenticated header:
+   two keyed hosts in replay hear each other as OK, and a keyed host in
+   present hears a keyed one in replay as another mode. */
+static void test_sealed_sync_flags(void **state) {
+    host_opts r = plain, p = plain;
+    host *a, *b;
+    double now = 10.0;
+    (void)state;
+    r.key = p.key = key;
+    r.mode = GS_SYNC_REPLAY;
+    r.clock = GS_SYNC_CLOCK_SESSION;
+    a = host_new(1, 2, &r);
+    b = host_new(2, 1, &r);
+    run(a, b, 90, &now, 1, 1);
+    assert_int_equal(stats(a, 2).health, GS_PEER_OK);
+    assert_int_equal(stats(b, 1).health, GS_PEER_OK);
+    host_free(a);
+    host_free(b);
+    a = host_new(1, 2, &r);
+    b = host_new(2, 1, &p);
+    run(a, b, 90, &now, 1, 1);
+    assert_int_equal(stats(a, 2).health, GS_PEER_OTHER_MODE);
+    assert_int_equal(stats(b, 1).health, GS_PEER_OTHER_MODE);
     host_free(a);
     host_free(b);
 }
@@ -669,6 +780,8 @@ int main(void) {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_ok_both_ways),
         cmocka_unit_test(test_health_names),
+        cmocka_unit_test(test_other_mode),
+        cmocka_unit_test(test_other_clock_and_same_mode),
         cmocka_unit_test(test_peer_not_added_is_silent),
         cmocka_unit_test(test_peer_stops),
         cmocka_unit_test(test_update_never_called),
@@ -680,6 +793,7 @@ int main(void) {
         cmocka_unit_test(test_refused_session),
 #ifdef GHOSTSIM_SODIUM
         cmocka_unit_test(test_refused_key),
+        cmocka_unit_test(test_sealed_sync_flags),
 #endif
         cmocka_unit_test(test_partly_refused),
         cmocka_unit_test(test_refusals_among_taken_are_ok),

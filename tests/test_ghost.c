@@ -156,6 +156,7 @@ static size_t snap_datagram(unsigned char *buf, const snap *s, const double *val
     h.send_time = s->send_time != 0.0 ? s->send_time : 1.0;
     h.echo_time = s->echo_time;
     h.echo_hold = s->echo_hold;
+    h.sync = 0; /* present on the local clock, as the tests' worlds run */
     memset(&c, 0, sizeof c);
     c.object_id = s->object;
     c.sequence = s->sseq;

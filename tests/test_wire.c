@@ -107,6 +107,7 @@ static void expect_reject(const unsigned char *buf, size_t size, gs_reject expec
 
 static gs_wire_header header_example(void) {
     gs_wire_header h;
+    memset(&h, 0, sizeof h); /* run 0 (not said), sync 0 (present, local clock) */
     h.session = 0x01020304u;
     h.sender = 3;
     h.sequence = 0xdeadbeefu;
@@ -486,6 +487,46 @@ static void test_reject_every_corrupted_byte(void **state) {
             assert_int_equal(why, expect);
             buf[i] ^= flips[f];
         }
+    free(v);
+}
+
+/* The sender's sync in the header's flags (>>wire): bits 1 and 2 as the
+   header says, read back as written; bits it does not name are not
+   written, and a datagram that has one (or the sealed bit, in clear) is
+   refused. */
+static void test_header_sync_flags(void **state) {
+    static const double vals[1] = {0.5};
+    static const unsigned modes[4] = {0, GS_WIRE_FLAG_SESSION, GS_WIRE_FLAG_REPLAY,
+                                      GS_WIRE_FLAG_SESSION | GS_WIRE_FLAG_REPLAY};
+    unsigned char buf[GS_WIRE_MAX_DATAGRAM];
+    gs_wire_view *v = (gs_wire_view *)malloc(sizeof *v);
+    gs_wire_header h = header_example();
+    gs_wire_chunk c = chunk_example(42, GS_ENCODING_F64, 1);
+    gs_reject why;
+    size_t size = 0, n;
+    int i;
+    (void)state;
+    assert_non_null(v);
+    for (i = 0; i < 4; ++i) {
+        h.sync = modes[i];
+        assert_int_equal(gs_wire_begin(buf, sizeof buf, &h, &size), GS_OK);
+        assert_int_equal(gs_wire_add(buf, sizeof buf, &size, &c, vals), GS_OK);
+        n = gs_wire_end(buf, size);
+        assert_int_equal(buf[OFF_FLAGS], modes[i]);
+        assert_int_equal(decode_copy(buf, n, v, &why), 1);
+        assert_int_equal(v->header.sync, modes[i]);
+    }
+    h.sync = 0xffu; /* only what GS_WIRE_FLAG_SYNC names goes out */
+    assert_int_equal(gs_wire_begin(buf, sizeof buf, &h, &size), GS_OK);
+    assert_int_equal(gs_wire_add(buf, sizeof buf, &size, &c, vals), GS_OK);
+    n = gs_wire_end(buf, size);
+    assert_int_equal(buf[OFF_FLAGS], GS_WIRE_FLAG_SYNC);
+    buf[OFF_FLAGS] = 0x08;
+    recrc(buf, n);
+    expect_reject(buf, n, GS_REJECT_LAYOUT);
+    buf[OFF_FLAGS] = GS_WIRE_FLAG_SEALED | GS_WIRE_FLAG_REPLAY;
+    recrc(buf, n);
+    expect_reject(buf, n, GS_REJECT_LAYOUT);
     free(v);
 }
 
@@ -873,6 +914,7 @@ int main(int argc, char **argv) {
         cmocka_unit_test(test_reject_too_long),
         cmocka_unit_test(test_reject_magic_version),
         cmocka_unit_test(test_reject_every_corrupted_byte),
+        cmocka_unit_test(test_header_sync_flags),
         cmocka_unit_test(test_reject_chunk_count),
         cmocka_unit_test(test_reject_encoding),
         cmocka_unit_test(test_reject_chunk_index),
