@@ -91,7 +91,9 @@
 #include "equal_time.h"
 
 #define FRAME (1.0 / 60.0)
-#define STEP 5e-5 /* m: the default position resolution of GS_ENCODING_QUANT */
+/* m: the position resolution of GS_ENCODING_QUANT (its default, or
+   --position-resolution) */
+#define STEP (pos_res > 0.0 ? pos_res : 5e-5)
 #define NSPHERES 900
 
 static gs_vec3 v3(double x, double y, double z) {
@@ -124,6 +126,10 @@ static double send_rate = 0.0;
 /* --velocity-resolution M/S: gs_ghost_desc.velocity_resolution in the
    quantized encodings (0: the default, 3 mm/s) */
 static double vel_res = 0.0;
+/* --position-resolution M: gs_ghost_desc.position_resolution in the
+   quantized encodings (0: the default, 5e-5 m); the divergence targets
+   then allow f64's plus this step */
+static double pos_res = 0.0;
 /* --budget B/S: gs_net_desc.bandwidth of both hosts (0: 1e9, nothing held
    back) */
 static double budget = 0.0;
@@ -144,6 +150,7 @@ static gs_ghost_desc ghost_desc(int enc) {
     if (adopt >= 0) gd.adopt_sent = adopt;
     if (send_rate > 0.0) gd.send_rate = send_rate;
     if (vel_res > 0.0) gd.velocity_resolution = vel_res;
+    if (pos_res > 0.0) gd.position_resolution = pos_res;
     return gd;
 }
 
@@ -541,6 +548,7 @@ static int pick_args(int *argc, char **argv, unsigned *sc, unsigned *en, int *no
         if (number_flag(*argc, argv, &i, "--cloth-rate", &cloth_rate) ||
             number_flag(*argc, argv, &i, "--send-rate", &send_rate) ||
             number_flag(*argc, argv, &i, "--velocity-resolution", &vel_res) ||
+            number_flag(*argc, argv, &i, "--position-resolution", &pos_res) ||
             number_flag(*argc, argv, &i, "--budget", &budget))
             continue;
         if (strcmp(argv[i], "--mode") == 0 && i + 1 < *argc) {
