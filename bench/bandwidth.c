@@ -71,7 +71,11 @@
    the cloth) and at the span's start, quarters and end; and the mean
    over the span of host 1's kinetic energy, the cloth's and the spheres'
    (translational), each as a multiple of the reference's (damping shows
-   there). The JSON rows get fidelity_* keys. The f64 row departs by 0
+   there); and the speed of one sphere after 0.5 s of free fall, alone
+   in a world without a net, with the row's ghost desc, against f64's (no
+   contact, so no chaos: with adopt_sent each publish rounds the velocity
+   gravity added since the last, and the fall runs faster or slower).
+   The JSON rows get fidelity_* keys. The f64 row departs by 0
    (the simnet is deterministic).
 
    Figures: kbit/s that host 1 sent to host 2 (its gs_peer_stats
@@ -368,6 +372,33 @@ static void fid_energy(const host *h, int scene, double *cloth, double *bodies) 
     }
 }
 
+/* --fidelity: one sphere falling freely for 0.5 s (30 frames; the paper
+   scene's dt), alone in a world without a net, with encoding enc's ghost
+   desc (or none): its speed at the end. No contact, nothing chaotic: what
+   a ghost's own publishes do to the physics shows bare (with adopt_sent
+   each publish rounds the velocity gravity added since the last one). */
+static double fid_fall(int enc) {
+    gs_world_desc wd = gs_world_desc_default();
+    gs_rigid_desc rd = gs_rigid_desc_default();
+    gs_ghost_desc gd = ghost_desc(enc);
+    gs_world *w;
+    gs_agent *b;
+    double v = -1.0;
+    int k;
+    if (gs_world_create(&wd, &w) != GS_OK) return -1.0;
+    rd.shape.type = GS_SHAPE_SPHERE;
+    rd.shape.radius = 0.08;
+    rd.position = v3(0.0, 10.0, 0.0);
+    rd.solver.dt = 0.002;
+    gd.object_id = 1;
+    if (gs_rigid_create(w, &rd, &b) == GS_OK && gs_ghost_attach(b, &gd) == GS_OK) {
+        for (k = 0; k < 30; ++k) gs_world_advance(w, FRAME, NULL);
+        v = -gs_rigid_velocity(b).y;
+    }
+    gs_world_destroy(w);
+    return v;
+}
+
 /* --fidelity: the f64 reference's host 1 (its samples and energies), kept
    by the run that fid_ref_pending marks (0: none yet). */
 /* departures printed at 0.25 s (the paper scenes' spheres still falling:
@@ -487,6 +518,7 @@ typedef struct result {
        RMS departure and the largest sphere's, each at FID_AT times, and
        mean kinetic energies over the span */
     double fid_cloth, fid_bodies, fid_at_c[FID_AT], fid_at_b[FID_AT], ke_cloth, ke_bodies;
+    double fall; /* m/s: fid_fall's speed in this row's encoding */
     int ok;
 } result;
 
@@ -600,6 +632,7 @@ static result run_scene(int scene, int enc, int quick) {
         res.ke_cloth = frames ? ke_c / frames : 0.0;
         res.ke_bodies = frames ? ke_b / frames : 0.0;
         fid_finish(&h[0], &res, fid_k0, settle, span);
+        res.fall = fid_fall(enc);
     }
     res.ok = 1;
     for (i = 0; i < 2; ++i) {
@@ -647,8 +680,9 @@ static void fid_print(int scene, int quick, const result *r, const result *ref,
         fprintf(stderr, "\n");
     }
     fprintf(stderr, "    kinetic energy, mean over the span: cloth %.4g J (%.3f x f64's), "
-            "spheres %.4g J (%.3f x)\n", r->ke_cloth, ke_ratio(r->ke_cloth, ref->ke_cloth),
-            r->ke_bodies, ke_ratio(r->ke_bodies, ref->ke_bodies));
+            "spheres %.4g J (%.3f x); free fall, 0.5 s: %.4f m/s (%.4f x f64's)\n", r->ke_cloth,
+            ke_ratio(r->ke_cloth, ref->ke_cloth), r->ke_bodies,
+            ke_ratio(r->ke_bodies, ref->ke_bodies), r->fall, ke_ratio(r->fall, ref->fall));
 }
 
 /* The f64 reference of a scene (its host 1 kept for every later row) and
@@ -977,6 +1011,7 @@ int main(int argc, char **argv) {
                 bu_json_num(j, "fidelity_spheres_mean_m", r[s][e].fid_bodies);
                 bu_json_num(j, "fidelity_cloth_kinetic_energy_j", r[s][e].ke_cloth);
                 bu_json_num(j, "fidelity_spheres_kinetic_energy_j", r[s][e].ke_bodies);
+                bu_json_num(j, "fidelity_free_fall_speed_m_s", r[s][e].fall);
             }
             if (r[s][ENC_F64].ok) {
                 bu_json_bool(j, "divergence_within_f64_plus_step",
