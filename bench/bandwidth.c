@@ -60,23 +60,25 @@
    the noise floor: the same f64 run 3 times (--floors N) with every
    position of the cloth's particles and the spheres nudged by +-1e-9 m
    (--nudge M sets it), a pattern of signs each, on both hosts alike,
-   once after the scene is made: the scene is chaotic (spheres on a cloth), so any perturbation
-   grows, and a row departs from f64 "beyond the floor" only by more than
-   these. Under each row (the floor's and the reference's too) it prints
-   host 1's departure from the reference's host 1 at equal simulation time
-   (the reference interpolated to the row's time, as div@t): the cloth's
-   RMS distance over its particles and the largest sphere distance, each
-   as a mean over the measured span (and as a multiple of the floor's
-   largest mean), and at 0.25 s (before the paper scenes' spheres reach
-   the cloth) and at the span's start, quarters and end; and the mean
-   over the span of host 1's kinetic energy, the cloth's and the spheres'
+   once after the scene is made: the scene is chaotic (spheres on a
+   cloth), so any perturbation grows, and a row departs from f64 "beyond
+   the floor" only by more than these. Under each row and each floor run
+   it prints host 1's departure from the reference's host 1 at equal
+   simulation time (the reference interpolated to the row's time, as
+   div@t): the cloth's RMS distance over its particles and the largest
+   sphere distance, each as a mean over the measured span (under a row,
+   also as a multiple of the floor's largest mean), and at 0.25 s (before
+   the paper scenes' spheres reach the cloth) and at the span's start,
+   quarters and end. Under those and the reference: the mean over the
+   span of host 1's kinetic energy, the cloth's and the spheres'
    (translational), each as a multiple of the reference's (damping shows
-   there); and the speed of one sphere after 0.5 s of free fall, alone
-   in a world without a net, with the row's ghost desc, against f64's (no
-   contact, so no chaos: with adopt_sent each publish rounds the velocity
-   gravity added since the last, and the fall runs faster or slower).
-   The JSON rows get fidelity_* keys. The f64 row departs by 0
-   (the simnet is deterministic).
+   there); and the speed of one sphere after 0.5 s of free fall, alone in
+   a world of the default desc (present mode) without a net, with the
+   row's ghost desc, against f64's (no contact, so no chaos: with
+   adopt_sent each publish rounds the velocity gravity added since the
+   last, and the fall runs faster or slower). The JSON rows get
+   fidelity_* keys, the summary the floor's largest means. The f64 row
+   departs by 0 (the simnet is deterministic).
 
    Figures: kbit/s that host 1 sent to host 2 (its gs_peer_stats
    bytes_sent, datagram bytes, no UDP/IP headers) over the measured span;
@@ -162,7 +164,7 @@ static double budget = 0.0;
 static int split = 0;
 /* --fidelity: host 1's trajectory against host 1's in the f64 run of the
    same scene and flags, printed under each row, beside a noise floor (the
-   f64 run with its positions nudged, see nudge_scene); --nudge M the
+   f64 run with its positions nudged, see nudge_agent); --nudge M the
    floor's nudge (default 1e-9 m) */
 static int fidelity = 0;
 static double nudge = 1e-9;
@@ -194,8 +196,9 @@ static gs_ghost_desc ghost_desc(int enc) {
 }
 
 /* Every position coordinate of a's state moved by +-nudge (signs from a
-   xorshift of *seed): a perturbation far below any quantization step, so
-   what grows from it is the scene's own sensitivity. */
+   xorshift of *seed): by default a perturbation far below any
+   quantization step, so what grows from it is the scene's own
+   sensitivity. */
 static int nudge_agent(gs_agent *a, uint32_t *seed) {
     size_t n = gs_agent_state_size(a), i, coords;
     double *st = (double *)malloc(n * sizeof *st);
@@ -340,8 +343,8 @@ static void equal_time(const host *h, double *mean, double *p95) {
 static int fid_alloc(host *h, int scene, int cap) {
     int mesh_n = scene == SC_SPHERES ? 0 : gs_mesh_particle_count(h->sc.cloth);
     int bodies = scene == SC_SPHERES ? NSPHERES : h->sc.sphere_count;
-    /* et_alloc of 0 points: one point, never read (et_diverge_ skips an
-       empty set: see fid_depart) */
+    /* a set with nothing in it (no cloth, no sphere) keeps one point at
+       the origin, which departs by 0 */
     if (et_alloc(&h->fc, cap, mesh_n > 0 ? mesh_n : 1, mesh_n) != 0) return -1;
     return et_alloc(&h->fb, cap, bodies > 0 ? bodies : 1, 0);
 }
@@ -399,8 +402,6 @@ static double fid_fall(int enc) {
     return v;
 }
 
-/* --fidelity: the f64 reference's host 1 (its samples and energies), kept
-   by the run that fid_ref_pending marks (0: none yet). */
 /* departures printed at 0.25 s (the paper scenes' spheres still falling:
    no contact yet, so nothing chaotic has amplified what differs), then at
    the span's start, its quarters and its end */
@@ -408,7 +409,9 @@ enum { FID_AT = 6 };
 static double fid_time(int q, double settle, double span) {
     return q == 0 ? 0.25 : settle + span * (q - 1) / (FID_AT - 2);
 }
-static int fid_ref_pending = 0, fid_ref_ok = 0;
+/* --fidelity: the f64 reference's host 1 samples, kept by the run that
+   fid_ref_pending marks */
+static int fid_ref_pending = 0;
 static et_samples fid_ref_c, fid_ref_b;
 
 /* Host 1's departure from the reference's host 1 at its frame k: the
@@ -535,7 +538,6 @@ static void fid_finish(host *h, result *res, int k0, double settle, double span)
         memset(&h->fc, 0, sizeof h->fc);
         memset(&h->fb, 0, sizeof h->fb);
         fid_ref_pending = 0;
-        fid_ref_ok = 1;
     }
     for (k = k0; k < h->fc.frames; ++k) {
         double c, b;
@@ -692,6 +694,7 @@ static result fid_reference(int scene, int quick, fid_floor *fl) {
     int k, i;
     fid_ref_pending = 1;
     ref = run_scene(scene, ENC_F64, quick);
+    fid_ref_pending = 0; /* (a failed run kept nothing) */
     if (!ref.ok) return ref;
     fprintf(stderr, "%-13s %-11s %12.1f %12.3f %11.3g %11.3g %12.3g   (--fidelity reference)\n",
             sc_name[scene], "f64", ref.kbps, ref.kbps_object, ref.eq_mean, ref.eq_p95,
