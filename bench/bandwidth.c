@@ -52,6 +52,33 @@
    those not coded as deltas), and the cloth's bytes split into positions
    and velocities (a chunk holding both split by its count of each; a
    heartbeat, which holds no values, is counted with the velocities).
+   --fidelity asks whether an encoding changes the physics, not only
+   whether the hosts agree (with adopt_sent each host takes its own
+   quantized state at every publish, so both can agree on another scene).
+   Before each scene's rows it runs the f64 reference (the same scene and
+   flags in f64) and keeps host 1's trajectory from the first frame, then
+   the noise floor: the same f64 run 3 times (--floors N) with every
+   position of the cloth's particles and the spheres nudged by +-1e-9 m
+   (--nudge M sets it), a pattern of signs each, on both hosts alike,
+   once after the scene is made: the scene is chaotic (spheres on a
+   cloth), so any perturbation grows, and a row departs from f64 "beyond
+   the floor" only by more than these. Under each row and each floor run
+   it prints host 1's departure from the reference's host 1 at equal
+   simulation time (the reference interpolated to the row's time, as
+   div@t): the cloth's RMS distance over its particles and the largest
+   sphere distance, each as a mean over the measured span (under a row,
+   also as a multiple of the floor's largest mean), and at 0.25 s (before
+   the paper scenes' spheres reach the cloth) and at the span's start,
+   quarters and end. Under those and the reference: the mean over the
+   span of host 1's kinetic energy, the cloth's and the spheres'
+   (translational), each as a multiple of the reference's (damping shows
+   there); and the speed of one sphere after 0.5 s of free fall, alone in
+   a world of the default desc (present mode) without a net, with the
+   row's ghost desc, against f64's (no contact, so no chaos: with
+   adopt_sent each publish rounds the velocity gravity added since the
+   last, and the fall runs faster or slower). The JSON rows get
+   fidelity_* keys, the summary the floor's largest means. The f64 row
+   departs by 0 (the simnet is deterministic).
 
    Figures: kbit/s that host 1 sent to host 2 (its gs_peer_stats
    bytes_sent, datagram bytes, no UDP/IP headers) over the measured span;
@@ -91,7 +118,9 @@
 #include "equal_time.h"
 
 #define FRAME (1.0 / 60.0)
-#define STEP 5e-5 /* m: the default position resolution of GS_ENCODING_QUANT */
+/* m: the position resolution of GS_ENCODING_QUANT (its default, or
+   --position-resolution) */
+#define STEP (pos_res > 0.0 ? pos_res : 5e-5)
 #define NSPHERES 900
 
 static gs_vec3 v3(double x, double y, double z) {
@@ -124,11 +153,29 @@ static double send_rate = 0.0;
 /* --velocity-resolution M/S: gs_ghost_desc.velocity_resolution in the
    quantized encodings (0: the default, 3 mm/s) */
 static double vel_res = 0.0;
+/* --position-resolution M: gs_ghost_desc.position_resolution in the
+   quantized encodings (0: the default, 5e-5 m); the divergence targets
+   then allow f64's plus this step */
+static double pos_res = 0.0;
 /* --budget B/S: gs_net_desc.bandwidth of both hosts (0: 1e9, nothing held
    back) */
 static double budget = 0.0;
 /* --split: what host 1's bytes to host 2 carry, printed under each row */
 static int split = 0;
+/* --fidelity: host 1's trajectory against host 1's in the f64 run of the
+   same scene and flags, printed under each row, beside a noise floor (the
+   f64 run with its positions nudged, see nudge_agent); --nudge M the
+   floor's nudge (default 1e-9 m) */
+static int fidelity = 0;
+static double nudge = 1e-9;
+/* --floors N: how many nudged f64 runs, each its own pattern of signs
+   (the kinetic energy of a few rolling spheres spreads widely between
+   runs, so its range needs several) */
+static int floors_n = 3;
+/* the nudge pattern of the run being built (0: none); both hosts build the
+   same, so the floor is another initial condition of one scene, not a
+   disagreement the sync then resolves */
+static uint32_t nudge_seed = 0;
 
 static gs_ghost_desc ghost_desc(int enc) {
     gs_ghost_desc gd = gs_ghost_desc_default();
@@ -144,7 +191,33 @@ static gs_ghost_desc ghost_desc(int enc) {
     if (adopt >= 0) gd.adopt_sent = adopt;
     if (send_rate > 0.0) gd.send_rate = send_rate;
     if (vel_res > 0.0) gd.velocity_resolution = vel_res;
+    if (pos_res > 0.0) gd.position_resolution = pos_res;
     return gd;
+}
+
+/* Every position coordinate of a's state moved by +-nudge (signs from a
+   xorshift of *seed): by default a perturbation far below any
+   quantization step, so what grows from it is the scene's own
+   sensitivity. */
+static int nudge_agent(gs_agent *a, uint32_t *seed) {
+    size_t n = gs_agent_state_size(a), i, coords;
+    double *st = (double *)malloc(n * sizeof *st);
+    gs_result r;
+    if (!st || gs_agent_get_state(a, st, n) != GS_OK) {
+        free(st);
+        return -1;
+    }
+    /* [t, positions...]: a mesh's 3 a particle first, a rigid body's 3 */
+    coords = gs_mesh_particle_count(a) > 0 ? 3u * (size_t)gs_mesh_particle_count(a) : 3u;
+    for (i = 1; i <= coords; ++i) {
+        *seed ^= *seed << 13;
+        *seed ^= *seed >> 17;
+        *seed ^= *seed << 5;
+        st[i] += *seed & 1u ? nudge : -nudge;
+    }
+    r = gs_agent_set_state(a, st, n);
+    free(st);
+    return r == GS_OK ? 0 : -1;
 }
 
 typedef struct host {
@@ -154,11 +227,14 @@ typedef struct host {
     gs_agent *ball[NSPHERES];
     int objects;
     et_samples s; /* the divergence at equal simulation time (samples_keep) */
+    et_samples fc, fb; /* --fidelity, host 1: the cloth's particles and the
+                          bodies (spheres), every frame from the first */
 } host;
 
 static int host_scene(host *h, uint32_t id, int scene, int enc) {
     gs_world_desc wd = gs_world_desc_default();
     gs_ghost_desc gd = ghost_desc(enc);
+    uint32_t seed = nudge_seed * 2654435761u; /* xorshift: never 0 */
     wd.host_id = id;
     wd.sync.mode = sync_mode;
     if (gs_world_create(&wd, &h->w) != GS_OK) return -1;
@@ -173,6 +249,7 @@ static int host_scene(host *h, uint32_t id, int scene, int enc) {
             if (i % 10 == 0) rd.velocity = v3(0.2, 0.0, 0.0);
             rd.solver.dt = 0.01;
             if (gs_rigid_create(h->w, &rd, &h->ball[i]) != GS_OK) return -1;
+            if (nudge_seed && nudge_agent(h->ball[i], &seed) != 0) return -1;
             gd.object_id = 1000u + (uint32_t)i;
             if (gs_ghost_attach(h->ball[i], &gd) != GS_OK) return -1;
         }
@@ -187,6 +264,12 @@ static int host_scene(host *h, uint32_t id, int scene, int enc) {
             sd.sphere_count = GS_NONE;
         }
         if (gs_scene_create(h->w, &sd, &h->sc) != GS_OK) return -1;
+        if (nudge_seed) { /* after the cloth's settling, before any ghost */
+            int k;
+            if (nudge_agent(h->sc.cloth, &seed) != 0) return -1;
+            for (k = 0; k < h->sc.sphere_count; ++k)
+                if (nudge_agent(h->sc.spheres[k], &seed) != 0) return -1;
+        }
         if (gs_scene_attach_ghosts(&h->sc, &gd) != GS_OK) return -1;
         if (cloth_rate > 0.0) { /* the cloth's ghost again, at its own rate */
             gd.object_id = 1; /* gs_scene_attach_ghosts' id of the cloth */
@@ -252,6 +335,92 @@ static void equal_time(const host *h, double *mean, double *p95) {
         *p95 = bu_quantile(d, n, 0.95);
     }
     free(d);
+}
+
+/* --fidelity: host 1's samples from the first frame, the cloth and the
+   bodies apart (a sphere's departure is larger than the cloth's RMS and
+   would hide it in one figure). */
+static int fid_alloc(host *h, int scene, int cap) {
+    int mesh_n = scene == SC_SPHERES ? 0 : gs_mesh_particle_count(h->sc.cloth);
+    int bodies = scene == SC_SPHERES ? NSPHERES : h->sc.sphere_count;
+    /* a set with nothing in it (no cloth, no sphere) keeps one point at
+       the origin, which departs by 0 */
+    if (et_alloc(&h->fc, cap, mesh_n > 0 ? mesh_n : 1, mesh_n) != 0) return -1;
+    return et_alloc(&h->fb, cap, bodies > 0 ? bodies : 1, 0);
+}
+
+static void fid_keep(host *h, int scene) {
+    double t = scene == SC_SPHERES ? gs_agent_time(h->ball[0]) : gs_agent_time(h->sc.cloth);
+    gs_vec3 *c = et_push(&h->fc, t), *b = et_push(&h->fb, t);
+    int i;
+    if (!c || !b) return;
+    if (scene == SC_SPHERES) {
+        for (i = 0; i < NSPHERES; ++i) b[i] = gs_rigid_position(h->ball[i]);
+        return;
+    }
+    memcpy(c, gs_mesh_positions(h->sc.cloth), (size_t)h->fc.mesh_n * sizeof *c);
+    for (i = 0; i < h->sc.sphere_count; ++i) b[i] = gs_rigid_position(h->sc.spheres[i]);
+}
+
+/* Kinetic energy, J: the cloth's and the bodies' (translational only: the
+   API gives no inertia), host 1, at the end of a frame. */
+static void fid_energy(const host *h, int scene, double *cloth, double *bodies) {
+    int i, n = scene == SC_SPHERES ? NSPHERES : h->sc.sphere_count;
+    *cloth = *bodies = 0.0;
+    if (scene != SC_SPHERES) gs_mesh_energy(h->sc.cloth, cloth, NULL);
+    for (i = 0; i < n; ++i) {
+        const gs_agent *a = scene == SC_SPHERES ? h->ball[i] : h->sc.spheres[i];
+        gs_vec3 v = gs_rigid_velocity(a);
+        *bodies += 0.5 * gs_rigid_mass(a) * (v.x * v.x + v.y * v.y + v.z * v.z);
+    }
+}
+
+/* --fidelity: one sphere falling freely for 0.5 s (30 frames; the paper
+   scene's dt), alone in a world without a net, with encoding enc's ghost
+   desc (or none): its speed at the end. No contact, nothing chaotic: what
+   a ghost's own publishes do to the physics shows bare (with adopt_sent
+   each publish rounds the velocity gravity added since the last one). */
+static double fid_fall(int enc) {
+    gs_world_desc wd = gs_world_desc_default();
+    gs_rigid_desc rd = gs_rigid_desc_default();
+    gs_ghost_desc gd = ghost_desc(enc);
+    gs_world *w;
+    gs_agent *b;
+    double v = -1.0;
+    int k;
+    if (gs_world_create(&wd, &w) != GS_OK) return -1.0;
+    rd.shape.type = GS_SHAPE_SPHERE;
+    rd.shape.radius = 0.08;
+    rd.position = v3(0.0, 10.0, 0.0);
+    rd.solver.dt = 0.002;
+    gd.object_id = 1;
+    if (gs_rigid_create(w, &rd, &b) == GS_OK && gs_ghost_attach(b, &gd) == GS_OK) {
+        for (k = 0; k < 30; ++k) gs_world_advance(w, FRAME, NULL);
+        v = -gs_rigid_velocity(b).y;
+    }
+    gs_world_destroy(w);
+    return v;
+}
+
+/* departures printed at 0.25 s (the paper scenes' spheres still falling:
+   no contact yet, so nothing chaotic has amplified what differs), then at
+   the span's start, its quarters and its end */
+enum { FID_AT = 6 };
+static double fid_time(int q, double settle, double span) {
+    return q == 0 ? 0.25 : settle + span * (q - 1) / (FID_AT - 2);
+}
+/* --fidelity: the f64 reference's host 1 samples, kept by the run that
+   fid_ref_pending marks */
+static int fid_ref_pending = 0;
+static et_samples fid_ref_c, fid_ref_b;
+
+/* Host 1's departure from the reference's host 1 at its frame k: the
+   cloth's RMS distance and the largest sphere distance, at equal
+   simulation time (the reference interpolated to this run's time); -1
+   where the reference did not sample around it. */
+static void fid_depart(const host *h, int k, double *cloth, double *bodies) {
+    *cloth = h->fc.mesh_n > 0 ? et_diverge_at(&h->fc, k, &fid_ref_c) : 0.0;
+    *bodies = et_diverge_at(&h->fb, k, &fid_ref_b); /* no body: one point at 0, 0 */
 }
 
 /* --split: host 1's transport wrapped, each datagram it sends decoded and
@@ -347,8 +516,52 @@ typedef struct result {
     double part_kbps[PART_COUNT]; /* --split: kbit/s of each part */
     double datagrams, cloth_chunks, cloth_keys; /* --split: per second */
     double cloth_pos_kbps;          /* --split: the cloth's positions */
+    /* --fidelity (m, J), host 1 against the f64 reference's host 1 at
+       equal simulation time: means over the measured span of the cloth's
+       RMS departure and the largest sphere's, each at FID_AT times, and
+       mean kinetic energies over the span */
+    double fid_cloth, fid_bodies, fid_at_c[FID_AT], fid_at_b[FID_AT], ke_cloth, ke_bodies;
+    double fall; /* m/s: fid_fall's speed in this row's encoding */
     int ok;
 } result;
+
+/* The --fidelity figures of a run from host 1's samples (frames from k0 on
+   are the measured span's), or its samples kept as the reference. */
+static void fid_finish(host *h, result *res, int k0, double settle, double span) {
+    double sum_c = 0.0, sum_b = 0.0;
+    int k, n = 0, q;
+    if (fid_ref_pending) { /* the reference: its samples move to fid_ref_* */
+        et_free(&fid_ref_c);
+        et_free(&fid_ref_b);
+        fid_ref_c = h->fc;
+        fid_ref_b = h->fb;
+        memset(&h->fc, 0, sizeof h->fc);
+        memset(&h->fb, 0, sizeof h->fb);
+        fid_ref_pending = 0;
+    }
+    for (k = k0; k < h->fc.frames; ++k) {
+        double c, b;
+        fid_depart(h, k, &c, &b);
+        if (c < 0.0 || b < 0.0) continue;
+        sum_c += c;
+        sum_b += b;
+        n++;
+    }
+    res->fid_cloth = n ? sum_c / n : -1.0;
+    res->fid_bodies = n ? sum_b / n : -1.0;
+    for (q = 0; q < FID_AT; ++q) { /* the frame that ends nearest the time */
+        res->fid_at_c[q] = res->fid_at_b[q] = -1.0;
+        k = (int)(fid_time(q, settle, span) / FRAME + 0.5) - 1;
+        if (k >= h->fc.frames) k = h->fc.frames - 1;
+        if (k >= 0) fid_depart(h, k, &res->fid_at_c[q], &res->fid_at_b[q]);
+    }
+}
+
+/* s: the settling before the measured span, and the span */
+static void scene_times(int scene, int quick, double *settle, double *span) {
+    *settle = scene == SC_PAPER_REST ? (quick ? 1.0 : 20.0) : (quick ? 0.25 : 1.0);
+    *span = scene == SC_CLOTH64 || scene == SC_SPHERES ? 2.0 : quick ? 1.0 : 4.0;
+}
 
 static result run_scene(int scene, int enc, int quick) {
     result res;
@@ -357,11 +570,11 @@ static result run_scene(int scene, int enc, int quick) {
     gs_simnet_desc smd;
     gs_net_desc nd;
     gs_peer_stats a, b;
-    double settle = scene == SC_PAPER_REST ? (quick ? 1.0 : 20.0) : (quick ? 0.25 : 1.0);
-    double span = scene == SC_CLOTH64 || scene == SC_SPHERES ? 2.0 : quick ? 1.0 : 4.0;
-    double t = 0.0, wall0 = 0.0, div = 0.0, wall;
-    int i, frames = 0;
+    double settle, span;
+    double t = 0.0, wall0 = 0.0, div = 0.0, wall, ke_c = 0.0, ke_b = 0.0;
+    int i, frames = 0, fid_k0 = 0;
     tally tl;
+    scene_times(scene, quick, &settle, &span);
     memset(&res, 0, sizeof res);
     memset(h, 0, sizeof h);
     memset(&smd, 0, sizeof smd);
@@ -373,6 +586,7 @@ static result run_scene(int scene, int enc, int quick) {
     for (i = 0; i < 2; ++i) {
         if (host_scene(&h[i], (uint32_t)i + 1, scene, enc) != 0 ||
             samples_alloc(&h[i], scene, (int)(span / FRAME) + 4) != 0 ||
+            (i == 0 && fidelity && fid_alloc(&h[i], scene, (int)((settle + span) / FRAME) + 4)) ||
             (i == 0 && split ? tally_join(sim, h[i].w, &nd, &tl, &h[i].net)
                              : test_join(sim, h[i].w, &nd, &h[i].net)) != GS_OK) {
             fprintf(stderr, "bandwidth: %s %s: setup failed\n", sc_name[scene], enc_name[enc]);
@@ -385,7 +599,9 @@ static result run_scene(int scene, int enc, int quick) {
         for (i = 0; i < 2; ++i) drive(&h[i], (uint32_t)i + 1, scene, t);
         if (gs_simnet_run(sim, FRAME, FRAME) != GS_OK) break;
         t += FRAME;
+        if (fidelity) fid_keep(&h[0], scene);
         if (t >= settle && wall0 == 0.0) {
+            fid_k0 = h[0].fc.frames - 1;
             gs_net_peer_stats(h[0].net, 2, &a);
             wall0 = gs_simnet_time(sim);
             tl.counting = 1; /* what is sent from here on, as bytes_sent */
@@ -395,6 +611,12 @@ static result run_scene(int scene, int enc, int quick) {
             div += b.divergence;
             frames++;
             for (i = 0; i < 2; ++i) samples_keep(&h[i], scene);
+            if (fidelity) {
+                double c, b;
+                fid_energy(&h[0], scene, &c, &b);
+                ke_c += c;
+                ke_b += b;
+            }
         }
     }
     gs_net_peer_stats(h[0].net, 2, &b);
@@ -408,15 +630,97 @@ static result run_scene(int scene, int enc, int quick) {
     res.kbps_object = res.kbps / h[0].objects;
     res.divergence = frames ? div / frames : 0.0;
     equal_time(h, &res.eq_mean, &res.eq_p95);
+    if (fidelity) {
+        res.ke_cloth = frames ? ke_c / frames : 0.0;
+        res.ke_bodies = frames ? ke_b / frames : 0.0;
+        fid_finish(&h[0], &res, fid_k0, settle, span);
+        res.fall = fid_fall(enc);
+    }
     res.ok = 1;
     for (i = 0; i < 2; ++i) {
         gs_net_destroy(h[i].net);
         gs_world_destroy(h[i].w);
         et_free(&h[i].s);
+        et_free(&h[i].fc);
+        et_free(&h[i].fb);
     }
     gs_simnet_destroy(sim);
     free(tl.view);
     return res;
+}
+
+/* ---- --fidelity: the reference, the noise floor, a row's line ---- */
+
+/* The largest departures and the kinetic energies' range over the floor's
+   nudged runs. */
+typedef struct fid_floor {
+    double cloth, bodies;     /* m: the largest span means */
+    double ke_lo[2], ke_hi[2]; /* x f64's: cloth, bodies */
+} fid_floor;
+
+/* kinetic energy as a multiple of the reference's (0 when it has none) */
+static double ke_ratio(double x, double ref) { return ref > 0.0 ? x / ref : 0.0; }
+
+static void fid_print(int scene, int quick, const result *r, const result *ref,
+                      const fid_floor *fl) {
+    double settle, span;
+    int q;
+    scene_times(scene, quick, &settle, &span);
+    if (r != ref) { /* the reference: no departure from itself */
+        fprintf(stderr, "  fidelity, host 1 vs f64's host 1 (m, at equal simulation time): "
+                "cloth RMS mean %.3g", r->fid_cloth);
+        if (fl) fprintf(stderr, " (%.2g x floor)", fl->cloth > 0.0 ? r->fid_cloth / fl->cloth : 0.0);
+        fprintf(stderr, ", spheres mean %.3g", r->fid_bodies);
+        if (fl)
+            fprintf(stderr, " (%.2g x floor)", fl->bodies > 0.0 ? r->fid_bodies / fl->bodies : 0.0);
+        fprintf(stderr, "\n    at");
+        for (q = 0; q < FID_AT; ++q) fprintf(stderr, " %g", fid_time(q, settle, span));
+        fprintf(stderr, " s: cloth");
+        for (q = 0; q < FID_AT; ++q) fprintf(stderr, " %.2g", r->fid_at_c[q]);
+        fprintf(stderr, "; spheres");
+        for (q = 0; q < FID_AT; ++q) fprintf(stderr, " %.2g", r->fid_at_b[q]);
+        fprintf(stderr, "\n");
+    }
+    fprintf(stderr, "    kinetic energy, mean over the span: cloth %.4g J (%.3f x f64's), "
+            "spheres %.4g J (%.3f x); free fall, 0.5 s: %.4f m/s (%.4f x f64's)\n", r->ke_cloth,
+            ke_ratio(r->ke_cloth, ref->ke_cloth), r->ke_bodies,
+            ke_ratio(r->ke_bodies, ref->ke_bodies), r->fall, ke_ratio(r->fall, ref->fall));
+}
+
+/* The f64 reference of a scene (its host 1 kept for every later row) and
+   floors_n nudged f64 runs, printed; *fl their range. */
+static result fid_reference(int scene, int quick, fid_floor *fl) {
+    result ref, f;
+    int k, i;
+    fid_ref_pending = 1;
+    ref = run_scene(scene, ENC_F64, quick);
+    fid_ref_pending = 0; /* (a failed run kept nothing) */
+    if (!ref.ok) return ref;
+    fprintf(stderr, "%-13s %-11s %12.1f %12.3f %11.3g %11.3g %12.3g   (--fidelity reference)\n",
+            sc_name[scene], "f64", ref.kbps, ref.kbps_object, ref.eq_mean, ref.eq_p95,
+            ref.divergence);
+    fid_print(scene, quick, &ref, &ref, NULL);
+    memset(fl, 0, sizeof *fl);
+    for (k = 1; k <= floors_n; ++k) {
+        nudge_seed = (uint32_t)k;
+        f = run_scene(scene, ENC_F64, quick);
+        nudge_seed = 0;
+        if (!f.ok) continue;
+        fprintf(stderr, "%-13s f64 nudged %.0e m, pattern %d: %.1f kbit/s, div@t mean %.3g\n",
+                sc_name[scene], nudge, k, f.kbps, f.eq_mean);
+        fid_print(scene, quick, &f, &ref, NULL);
+        if (f.fid_cloth > fl->cloth) fl->cloth = f.fid_cloth;
+        if (f.fid_bodies > fl->bodies) fl->bodies = f.fid_bodies;
+        for (i = 0; i < 2; ++i) {
+            double x = ke_ratio(i ? f.ke_bodies : f.ke_cloth, i ? ref.ke_bodies : ref.ke_cloth);
+            if (k == 1 || x < fl->ke_lo[i]) fl->ke_lo[i] = x;
+            if (k == 1 || x > fl->ke_hi[i]) fl->ke_hi[i] = x;
+        }
+    }
+    fprintf(stderr, "  noise floor (%d nudges of %.0e m): cloth RMS mean up to %.3g, spheres up to "
+            "%.3g; kinetic energy cloth %.3f..%.3f x f64's, spheres %.3f..%.3f\n", floors_n, nudge,
+            fl->cloth, fl->bodies, fl->ke_lo[0], fl->ke_hi[0], fl->ke_lo[1], fl->ke_hi[1]);
+    return ref;
 }
 
 /* ---- CPU: one full paper-scene snapshot encoded and decoded ---- */
@@ -530,7 +834,7 @@ static int number_flag(int argc, char **argv, int *i, const char *name, double *
 /* Takes --scene, --encoding and --no-cpu out of argv (the rest goes to
    bu_parse_args): *sc and *en get a bit per name chosen (0: all). */
 static int pick_args(int *argc, char **argv, unsigned *sc, unsigned *en, int *no_cpu) {
-    int i, o = 1, k;
+    int i, o = 1, k, n;
     *sc = *en = 0;
     *no_cpu = 0;
     for (i = 1; i < *argc; ++i) {
@@ -538,11 +842,22 @@ static int pick_args(int *argc, char **argv, unsigned *sc, unsigned *en, int *no
         if (strcmp(argv[i], "--no-cpu") == 0) { *no_cpu = 1; continue; }
         if (strcmp(argv[i], "--adopt") == 0 && i + 1 < *argc) { adopt = atoi(argv[++i]); continue; }
         if (strcmp(argv[i], "--split") == 0) { split = 1; continue; }
+        if (strcmp(argv[i], "--fidelity") == 0) { fidelity = 1; continue; }
         if (number_flag(*argc, argv, &i, "--cloth-rate", &cloth_rate) ||
             number_flag(*argc, argv, &i, "--send-rate", &send_rate) ||
             number_flag(*argc, argv, &i, "--velocity-resolution", &vel_res) ||
-            number_flag(*argc, argv, &i, "--budget", &budget))
+            number_flag(*argc, argv, &i, "--position-resolution", &pos_res) ||
+            number_flag(*argc, argv, &i, "--budget", &budget) ||
+            number_flag(*argc, argv, &i, "--nudge", &nudge))
             continue;
+        if (strcmp(argv[i], "--floors") == 0 && i + 1 < *argc) {
+            floors_n = atoi(argv[++i]);
+            if (floors_n < 1 || floors_n > 64) {
+                fprintf(stderr, "bandwidth: --floors %d is outside 1..64\n", floors_n);
+                return -1;
+            }
+            continue;
+        }
         if (strcmp(argv[i], "--mode") == 0 && i + 1 < *argc) {
             ++i;
             if (strcmp(argv[i], "replay") == 0) sync_mode = GS_SYNC_REPLAY;
@@ -555,9 +870,11 @@ static int pick_args(int *argc, char **argv, unsigned *sc, unsigned *en, int *no
         if (!is_sc && !is_en) { argv[o++] = argv[i]; continue; }
         if (i + 1 >= *argc) break;
         ++i;
-        for (k = 0; k < (is_sc ? SC_COUNT : ENC_COUNT); ++k)
+        /* ints: C++ refuses a conditional between two enums' values */
+        n = is_sc ? (int)SC_COUNT : (int)ENC_COUNT;
+        for (k = 0; k < n; ++k)
             if (strcmp(argv[i], is_sc ? sc_name[k] : enc_name[k]) == 0) break;
-        if (k == (is_sc ? SC_COUNT : ENC_COUNT)) {
+        if (k == n) {
             fprintf(stderr, "bandwidth: unknown %s '%s'\n", is_sc ? "scene" : "encoding", argv[i]);
             return -1;
         }
@@ -576,16 +893,24 @@ int main(int argc, char **argv) {
     bu_json *j;
     result r[SC_COUNT][ENC_COUNT];
     double eu[ENC_COUNT], du[ENC_COUNT], by[ENC_COUNT];
+    fid_floor floors[SC_COUNT]; /* --fidelity: each scene's noise floor */
     unsigned pick_sc, pick_en;
     int no_cpu, s, e, rc;
     if (argc == 2 && strcmp(argv[1], "--cpu") == 0) return cpu_only();
     if (pick_args(&argc, argv, &pick_sc, &pick_en, &no_cpu) != 0) return 2;
     if (pick_sc) no_cpu = 1;
+    memset(floors, 0, sizeof floors);
     rc = bu_parse_args(argc, argv, "bandwidth", &args);
     if (rc) return rc < 0 ? 2 : 0;
     fprintf(stderr, "%-13s %-11s %12s %12s %11s %11s %12s %10s\n", "scene", "encoding",
             "kbit/s/host", "kbit/s/obj", "div@t mean", "div@t p95", "div-vs-snap", "target");
-    for (s = 0; s < SC_COUNT; ++s)
+    for (s = 0; s < SC_COUNT; ++s) {
+        result ref;
+        if (fidelity && !(args.quick && (s == SC_CLOTH64 || s == SC_SPHERES)) &&
+            !(pick_sc && !(pick_sc >> s & 1u)))
+            ref = fid_reference(s, args.quick, &floors[s]);
+        else
+            ref.ok = 0;
         for (e = 0; e < ENC_COUNT; ++e) {
             if ((args.quick && (s == SC_CLOTH64 || s == SC_SPHERES || e == ENC_F32 ||
                                 e == ENC_QUANT || e == ENC_DELTA_REST || e == ENC_PREDICT)) ||
@@ -608,7 +933,9 @@ int main(int argc, char **argv) {
                         r[s][e].cloth_chunks, r[s][e].cloth_keys, r[s][e].cloth_pos_kbps,
                         r[s][e].part_kbps[PART_CLOTH] - r[s][e].cloth_pos_kbps);
             }
+            if (ref.ok && r[s][e].ok) fid_print(s, args.quick, &r[s][e], &ref, &floors[s]);
         }
+    }
     if (!no_cpu) {
         fprintf(stderr, "\npaper scene, one full snapshot (all 6 objects), median of 200:\n");
         fprintf(stderr, "%-11s %10s %10s %10s\n", "encoding", "bytes", "encode us", "decode us");
@@ -682,6 +1009,13 @@ int main(int argc, char **argv) {
             bu_json_num(j, "divergence_equal_time_mean_m", r[s][e].eq_mean);
             bu_json_num(j, "divergence_equal_time_p95_m", r[s][e].eq_p95);
             bu_json_bool(j, "target_met", r[s][e].kbps <= sc_target[s]);
+            if (fidelity) { /* --fidelity: against the f64 reference's host 1 */
+                bu_json_num(j, "fidelity_cloth_rms_mean_m", r[s][e].fid_cloth);
+                bu_json_num(j, "fidelity_spheres_mean_m", r[s][e].fid_bodies);
+                bu_json_num(j, "fidelity_cloth_kinetic_energy_j", r[s][e].ke_cloth);
+                bu_json_num(j, "fidelity_spheres_kinetic_energy_j", r[s][e].ke_bodies);
+                bu_json_num(j, "fidelity_free_fall_speed_m_s", r[s][e].fall);
+            }
             if (r[s][ENC_F64].ok) {
                 bu_json_bool(j, "divergence_within_f64_plus_step",
                              r[s][e].divergence <= r[s][ENC_F64].divergence + STEP);
@@ -717,6 +1051,12 @@ int main(int argc, char **argv) {
                  sc_target[s], enc_name[be], best);
         bu_json_str(j, k1, txt);
         bu_json_bool(j, k2, best <= sc_target[s]);
+        if (fidelity) { /* the largest span means of the nudged f64 runs */
+            snprintf(k3, sizeof k3, "fidelity_floor_cloth_rms_mean_m_%s", sc_name[s]);
+            bu_json_num(j, k3, floors[s].cloth);
+            snprintf(k3, sizeof k3, "fidelity_floor_spheres_mean_m_%s", sc_name[s]);
+            bu_json_num(j, k3, floors[s].bodies);
+        }
         if (!r[s][ENC_F64].ok) continue;
         snprintf(k3, sizeof k3, "target_divergence_%s", sc_name[s]);
         snprintf(k4, sizeof k4, "target_met_divergence_%s", sc_name[s]);
