@@ -43,7 +43,9 @@
    quantized encodings (else 3 mm/s; a coarse one, e.g. 1000, sends every
    velocity as 0: what the positions cost predicted from the baseline
    alone, for their bytes only, as the peers then take velocities of 0);
-   --budget B/S both nets' gs_net_desc.bandwidth (else 1e9); --split
+   --budget B/S both nets' gs_net_desc.bandwidth (else 1e9). Each of
+   these number flags takes a positive finite number, and --adopt 0 or 1:
+   anything else is said and the bench exits with status 2. --split
    prints under each row what host 1's kbit/s carry: the datagrams' own
    bytes (header and CRC), the cloth's, the spheres' and the probes'
    chunks (chunk headers and payload, heartbeats included) and the
@@ -824,10 +826,20 @@ static int cpu_only(void) {
 }
 
 /* Is argv[*i] the flag name with a value after it? Then the value is read
-   into *out and *i moves onto it. */
+   into *out and *i moves onto it: 1. Every one of these flags is a
+   positive finite quantity (a rate, a step, a budget, a nudge), so a value
+   that is not one is said and refused (-1), rather than read as 0, which
+   would mean "the default". 0: not this flag. */
 static int number_flag(int argc, char **argv, int *i, const char *name, double *out) {
+    char *end;
+    double v;
     if (strcmp(argv[*i], name) != 0 || *i + 1 >= argc) return 0;
-    *out = atof(argv[++*i]);
+    v = strtod(argv[++*i], &end);
+    if (end == argv[*i] || *end != '\0' || !(v > 0.0 && v < HUGE_VAL)) {
+        fprintf(stderr, "bandwidth: %s '%s' is not a positive number\n", name, argv[*i]);
+        return -1;
+    }
+    *out = v;
     return 1;
 }
 
@@ -840,16 +852,28 @@ static int pick_args(int *argc, char **argv, unsigned *sc, unsigned *en, int *no
     for (i = 1; i < *argc; ++i) {
         int is_sc = strcmp(argv[i], "--scene") == 0, is_en = strcmp(argv[i], "--encoding") == 0;
         if (strcmp(argv[i], "--no-cpu") == 0) { *no_cpu = 1; continue; }
-        if (strcmp(argv[i], "--adopt") == 0 && i + 1 < *argc) { adopt = atoi(argv[++i]); continue; }
+        if (strcmp(argv[i], "--adopt") == 0 && i + 1 < *argc) {
+            ++i;
+            if (strcmp(argv[i], "0") != 0 && strcmp(argv[i], "1") != 0) {
+                fprintf(stderr, "bandwidth: --adopt '%s' is not 0 or 1\n", argv[i]);
+                return -1;
+            }
+            adopt = argv[i][0] - '0';
+            continue;
+        }
         if (strcmp(argv[i], "--split") == 0) { split = 1; continue; }
         if (strcmp(argv[i], "--fidelity") == 0) { fidelity = 1; continue; }
-        if (number_flag(*argc, argv, &i, "--cloth-rate", &cloth_rate) ||
-            number_flag(*argc, argv, &i, "--send-rate", &send_rate) ||
-            number_flag(*argc, argv, &i, "--velocity-resolution", &vel_res) ||
-            number_flag(*argc, argv, &i, "--position-resolution", &pos_res) ||
-            number_flag(*argc, argv, &i, "--budget", &budget) ||
-            number_flag(*argc, argv, &i, "--nudge", &nudge))
-            continue;
+        {
+            static const char *const names[] = {"--cloth-rate", "--send-rate",
+                                                 "--velocity-resolution",
+                                                 "--position-resolution", "--budget", "--nudge"};
+            double *const outs[] = {&cloth_rate, &send_rate, &vel_res, &pos_res, &budget, &nudge};
+            int f, taken = 0;
+            for (f = 0; f < 6 && taken == 0; ++f)
+                taken = number_flag(*argc, argv, &i, names[f], outs[f]);
+            if (taken < 0) return -1;
+            if (taken) continue;
+        }
         if (strcmp(argv[i], "--floors") == 0 && i + 1 < *argc) {
             floors_n = atoi(argv[++i]);
             if (floors_n < 1 || floors_n > 64) {
