@@ -875,11 +875,14 @@ static int pick_args(int *argc, char **argv, unsigned *sc, unsigned *en, int *no
             if (taken) continue;
         }
         if (strcmp(argv[i], "--floors") == 0 && i + 1 < *argc) {
-            floors_n = atoi(argv[++i]);
-            if (floors_n < 1 || floors_n > 64) {
-                fprintf(stderr, "bandwidth: --floors %d is outside 1..64\n", floors_n);
+            char *end;
+            long n = strtol(argv[++i], &end, 10);
+            if (end == argv[i] || *end != '\0' || n < 1 || n > 64) {
+                fprintf(stderr, "bandwidth: --floors '%s' is not a whole number in 1..64\n",
+                        argv[i]);
                 return -1;
             }
+            floors_n = (int)n;
             continue;
         }
         if (strcmp(argv[i], "--mode") == 0 && i + 1 < *argc) {
